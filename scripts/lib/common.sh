@@ -1,0 +1,56 @@
+# Shared by scripts/demo, scripts/test, scripts/llc and scripts/bench: install what is missing
+# (Debian packages, idempotent, quiet when all is present) and build the catkin workspace under
+# build/ (git-ignored).
+set -euo pipefail
+
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+WS="$REPO/build/ws"
+DATA="${LLC_DATA_DIR:-$REPO/../shared/data}"
+# Debian's ROS lives in /usr; a pyenv python3 first on PATH lacks its modules.
+export PATH="/usr/bin:/bin:/usr/sbin:/sbin:$PATH"
+export ROS_MASTER_URI="${ROS_MASTER_URI:-http://127.0.0.1:11311}" ROS_IP="${ROS_IP:-127.0.0.1}"
+
+LLC_PACKAGES=(build-essential cmake ros-base-dev ros-core-python-dev
+  libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev liblaser-geometry-dev
+  python3-rostest libgtest-dev rosbash libeigen3-dev libpcl-dev libpcl-conversions-dev
+  libsuitesparse-dev libyaml-cpp-dev libnanoflann-dev libbenchmark-dev zlib1g-dev
+  pluginlib-dev libnodeletlib-dev libnodeletlib-tools libmessage-filters-dev
+  libdiagnostic-updater-dev python3-matplotlib python3-numpy)
+
+llc_install_missing() {
+  local missing=() p
+  for p in "${LLC_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "Installing ${#missing[@]} missing Debian packages: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
+
+llc_build() {
+  mkdir -p "$WS/src"
+  [ -e "$WS/src/laser_loop_closure" ] || ln -s "$REPO" "$WS/src/laser_loop_closure"
+  local log="$REPO/build/build.log"
+  echo "Building (log: build/build.log) ..."
+  if ! (cd "$WS" && catkin_make -j"$(nproc)" \
+        -DCMAKE_BUILD_TYPE=Release \
+        -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
+        "$@" >"$log" 2>&1); then
+    tail -n 60 "$log"
+    echo "Build failed; the whole log is build/build.log" >&2
+    return 1
+  fi
+}
+
+llc_setup() {
+  llc_install_missing
+  llc_build "$@"
+  # shellcheck disable=SC1091
+  set +u; source "$WS/devel/setup.bash"; set -u
+}
+
+LLC_BIN="$WS/devel/lib/laser_loop_closure"

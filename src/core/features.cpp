@@ -1,0 +1,377 @@
+#include "laser_loop_closure/core/features.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace llc {
+namespace {
+
+const std::vector<std::string> kPaperNames = {
+    "area",              "average_range",    "centroid",          "close_area",
+    "close_distance",    "circle_radius",    "circle_residual",   "curvature_mean",
+    "curvature_std",     "distance",         "far_distance",      "group_count",
+    "group_size_mean",   "max_range_count",  "angular_difference", "mean_deviation",
+    "regularity",        "size",             "deviation_std",     "range_std"};
+
+// The project's additions. Counts are normalised by the beam count so that a model carries
+// over between scanners of different resolution; the rest are distributions and shape.
+const std::vector<std::string> kExtraNames = {
+    "valid_fraction",      "max_range_fraction",  "group_size_fraction",
+    "range_q10",           "range_q25",           "range_q50",
+    "range_q75",           "range_q90",           "principal_sigma_major",
+    "principal_sigma_minor", "anisotropy",        "gap_count",
+    "widest_gap_angle",    "longest_group_length", "group_length_mean",
+    "range_hist_0_1",      "range_hist_1_2",      "range_hist_2_4",
+    "range_hist_4_8",      "range_hist_8_16",     "range_hist_16_max"};
+
+std::vector<std::string> concat(const std::vector<std::string>& a,
+                                const std::vector<std::string>& b) {
+  std::vector<std::string> all = a;
+  all.insert(all.end(), b.begin(), b.end());
+  return all;
+}
+
+double safeDiv(double num, double den) { return den != 0.0 ? num / den : 0.0; }
+
+/// Sample standard deviation from a count, a sum and a sum of squared deviations.
+double sampleStd(double sum_sq_dev, std::size_t n) {
+  return n > 1 ? std::sqrt(std::max(0.0, sum_sq_dev / double(n - 1))) : 0.0;
+}
+
+/// Quantile of sorted-in-place values by nearest rank on [lo, hi); data is partially ordered.
+double quantile(std::vector<double>& v, std::size_t lo, std::size_t hi, std::size_t rank) {
+  std::nth_element(v.begin() + lo, v.begin() + rank, v.begin() + hi);
+  return v[rank];
+}
+
+}  // namespace
+
+const char* toString(FeatureSet set) { return set == FeatureSet::kPaper ? "paper" : "extended"; }
+
+bool parseFeatureSet(const std::string& text, FeatureSet* set) {
+  if (text == "paper") *set = FeatureSet::kPaper;
+  else if (text == "extended") *set = FeatureSet::kExtended;
+  else return false;
+  return true;
+}
+
+std::string FeatureOptions::validate() const {
+  if (!(std::isfinite(r_max) && r_max > 0.0)) return "r_max must be a positive number of metres";
+  if (!(std::isfinite(g_max_dist) && g_max_dist > 0.0))
+    return "g_max_dist must be a positive number of metres";
+  if (g_min_size < 0) return "g_min_size must be zero or more points";
+  return {};
+}
+
+bool FeatureOptions::operator==(const FeatureOptions& o) const {
+  return r_max == o.r_max && g_max_dist == o.g_max_dist && g_min_size == o.g_min_size &&
+         closed_ring == o.closed_ring && feature_set == o.feature_set;
+}
+
+std::size_t featureCount(FeatureSet set) {
+  return set == FeatureSet::kPaper ? kPaperNames.size() : kPaperNames.size() + kExtraNames.size();
+}
+
+const std::vector<std::string>& featureNames(FeatureSet set) {
+  static const std::vector<std::string> extended = concat(kPaperNames, kExtraNames);
+  return set == FeatureSet::kPaper ? kPaperNames : extended;
+}
+
+FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(options) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("feature options: " + error);
+}
+
+void FeatureExtractor::updateTrigonometry(const std::vector<double>& bearings) {
+  if (bearings == cached_bearings_) return;
+  cached_bearings_ = bearings;
+  cos_.resize(bearings.size());
+  sin_.resize(bearings.size());
+  for (std::size_t i = 0; i < bearings.size(); ++i) {
+    cos_[i] = std::cos(bearings[i]);
+    sin_[i] = std::sin(bearings[i]);
+  }
+}
+
+std::vector<double> FeatureExtractor::extract(const Scan& scan) {
+  std::vector<double> out(size());
+  extract(scan, out.data());
+  return out;
+}
+
+void FeatureExtractor::extract(const Scan& scan, double* out) {
+  const double r_max = options_.r_max;
+  const double gate = options_.g_max_dist;
+  const std::size_t n = std::min(scan.ranges.size(), scan.bearings.size());
+  std::fill(out, out + size(), 0.0);
+  if (n == 0) return;
+  updateTrigonometry(scan.bearings);
+  const bool closed = options_.closed_ring && scan.full_circle && n >= 3;
+  const std::size_t pair_count = closed ? n : n - 1;  // neighbour pairs (i, i+1 mod n)
+  auto next = [n](std::size_t i) { return i + 1 == n ? 0 : i + 1; };
+
+  // Beams: valid = finite return nearer than r_max; everything else counts as max-range and
+  // is clipped to r_max where a feature needs a range (#1, #2, #11).
+  clipped_.resize(n); x_.resize(n); y_.resize(n); valid_.resize(n);
+  std::size_t valid_count = 0;
+  double sum_x = 0.0, sum_y = 0.0, sum_r = 0.0, sum_clipped = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = scan.ranges[i];
+    const bool valid = std::isfinite(r) && r > 0.0 && r < r_max;
+    valid_[i] = valid;
+    clipped_[i] = valid ? r : r_max;
+    x_[i] = clipped_[i] * cos_[i];
+    y_[i] = clipped_[i] * sin_[i];
+    sum_clipped += clipped_[i];
+    if (valid) {
+      ++valid_count;
+      sum_x += x_[i];
+      sum_y += y_[i];
+      sum_r += r;
+    }
+  }
+  const double mean_x = safeDiv(sum_x, double(valid_count));
+  const double mean_y = safeDiv(sum_y, double(valid_count));
+  const double mean_r = safeDiv(sum_r, double(valid_count));
+
+  // #1 area and #11 far distance run over every neighbour pair.
+  double area = 0.0, far_distance = 0.0;
+  for (std::size_t i = 0; i < pair_count; ++i) {
+    const std::size_t j = next(i);
+    double step = scan.bearings[j] - scan.bearings[i];
+    if (j == 0) step += 2.0 * M_PI;
+    area += clipped_[i] * clipped_[j] * std::sin(0.5 * step);
+    far_distance += std::hypot(x_[j] - x_[i], y_[j] - y_[i]);
+  }
+
+  // Segments between neighbouring valid points (-1 where either end is not valid).
+  segment_.resize(n);
+  double distance = 0.0, close_distance = 0.0, sum_seg_sq = 0.0;
+  std::size_t segment_count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t j = next(i);
+    if (i < pair_count && valid_[i] && valid_[j]) {
+      const double d = std::hypot(x_[j] - x_[i], y_[j] - y_[i]);
+      segment_[i] = d;
+      distance += d;
+      if (d < gate) close_distance += d;
+      ++segment_count;
+    } else {
+      segment_[i] = -1.0;
+    }
+  }
+  const double segment_mean = safeDiv(distance, double(segment_count));
+  for (std::size_t i = 0; i < n; ++i)
+    if (segment_[i] >= 0.0) sum_seg_sq += (segment_[i] - segment_mean) * (segment_[i] - segment_mean);
+
+  // #8 #9 curvature and #15 angular difference over triples of neighbouring valid points.
+  double sum_k = 0.0, angular = 0.0;
+  curvature_.clear();
+  const std::size_t triple_count = closed ? n : (n >= 2 ? n - 2 : 0);
+  for (std::size_t a = 0; a < triple_count; ++a) {
+    const std::size_t b = next(a), c = next(b);
+    const double da = segment_[a], db = segment_[b];
+    if (da <= 0.0 || db <= 0.0) continue;  // an end not valid, or a zero-length segment
+    const double ux = x_[b] - x_[a], uy = y_[b] - y_[a];
+    const double vx = x_[c] - x_[b], vy = y_[c] - y_[b];
+    const double cross = ux * vy - uy * vx;
+    const double dot = ux * vx + uy * vy;
+    angular += std::acos(std::clamp(dot / (da * db), -1.0, 1.0));
+    const double dc = std::hypot(x_[c] - x_[a], y_[c] - y_[a]);
+    if (dc <= 0.0) continue;
+    const double k = 2.0 * std::abs(cross) / (da * db * dc);  // 4 * triangle area / sides
+    sum_k += k;
+    curvature_.push_back(k);
+  }
+  const double k_mean = safeDiv(sum_k, double(curvature_.size()));
+  double sum_k_sq_dev = 0.0;
+  for (double k : curvature_) sum_k_sq_dev += (k - k_mean) * (k - k_mean);
+  const double k_std = sampleStd(sum_k_sq_dev, curvature_.size());
+
+  // #12 #13 groups: runs of valid neighbours closer than the gate; with a closed ring the run
+  // through the seam is one group.
+  std::size_t group_count = 0, group_points = 0;
+  double longest_group = 0.0, group_length_sum = 0.0;
+  {
+    auto linked = [&](std::size_t i) { return segment_[i] >= 0.0 && segment_[i] < gate; };
+    // Start just after a break so a run never straddles the starting point.
+    std::size_t start = 0;
+    bool any_break = true;
+    if (closed) {
+      any_break = false;
+      for (std::size_t i = 0; i < n; ++i)
+        if (!linked(i)) { start = next(i); any_break = true; break; }
+    }
+    auto close_run = [&](std::size_t points, double length) {
+      if (points > std::size_t(options_.g_min_size)) {
+        ++group_count;
+        group_points += points;
+        group_length_sum += length;
+        longest_group = std::max(longest_group, length);
+      }
+    };
+    if (!any_break) {  // every neighbour linked around the whole ring
+      close_run(n, distance);
+    } else {
+      std::size_t points = 0;
+      double length = 0.0;
+      for (std::size_t step = 0; step < n; ++step) {
+        const std::size_t i = (start + step) % n;
+        if (!valid_[i]) { close_run(points, length); points = 0; length = 0.0; continue; }
+        ++points;
+        const bool last = step + 1 == n;
+        if (!last && linked(i)) {
+          length += segment_[i];
+        } else {
+          close_run(points, length);
+          points = 0;
+          length = 0.0;
+        }
+      }
+    }
+  }
+
+  // Moments about the mean of the valid points: #3 #6 #7 #16 #19 #20 and principal axes.
+  double suu = 0.0, svv = 0.0, suv = 0.0, suuu = 0.0, svvv = 0.0, suvv = 0.0, svuu = 0.0;
+  double sum_dev = 0.0, sum_r_sq_dev = 0.0, close_area = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!valid_[i]) continue;
+    const double u = x_[i] - mean_x, v = y_[i] - mean_y;
+    suu += u * u; svv += v * v; suv += u * v;
+    suuu += u * u * u; svvv += v * v * v; suvv += u * v * v; svuu += v * u * u;
+    sum_dev += std::sqrt(u * u + v * v);
+    sum_r_sq_dev += (clipped_[i] - mean_r) * (clipped_[i] - mean_r);
+    close_area += clipped_[i] * clipped_[i];
+  }
+  const double mean_dev = safeDiv(sum_dev, double(valid_count));
+  // Least-squares (Kasa) circle in centred coordinates; degenerate (fewer than three points,
+  // or collinear) gives radius 0 and residual 0.
+  double circle_radius = 0.0, circle_residual = 0.0, cu = 0.0, cv = 0.0;
+  const double det = suu * svv - suv * suv;
+  const double trace = suu + svv;
+  if (valid_count >= 3 && trace > 0.0 && det > 1e-12 * trace * trace) {
+    const double bu = 0.5 * (suuu + suvv), bv = 0.5 * (svvv + svuu);
+    cu = (bu * svv - bv * suv) / det;
+    cv = (suu * bv - suv * bu) / det;
+    circle_radius = std::sqrt(cu * cu + cv * cv + trace / double(valid_count));
+  }
+  double sum_dev_sq = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!valid_[i]) continue;
+    const double u = x_[i] - mean_x, v = y_[i] - mean_y;
+    const double d = std::sqrt(u * u + v * v) - mean_dev;
+    sum_dev_sq += d * d;
+    if (circle_radius > 0.0) {
+      const double e = circle_radius - std::hypot(u - cu, v - cv);
+      circle_residual += e * e;
+    }
+  }
+  // Angular step of the scanner for #4: the mean spacing of the beams.
+  double angle_step = 0.0;
+  if (closed) angle_step = 2.0 * M_PI / double(n);
+  else if (n > 1) angle_step = (scan.bearings[n - 1] - scan.bearings[0]) / double(n - 1);
+
+  out[0] = area;
+  out[1] = sum_clipped / double(n);
+  out[2] = std::hypot(mean_x, mean_y);
+  out[3] = close_area * std::sin(0.5 * angle_step);
+  out[4] = close_distance;
+  out[5] = circle_radius;
+  out[6] = circle_residual;
+  out[7] = k_mean;
+  out[8] = k_std;
+  out[9] = distance;
+  out[10] = far_distance;
+  out[11] = double(group_count);
+  out[12] = safeDiv(double(group_points), double(group_count));
+  out[13] = double(n - valid_count);
+  out[14] = angular;
+  out[15] = mean_dev;
+  out[16] = sampleStd(sum_seg_sq, segment_count);
+  out[17] = double(valid_count);
+  out[18] = sampleStd(sum_dev_sq, valid_count);
+  out[19] = sampleStd(sum_r_sq_dev, valid_count);
+  if (options_.feature_set == FeatureSet::kPaper) return;
+
+  double* extra = out + kPaperNames.size();
+  const double beams = double(n);
+  extra[0] = double(valid_count) / beams;
+  extra[1] = double(n - valid_count) / beams;
+  extra[2] = out[12] / beams;
+  // Quantiles of the valid ranges by nearest rank, each nth_element on a shrinking range.
+  if (valid_count > 0) {
+    sorted_.clear();
+    for (std::size_t i = 0; i < n; ++i)
+      if (valid_[i]) sorted_.push_back(clipped_[i]);
+    const std::size_t m = sorted_.size();
+    auto rank = [m](double q) { return std::min(m - 1, std::size_t(q * double(m - 1) + 0.5)); };
+    const std::size_t r10 = rank(0.10), r25 = rank(0.25), r50 = rank(0.5), r75 = rank(0.75),
+                      r90 = rank(0.90);
+    extra[5] = quantile(sorted_, 0, m, r50);
+    extra[4] = r25 < r50 ? quantile(sorted_, 0, r50, r25) : extra[5];
+    extra[3] = r10 < r25 ? quantile(sorted_, 0, r25, r10) : extra[4];
+    extra[6] = quantile(sorted_, r50, m, r75);
+    extra[7] = quantile(sorted_, r75, m, r90);
+  }
+  // Principal axes of the valid points: square roots of the covariance eigenvalues.
+  if (valid_count > 1) {
+    const double a = suu / double(valid_count), b = suv / double(valid_count),
+                 c = svv / double(valid_count);
+    const double half_trace = 0.5 * (a + c);
+    const double root = std::sqrt(std::max(0.0, 0.25 * (a - c) * (a - c) + b * b));
+    const double major = std::sqrt(std::max(0.0, half_trace + root));
+    const double minor = std::sqrt(std::max(0.0, half_trace - root));
+    extra[8] = major;
+    extra[9] = minor;
+    extra[10] = safeDiv(minor, major);
+  }
+  // Gaps: runs of beams without a valid return, and the widest one's angle.
+  {
+    std::size_t gaps = 0;
+    double widest = 0.0;
+    std::size_t i = 0;
+    // On a closed ring start after a valid beam so the run through the seam is counted once.
+    std::size_t start = 0;
+    if (closed && valid_count > 0 && valid_count < n) {
+      while (valid_[start]) start = next(start);
+      while (!valid_[start]) start = next(start);
+    }
+    const double step = angle_step;
+    std::size_t run = 0;
+    for (i = 0; i < n; ++i) {
+      const std::size_t k = (start + i) % n;
+      if (!valid_[k]) { ++run; continue; }
+      if (run > 0) { ++gaps; widest = std::max(widest, double(run) * step); }
+      run = 0;
+    }
+    if (run > 0) { ++gaps; widest = std::max(widest, double(run) * step); }
+    extra[11] = double(gaps);
+    extra[12] = widest;
+  }
+  extra[13] = longest_group;
+  extra[14] = safeDiv(group_length_sum, double(group_count));
+  // Histogram of clipped ranges, as fractions of the beams (max-range beams in none of them).
+  {
+    double hist[6] = {0, 0, 0, 0, 0, 0};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!valid_[i]) continue;
+      const double r = clipped_[i];
+      const int bin = r < 1.0 ? 0 : r < 2.0 ? 1 : r < 4.0 ? 2 : r < 8.0 ? 3 : r < 16.0 ? 4 : 5;
+      hist[bin] += 1.0;
+    }
+    for (int b = 0; b < 6; ++b) extra[15 + b] = hist[b] / beams;
+  }
+}
+
+void pairFeatures(const double* a, const double* b, std::size_t size, double* out) {
+  for (std::size_t i = 0; i < size; ++i) out[i] = std::abs(a[i] - b[i]);
+}
+
+std::vector<double> pairFeatures(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> out(std::min(a.size(), b.size()));
+  pairFeatures(a.data(), b.data(), out.size(), out.data());
+  return out;
+}
+
+}  // namespace llc

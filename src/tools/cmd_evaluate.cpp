@@ -1,0 +1,188 @@
+// llc evaluate: the paper's section V on labelled pairs.
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "commands.hpp"
+#include "laser_loop_closure/core/evaluation.hpp"
+#include "laser_loop_closure/core/random.hpp"
+
+namespace llc_tool {
+namespace {
+
+std::ofstream openCsv(const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw ToolError(path + ": cannot write");
+  out << std::setprecision(10);
+  return out;
+}
+
+/// Pair rows with scan b of every pair turned on the spot by a random angle of 90..180
+/// degrees either way (the paper's rotation test). Angles are returned in *angles.
+llc::TrainingSet rotatedTrainingSet(const std::vector<PairData>& data,
+                                    const llc::FeatureOptions& options, std::uint64_t seed,
+                                    std::vector<double>* angles) {
+  llc::FeatureExtractor extractor(options);
+  llc::Random random(seed ^ 0x5eedULL);
+  llc::TrainingSet set;
+  set.dimension = extractor.size();
+  std::vector<double> row(set.dimension);
+  for (const PairData& item : data)
+    for (const llc::LabeledPair& p : item.pairs) {
+      const double magnitude = random.uniform(M_PI / 2, M_PI);
+      const double angle = random.uniform() < 0.5 ? -magnitude : magnitude;
+      angles->push_back(angle);
+      const std::vector<double> turned =
+          extractor.extract(llc::rotateScan(item.sequence.scans[p.b].scan, angle));
+      llc::pairFeatures(item.features[p.a].data(), turned.data(), set.dimension, row.data());
+      set.add(row.data(), p.label);
+    }
+  return set;
+}
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+int runEvaluate(const Args& args) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::string out_dir = args.required("out");
+  ensureDirectory(out_dir);
+  const llc::FeatureOptions features = featureOptions(args);
+  const std::vector<PairData> data = loadPairData(args.all("data"), features);
+  const llc::TrainingSet set = pairTrainingSet(data);
+
+  llc::CrossValidationOptions cv;
+  cv.folds = int(args.integer("folds", 10));
+  cv.repeats = int(args.integer("repeats", 10));
+  cv.seed = std::uint64_t(args.integer("seed", 1));
+  cv.adaboost.rounds = int(args.integer("rounds", 50));
+  const std::string invalid = cv.validate();
+  if (!invalid.empty()) throw ToolError(invalid);
+  std::size_t positives = 0;
+  for (int y : set.labels) positives += y == 1;
+  std::cout << "pairs=" << set.size() << " positives=" << positives << " negatives=" << set.size() - positives
+            << " features=" << set.dimension << " (" << llc::toString(features.feature_set)
+            << (features.closed_ring ? ", closed ring" : ", open ring") << ")\n";
+
+  std::vector<double> angles;
+  llc::TrainingSet rotated;
+  const bool rotation = !args.has("no-rotation");
+  if (rotation) rotated = rotatedTrainingSet(data, features, cv.seed, &angles);
+  const std::vector<llc::CrossValidationRun> runs =
+      llc::crossValidate(set, cv, rotation ? &rotated : nullptr);
+  const llc::CrossValidationSummary summary = llc::summarize(runs, set.labels);
+
+  {  // ROC averaged over repeats, and the pooled scores of the first repeat.
+    std::ofstream roc = openCsv(out_dir + "/roc.csv");
+    roc << "false_alarm,detection\n";
+    for (std::size_t g = 0; g < summary.roc_false_alarm.size(); ++g)
+      roc << summary.roc_false_alarm[g] << ',' << summary.roc_detection[g] << '\n';
+    std::ofstream scores = openCsv(out_dir + "/scores.csv");
+    scores << "data,a,b,label,score" << (rotation ? ",rotation_deg,score_rotated" : "") << '\n';
+    std::size_t row = 0;
+    for (std::size_t d = 0; d < data.size(); ++d)
+      for (const llc::LabeledPair& p : data[d].pairs) {
+        scores << d << ',' << p.a << ',' << p.b << ',' << p.label << ',' << runs[0].scores[row];
+        if (rotation) scores << ',' << angles[row] * 180.0 / M_PI << ',' << runs[0].alternate_scores[row];
+        scores << '\n';
+        ++row;
+      }
+  }
+
+  // Figure 3: error against T.
+  std::vector<llc::ErrorRates> by_rounds;
+  if (!args.has("no-curve")) {
+    const int max_rounds = int(args.integer("curve-max-rounds", 1000));
+    const int curve_repeats = int(args.integer("curve-repeats", 1));
+    if (max_rounds < 1 || curve_repeats < 1) throw ToolError("--curve-max-rounds and --curve-repeats must be >= 1");
+    by_rounds = llc::errorByRounds(set, max_rounds, cv.folds, curve_repeats, cv.seed);
+    std::ofstream curve = openCsv(out_dir + "/error_vs_rounds.csv");
+    curve << "rounds,false_alarm,missed_detection,total\n";
+    for (std::size_t t = 0; t < by_rounds.size(); ++t)
+      curve << t + 1 << ',' << by_rounds[t].false_alarm << ',' << by_rounds[t].missed_detection << ','
+            << by_rounds[t].total() << '\n';
+  }
+
+  // Table I test 1: features in the order AdaBoost picks them, trained on all pairs.
+  const llc::AdaBoostResult full = llc::AdaBoostTrainer(cv.adaboost).train(set);
+  const std::vector<std::string>& names = llc::featureNames(features.feature_set);
+  {
+    std::ofstream order = openCsv(out_dir + "/feature_order.csv");
+    order << "round,feature,name,polarity,threshold,alpha,cv_total_error\n";
+    for (std::size_t t = 0; t < full.rounds.size(); ++t) {
+      const llc::Stump& s = full.rounds[t].stump;
+      order << t + 1 << ',' << s.feature + 1 << ',' << names[std::size_t(s.feature)] << ',' << s.polarity << ','
+            << s.threshold << ',' << s.alpha << ',';
+      if (t < by_rounds.size()) order << by_rounds[t].total();
+      order << '\n';
+    }
+  }
+
+  // Table I test 2: remove one feature at a time and retrain.
+  if (!args.has("no-ablation")) {
+    llc::CrossValidationOptions ablation = cv;
+    ablation.repeats = int(args.integer("ablation-repeats", 1));
+    if (ablation.repeats < 1) throw ToolError("--ablation-repeats must be >= 1");
+    const llc::ErrorRates all = llc::summarize(llc::crossValidate(set, ablation), set.labels, 2).at_half;
+    const std::vector<llc::ErrorRates> without = llc::errorWithoutEachFeature(set, ablation);
+    std::ofstream removal = openCsv(out_dir + "/feature_removal.csv");
+    removal << "feature,name,false_alarm,missed_detection,total,increase\n";
+    removal << "0,none," << all.false_alarm << ',' << all.missed_detection << ',' << all.total() << ",0\n";
+    for (std::size_t f = 0; f < without.size(); ++f)
+      removal << f + 1 << ',' << names[f] << ',' << without[f].false_alarm << ','
+              << without[f].missed_detection << ',' << without[f].total() << ','
+              << without[f].total() - all.total() << '\n';
+  }
+
+  // Rotation test at the operating point K (1% false alarm) and at K = 0.5.
+  double kept_at_k = 0.0, kept_at_half = 0.0;
+  if (rotation) {
+    std::size_t same_k = 0, same_half = 0, total = 0;
+    for (const llc::CrossValidationRun& run : runs)
+      for (std::size_t i = 0; i < run.scores.size(); ++i, ++total) {
+        same_k += (run.scores[i] >= summary.k_at_1pct) == (run.alternate_scores[i] >= summary.k_at_1pct);
+        same_half += (run.scores[i] >= 0.5) == (run.alternate_scores[i] >= 0.5);
+      }
+    kept_at_k = double(same_k) / double(total);
+    kept_at_half = double(same_half) / double(total);
+  }
+
+  std::ofstream text(out_dir + "/summary.txt");
+  auto both = [&](const std::string& line) {
+    std::cout << line << '\n';
+    text << line << '\n';
+  };
+  std::ostringstream s;
+  s << std::setprecision(4) << std::fixed;
+  s << "folds=" << cv.folds << " repeats=" << cv.repeats << " rounds=" << cv.adaboost.rounds
+    << " seed=" << cv.seed << "\n";
+  s << "detection_at_1pct_fa_std=" << summary.detection_at_1pct_std << " auc_std=" << summary.auc_std << "\n";
+  s << "error_at_k_0.5: false_alarm=" << summary.at_half.false_alarm
+    << " missed_detection=" << summary.at_half.missed_detection << " total=" << summary.at_half.total() << "\n";
+  s << "k_at_1pct_fa=" << summary.k_at_1pct << "\n";
+  s << "detection_at_0pct_fa=" << summary.detection_at_0pct << "\n";
+  if (rotation)
+    s << "rotation_test: pairs=" << set.size() * runs.size() << " kept_class_at_k_1pct=" << kept_at_k
+      << " kept_class_at_k_0.5=" << kept_at_half << "\n";
+  s << "seconds=" << std::setprecision(1) << secondsSince(start);
+  both(s.str());
+
+  // Plots, when the plotting helper is known (scripts/llc sets LLC_PLOTTER).
+  if (const char* plotter = std::getenv("LLC_PLOTTER"); plotter && *plotter) {
+    const std::string command = std::string(plotter) + " '" + out_dir + "' >&2";
+    if (std::system(command.c_str()) != 0) std::cerr << "llc evaluate: warning: plotting failed\n";
+    else std::cout << "plots: " << out_dir << "/roc.png " << out_dir << "/error_vs_rounds.png\n";
+  }
+  std::ostringstream last;
+  last << std::setprecision(4) << std::fixed << "detection_at_1pct_fa=" << summary.detection_at_1pct
+       << "\nauc=" << summary.auc;
+  both(last.str());
+  return 0;
+}
+
+}  // namespace llc_tool

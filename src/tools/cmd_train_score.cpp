@@ -1,0 +1,97 @@
+// llc train, llc score.
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/evaluation.hpp"
+
+namespace llc_tool {
+
+int runTrain(const Args& args) {
+  const std::string model_path = args.required("model");
+  const llc::FeatureOptions features = featureOptions(args);
+  const std::vector<std::string> specs = args.all("data");
+  const std::vector<PairData> data = loadPairData(specs, features);
+  const llc::TrainingSet set = pairTrainingSet(data);
+
+  llc::AdaBoostOptions boost;
+  boost.rounds = int(args.integer("rounds", boost.rounds));
+  const llc::AdaBoostResult trained = llc::AdaBoostTrainer(boost).train(set);
+  if (!trained.stopped_early.empty() && trained.rounds.empty())
+    throw ToolError("training failed: " + trained.stopped_early);
+  llc::ClassifierModel model;
+  model.features = features;
+  model.classifier = trained.classifier;
+
+  std::ostringstream data_text;
+  for (const std::string& spec : specs) data_text << (data_text.tellp() ? " " : "") << spec;
+  model.provenance["data"] = data_text.str();
+  model.provenance["pairs"] = std::to_string(set.size());
+  if (args.has("k")) {
+    const double k = args.number("k", 0.5);
+    if (!(k >= 0.0 && k <= 1.0)) throw ToolError("--k must lie in [0, 1]");
+    model.classifier.setThresholdK(k);
+    model.provenance["threshold_k"] = "given with --k";
+  } else {
+    // K for the target false-alarm rate, from cross-validated scores (never training scores).
+    llc::CrossValidationOptions cv;
+    cv.folds = int(args.integer("folds", 10));
+    cv.repeats = int(args.integer("repeats", 1));
+    cv.seed = std::uint64_t(args.integer("seed", 1));
+    cv.adaboost = boost;
+    const double target = args.number("target-false-alarm", 0.01);
+    const auto runs = llc::crossValidate(set, cv);
+    std::vector<double> scores;
+    std::vector<int> labels;
+    for (const auto& run : runs) {
+      scores.insert(scores.end(), run.scores.begin(), run.scores.end());
+      labels.insert(labels.end(), set.labels.begin(), set.labels.end());
+    }
+    double k = 0.5;
+    const double detection = llc::detectionAtFalseAlarm(scores, labels, target, &k);
+    model.classifier.setThresholdK(k);
+    std::ostringstream why;
+    why << "cross-validated (" << cv.folds << " folds x " << cv.repeats << ") for false alarm <= "
+        << target << ": detection " << std::setprecision(4) << detection << ", AUC "
+        << llc::areaUnderCurve(scores, labels);
+    model.provenance["threshold_k"] = why.str();
+  }
+  llc::saveClassifierModel(model, model_path);
+  std::cout << "pairs=" << set.size() << " rounds=" << model.classifier.stumps().size()
+            << " threshold_k=" << model.classifier.thresholdK() << " -> " << model_path << "\n";
+  if (!trained.stopped_early.empty()) std::cout << "note: " << trained.stopped_early << "\n";
+  return 0;
+}
+
+int runScore(const Args& args) {
+  const std::string model_path = args.get("model", defaultModelPath());
+  const std::string out_path = args.required("out");
+  llc::ClassifierModel model;
+  try {
+    model = llc::loadClassifierModel(model_path);
+  } catch (const llc::ModelError& e) {
+    throw ToolError(e.what());
+  }
+  const std::vector<PairData> data = loadPairData(args.all("data"), model.features);
+  std::ofstream out(out_path);
+  if (!out) throw ToolError(out_path + ": cannot write");
+  out << "a,b,label,score\n" << std::setprecision(17);
+  std::vector<double> row;
+  std::size_t matches = 0, total = 0;
+  for (const PairData& item : data)
+    for (const llc::LabeledPair& p : item.pairs) {
+      row = llc::pairFeatures(item.features[p.a], item.features[p.b]);
+      const double score = model.classifier.score(row.data());
+      matches += score >= model.classifier.thresholdK();
+      ++total;
+      out << p.a << ',' << p.b << ',' << p.label << ',' << score << '\n';
+    }
+  std::cout << "pairs=" << total << " matches=" << matches << " (K=" << model.classifier.thresholdK()
+            << ", model " << model_path << ") -> " << out_path << "\n";
+  return 0;
+}
+
+}  // namespace llc_tool

@@ -1,0 +1,83 @@
+// llc: the offline command-line tool. Each subcommand lives in its own cmd_*.cpp file.
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include "commands.hpp"
+#include "tool_common.hpp"
+
+namespace {
+
+struct Command {
+  const char* name;
+  int (*run)(const llc_tool::Args&);
+  std::vector<std::string> options, flags;
+  const char* usage;
+};
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+const std::vector<Command>& commands() {
+  using llc_tool::kFeatureFlags;
+  using llc_tool::kFeatureSwitches;
+  static const std::vector<Command> list = {
+      {"pairs", llc_tool::runPairs,
+       {"log", "out", "positive-distance", "positive-heading-deg", "min-gap", "negative-distance",
+        "max-per-class", "seed"},
+       {"full-circle", "partial"},
+       "pairs --log LOG --out PAIRS.csv [--positive-distance 1.5] [--positive-heading-deg 45]\n"
+       "      [--min-gap 30] [--negative-distance 10] [--max-per-class 200] [--seed 1]\n"
+       "      [--full-circle|--partial]   (default: full circle when every scan is 360 degrees)"},
+      {"features", llc_tool::runFeatures, with({"log", "out"}, kFeatureFlags), kFeatureSwitches,
+       "features --log LOG --out FEATURES.csv [--features paper|extended] [--r-max 50]\n"
+       "      [--g-max-dist 2.5] [--g-min-size 3] [--open-ring]"},
+      {"train", llc_tool::runTrain,
+       with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed"}, kFeatureFlags),
+       kFeatureSwitches,
+       "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
+       "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
+      {"evaluate", llc_tool::runEvaluate,
+       with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
+             "ablation-repeats"},
+            kFeatureFlags),
+       with({"no-curve", "no-ablation", "no-rotation"}, kFeatureSwitches),
+       "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
+       "      [--seed 1] [--features paper|extended] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
+       "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]"},
+      {"score", llc_tool::runScore, {"model", "data", "out"}, {},
+       "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
+  };
+  return list;
+}
+
+void usage(std::ostream& out) {
+  out << "usage: llc SUBCOMMAND [options]\n";
+  for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "help")) {
+    usage(argc < 2 ? std::cerr : std::cout);
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string name = argv[1];
+  for (const Command& c : commands()) {
+    if (name != c.name) continue;
+    try {
+      const llc_tool::Args args(argc - 2, argv + 2, c.options, c.flags);
+      return c.run(args);
+    } catch (const std::exception& e) {
+      std::cerr << "llc " << name << ": error: " << e.what() << "\n";
+      return 1;
+    }
+  }
+  std::cerr << "llc: unknown subcommand '" << name << "'\n";
+  usage(std::cerr);
+  return 2;
+}

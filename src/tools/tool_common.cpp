@@ -1,0 +1,172 @@
+#include "tool_common.hpp"
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+
+#include "laser_loop_closure/core/carmen_reader.hpp"
+
+namespace llc_tool {
+
+const std::vector<std::string> kFeatureFlags = {"features", "r-max", "g-max-dist", "g-min-size"};
+const std::vector<std::string> kFeatureSwitches = {"open-ring"};
+
+Args::Args(int argc, char** argv, const std::vector<std::string>& options,
+           const std::vector<std::string>& flags) {
+  auto known = [](const std::vector<std::string>& list, const std::string& name) {
+    for (const std::string& item : list)
+      if (item == name) return true;
+    return false;
+  };
+  for (int i = 0; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.rfind("--", 0) != 0) throw ToolError("unexpected argument '" + word + "'");
+    const std::string name = word.substr(2);
+    if (known(flags, name)) {
+      values_.emplace(name, "1");
+    } else if (known(options, name)) {
+      if (i + 1 >= argc) throw ToolError("--" + name + " needs a value");
+      values_.emplace(name, argv[++i]);
+    } else {
+      throw ToolError("unknown option --" + name);
+    }
+  }
+}
+
+bool Args::has(const std::string& name) const { return values_.count(name) > 0; }
+
+std::string Args::get(const std::string& name, const std::string& fallback) const {
+  auto it = values_.find(name);
+  return it == values_.end() ? fallback : it->second;
+}
+
+std::string Args::required(const std::string& name) const {
+  if (!has(name)) throw ToolError("--" + name + " is required");
+  return get(name, "");
+}
+
+std::vector<std::string> Args::all(const std::string& name) const {
+  std::vector<std::string> out;
+  auto range = values_.equal_range(name);
+  for (auto it = range.first; it != range.second; ++it) out.push_back(it->second);
+  return out;
+}
+
+double Args::number(const std::string& name, double fallback) const {
+  if (!has(name)) return fallback;
+  const std::string text = get(name, "");
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(value))
+    throw ToolError("--" + name + " must be a number, not '" + text + "'");
+  return value;
+}
+
+long Args::integer(const std::string& name, long fallback) const {
+  if (!has(name)) return fallback;
+  const std::string text = get(name, "");
+  char* end = nullptr;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0') throw ToolError("--" + name + " must be a whole number, not '" + text + "'");
+  return value;
+}
+
+llc::FeatureOptions featureOptions(const Args& args) {
+  llc::FeatureOptions options;
+  const std::string set = args.get("features", "extended");
+  if (!llc::parseFeatureSet(set, &options.feature_set))
+    throw ToolError("--features must be 'paper' or 'extended', not '" + set + "'");
+  options.r_max = args.number("r-max", options.r_max);
+  options.g_max_dist = args.number("g-max-dist", options.g_max_dist);
+  options.g_min_size = int(args.integer("g-min-size", options.g_min_size));
+  options.closed_ring = !args.has("open-ring");
+  const std::string invalid = options.validate();
+  if (!invalid.empty()) throw ToolError("feature options: " + invalid);
+  return options;
+}
+
+std::pair<std::string, std::string> splitDataSpec(const std::string& spec) {
+  const std::size_t colon = spec.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
+    throw ToolError("--data expects LOG:PAIRS, not '" + spec + "'");
+  return {spec.substr(0, colon), spec.substr(colon + 1)};
+}
+
+llc::ScanSequence loadSequence(const std::string& path) {
+  std::ifstream probe(path);
+  if (!probe) throw ToolError(path + ": no such file or not readable");
+  try {
+    llc::ScanSequence sequence = llc::loadScanSequence(path);
+    if (sequence.scans.empty()) throw ToolError(path + ": the log holds no laser scan");
+    return sequence;
+  } catch (const llc::CarmenError& e) {
+    throw ToolError(e.what());
+  }
+}
+
+std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
+                                            const llc::FeatureOptions& options) {
+  llc::FeatureExtractor extractor(options);
+  std::vector<std::vector<double>> features;
+  features.reserve(sequence.scans.size());
+  for (const llc::LoggedScan& s : sequence.scans) features.push_back(extractor.extract(s.scan));
+  return features;
+}
+
+std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
+                                   const llc::FeatureOptions& options) {
+  if (specs.empty()) throw ToolError("--data LOG:PAIRS is required");
+  std::vector<PairData> data;
+  for (const std::string& spec : specs) {
+    PairData item;
+    std::tie(item.log_path, item.pairs_path) = splitDataSpec(spec);
+    item.sequence = loadSequence(item.log_path);
+    try {
+      item.pairs = llc::readPairs(item.pairs_path, item.sequence.scans.size());
+    } catch (const llc::PairFileError& e) {
+      throw ToolError(e.what());
+    }
+    item.features = extractAll(item.sequence, options);
+    data.push_back(std::move(item));
+  }
+  return data;
+}
+
+llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data) {
+  llc::TrainingSet set;
+  set.dimension = data.empty() || data[0].features.empty() ? 0 : data[0].features[0].size();
+  std::vector<double> row(set.dimension);
+  for (const PairData& item : data)
+    for (const llc::LabeledPair& p : item.pairs) {
+      llc::pairFeatures(item.features[p.a].data(), item.features[p.b].data(), set.dimension, row.data());
+      set.add(row.data(), p.label);
+    }
+  return set;
+}
+
+std::string defaultModelPath() {
+  for (const char* dir : {LLC_SOURCE_CONFIG_DIR, LLC_INSTALL_CONFIG_DIR}) {
+    const std::string path = std::string(dir) + "/classifier.yaml";
+    if (std::ifstream(path)) return path;
+  }
+  return std::string(LLC_SOURCE_CONFIG_DIR) + "/classifier.yaml";
+}
+
+void ensureDirectory(const std::string& path) {
+  std::string partial;
+  for (std::size_t i = 0; i <= path.size(); ++i) {
+    if (i == path.size() || path[i] == '/') {
+      if (!partial.empty() && mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST)
+        throw ToolError(path + ": cannot create the folder (" + std::strerror(errno) + ")");
+    }
+    if (i < path.size()) partial += path[i];
+  }
+  struct stat info;
+  if (stat(path.c_str(), &info) != 0 || !S_ISDIR(info.st_mode))
+    throw ToolError(path + ": not a folder");
+}
+
+}  // namespace llc_tool

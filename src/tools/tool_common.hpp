@@ -1,0 +1,68 @@
+// What the llc subcommands share: argument parsing, loading logs with their features and
+// pair files, and the default model path.
+#pragma once
+
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/adaboost.hpp"
+#include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/pair_labeling.hpp"
+#include "laser_loop_closure/core/scan_sequence.hpp"
+
+namespace llc_tool {
+
+/// A problem the user can fix (bad flag, missing file); printed as one line, exit code 1.
+class ToolError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// "--name value" options and "--flag" switches; every name must be known to the subcommand.
+class Args {
+ public:
+  /// `flags` are switches without a value; `options` take one value (may repeat).
+  Args(int argc, char** argv, const std::vector<std::string>& options,
+       const std::vector<std::string>& flags);
+  bool has(const std::string& name) const;
+  std::string get(const std::string& name, const std::string& fallback) const;
+  std::string required(const std::string& name) const;
+  std::vector<std::string> all(const std::string& name) const;
+  double number(const std::string& name, double fallback) const;
+  long integer(const std::string& name, long fallback) const;
+
+ private:
+  std::multimap<std::string, std::string> values_;
+};
+
+/// Feature options from --features, --r-max, --g-max-dist, --g-min-size, --open-ring.
+llc::FeatureOptions featureOptions(const Args& args);
+extern const std::vector<std::string> kFeatureFlags;   ///< the option names it reads
+extern const std::vector<std::string> kFeatureSwitches;
+
+/// One --data LOG:PAIRS item, loaded: the scans, their feature vectors and the pairs.
+struct PairData {
+  std::string log_path, pairs_path;
+  llc::ScanSequence sequence;
+  std::vector<std::vector<double>> features;  ///< one vector per scan
+  std::vector<llc::LabeledPair> pairs;
+};
+
+/// Splits LOG:PAIRS at the last ':'.
+std::pair<std::string, std::string> splitDataSpec(const std::string& spec);
+llc::ScanSequence loadSequence(const std::string& path);
+std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
+                                            const llc::FeatureOptions& options);
+std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
+                                   const llc::FeatureOptions& options);
+/// Pair feature rows of every pair of every data item, in order.
+llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data);
+
+/// config/classifier.yaml of the source tree, or of the installed share folder.
+std::string defaultModelPath();
+
+void ensureDirectory(const std::string& path);
+
+}  // namespace llc_tool

@@ -1,0 +1,56 @@
+// Helpers shared by the core tests.
+#pragma once
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "laser_loop_closure/core/scan.hpp"
+
+namespace llc_test {
+
+/// A scan with `n` equally spaced beams over the full circle, starting at -pi.
+inline llc::Scan ringScan(const std::vector<double>& ranges) {
+  llc::Scan scan;
+  scan.ranges = ranges;
+  scan.full_circle = true;
+  const double step = 2.0 * M_PI / double(ranges.size());
+  for (std::size_t i = 0; i < ranges.size(); ++i) scan.bearings.push_back(-M_PI + step * double(i));
+  return scan;
+}
+
+/// A fresh temporary folder, removed with its files when the object goes.
+class TempDir {
+ public:
+  TempDir() {
+    char pattern[] = "/tmp/llc_test_XXXXXX";
+    path_ = mkdtemp(pattern);
+  }
+  ~TempDir() { std::system(("rm -rf '" + path_ + "'").c_str()); }
+  std::string file(const std::string& name) const { return path_ + "/" + name; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+inline void writeText(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// ../shared/data beside the repository, or "" when absent.
+inline std::string sharedDataDir() {
+  const char* env = std::getenv("LLC_DATA_DIR");
+  const std::string dir = env ? env : std::string(LLC_SOURCE_DIR) + "/../shared/data";
+  return std::ifstream(dir + "/README.md") ? dir : "";
+}
+
+}  // namespace llc_test
