@@ -48,22 +48,24 @@ llc::StrongClassifier randomClassifier(std::size_t dim, int rounds) {
 }
 
 void BM_ClassifyPair(benchmark::State& state) {
-  const std::size_t dim = llc::featureCount(llc::FeatureSet::kExtended);
-  const llc::StrongClassifier classifier = randomClassifier(dim, 50);
+  const llc::FeatureSet set = llc::FeatureSet::kExtended;
+  const std::size_t dim = llc::featureCount(set);
+  const llc::StrongClassifier classifier = randomClassifier(llc::pairFeatureCount(set), 50);
   llc::Random random(2);
-  std::vector<double> a(dim), b(dim), pair(dim);
+  std::vector<double> a(dim), b(dim), pair(llc::pairFeatureCount(set));
   for (std::size_t i = 0; i < dim; ++i) a[i] = random.uniform(0, 5), b[i] = random.uniform(0, 5);
   for (auto _ : state) {
-    llc::pairFeatures(a.data(), b.data(), dim, pair.data());
+    llc::pairFeatures(set, a.data(), b.data(), pair.data());
     benchmark::DoNotOptimize(classifier.score(pair.data()));
   }
 }
 BENCHMARK(BM_ClassifyPair)->Unit(benchmark::kNanosecond);
 
 void BM_QueryKeyframes(benchmark::State& state) {
-  const std::size_t dim = llc::featureCount(llc::FeatureSet::kExtended);
+  const llc::FeatureSet set = llc::FeatureSet::kExtended;
+  const std::size_t dim = llc::featureCount(set);
   const std::size_t count = std::size_t(state.range(0));
-  llc::KeyframeStore store(dim);
+  llc::KeyframeStore store(set);
   store.reserve(count);
   llc::Random random(3);
   std::vector<double> f(dim);
@@ -71,7 +73,7 @@ void BM_QueryKeyframes(benchmark::State& state) {
     for (double& v : f) v = random.uniform(0, 5);
     store.add(f.data());
   }
-  const llc::StrongClassifier classifier = randomClassifier(dim, 50);
+  const llc::StrongClassifier classifier = randomClassifier(llc::pairFeatureCount(set), 50);
   std::vector<double> scores;
   for (auto _ : state) {
     store.scoreAll(classifier, f.data(), count, &scores);

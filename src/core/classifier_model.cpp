@@ -45,7 +45,7 @@ std::string describeDifference(const FeatureOptions& file, const FeatureOptions&
 
 void saveClassifierModel(const ClassifierModel& model, const std::string& path) {
   const FeatureOptions& f = model.features;
-  const std::vector<std::string>& names = featureNames(f.feature_set);
+  const std::vector<std::string>& names = pairFeatureNames(f.feature_set);
   YAML::Emitter out;
   out.SetDoublePrecision(17);  // exact round trip of every double
   out << YAML::BeginMap;
@@ -127,7 +127,7 @@ ClassifierModel loadClassifierModel(const std::string& path, const FeatureOption
   const std::string invalid = model.features.validate();
   if (!invalid.empty()) refuse(path, "feature parameters: " + invalid);
   const auto names = required<std::vector<std::string>>(features, "names", path, "features");
-  if (names != featureNames(model.features.feature_set))
+  if (names != pairFeatureNames(model.features.feature_set))
     refuse(path, "its feature names differ from this build's '" + set +
                      "' features (made by another version of the features?)");
   if (expected && *expected != model.features)

@@ -32,6 +32,24 @@ std::vector<std::string> concat(const std::vector<std::string>& a,
   return all;
 }
 
+// Signatures: distributions kept as kSignatureLevels quantiles, compared as distributions.
+const char* const kSignatureNames[kSignatureCount] = {"range_distribution", "centroid_distance_distribution",
+                                                       "chord_distribution"};
+
+std::vector<std::string> signatureValueNames() {
+  std::vector<std::string> names;
+  for (const char* signature : kSignatureNames)
+    for (std::size_t q = 0; q < kSignatureLevels; ++q) names.push_back(std::string(signature) + "_" + std::to_string(q));
+  return names;
+}
+
+/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of v, sorting it; zeros when empty.
+void writeQuantiles(std::vector<double>& v, double* out) {
+  std::sort(v.begin(), v.end());
+  for (std::size_t q = 0; q < kSignatureLevels; ++q)
+    out[q] = v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t((double(q) + 0.5) / kSignatureLevels * double(v.size())))];
+}
+
 double safeDiv(double num, double den) { return den != 0.0 ? num / den : 0.0; }
 
 /// Sample standard deviation from a count, a sum and a sum of squared deviations.
@@ -70,11 +88,18 @@ bool FeatureOptions::operator==(const FeatureOptions& o) const {
 }
 
 std::size_t featureCount(FeatureSet set) {
-  return set == FeatureSet::kPaper ? kPaperNames.size() : kPaperNames.size() + kExtraNames.size();
+  return set == FeatureSet::kPaper ? kPaperNames.size()
+                                   : kPaperNames.size() + kExtraNames.size() + kSignatureCount * kSignatureLevels;
 }
 
+std::size_t signatureOffset(FeatureSet set) {
+  return set == FeatureSet::kPaper ? featureCount(set) : kPaperNames.size() + kExtraNames.size();
+}
+
+std::size_t signatureCount(FeatureSet set) { return set == FeatureSet::kPaper ? 0 : kSignatureCount; }
+
 const std::vector<std::string>& featureNames(FeatureSet set) {
-  static const std::vector<std::string> extended = concat(kPaperNames, kExtraNames);
+  static const std::vector<std::string> extended = concat(concat(kPaperNames, kExtraNames), signatureValueNames());
   return set == FeatureSet::kPaper ? kPaperNames : extended;
 }
 
@@ -362,15 +387,72 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     }
     for (int b = 0; b < 6; ++b) extra[15 + b] = hist[b] / beams;
   }
+  // Signatures: distributions of the ranges, of the distances to the centroid of the valid
+  // points, and of chords (a cheap, shift-invariant cousin of Osada's D2 shape distribution).
+  double* signature = out + signatureOffset(FeatureSet::kExtended);
+  sorted_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (valid_[i]) sorted_.push_back(clipped_[i]);
+  writeQuantiles(sorted_, signature);
+  sorted_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (valid_[i]) sorted_.push_back(std::hypot(x_[i] - mean_x, y_[i] - mean_y));
+  writeQuantiles(sorted_, signature + kSignatureLevels);
+  // Chords: distances between valid points an eighth, a quarter and a half of the beams
+  // apart, over every beam (cyclically on a closed ring, so a shift changes nothing).
+  sorted_.clear();
+  for (const std::size_t separation : {n / 8, n / 4, n / 2}) {
+    if (separation == 0) continue;
+    const std::size_t last = closed ? n : (n > separation ? n - separation : 0);
+    for (std::size_t i = 0; i < last; ++i) {
+      const std::size_t j = (i + separation) % n;
+      if (valid_[i] && valid_[j]) sorted_.push_back(std::hypot(x_[j] - x_[i], y_[j] - y_[i]));
+    }
+  }
+  writeQuantiles(sorted_, signature + 2 * kSignatureLevels);
 }
 
-void pairFeatures(const double* a, const double* b, std::size_t size, double* out) {
-  for (std::size_t i = 0; i < size; ++i) out[i] = std::abs(a[i] - b[i]);
+std::size_t pairFeatureCount(FeatureSet set) {
+  return set == FeatureSet::kPaper ? featureCount(set) : 2 * featureCount(set) + 2 * signatureCount(set);
 }
 
-std::vector<double> pairFeatures(const std::vector<double>& a, const std::vector<double>& b) {
-  std::vector<double> out(std::min(a.size(), b.size()));
-  pairFeatures(a.data(), b.data(), out.size(), out.data());
+const std::vector<std::string>& pairFeatureNames(FeatureSet set) {
+  static const std::vector<std::string> extended = [] {
+    std::vector<std::string> names = featureNames(FeatureSet::kExtended);
+    for (const std::string& name : featureNames(FeatureSet::kExtended)) names.push_back(name + "_relative");
+    for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1");
+    for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1_relative");
+    return names;
+  }();
+  return set == FeatureSet::kPaper ? featureNames(set) : extended;
+}
+
+double signatureDistance(std::size_t index, const double* a, const double* b) {
+  double distance = 0.0, scale = 0.0;
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) {
+    distance += a[q] > b[q] ? a[q] - b[q] : b[q] - a[q];
+    scale += (a[q] < 0 ? -a[q] : a[q]) + (b[q] < 0 ? -b[q] : b[q]);
+  }
+  if (index == 0) return distance / double(kSignatureLevels);
+  return scale > 0.0 ? distance / scale : 0.0;
+}
+
+void pairFeatures(FeatureSet set, const double* a, const double* b, double* out) {
+  const std::size_t n = featureCount(set);
+  for (std::size_t i = 0; i < 2 * n && i < pairFeatureCount(set); ++i) out[i] = pairFeatureValue(i, n, a[i % n], b[i % n]);
+  const std::size_t signatures = signatureCount(set), offset = signatureOffset(set);
+  for (std::size_t k = 0; k < signatures; ++k) {
+    const std::size_t at = offset + k * kSignatureLevels;
+    out[2 * n + k] = signatureDistance(0, a + at, b + at);
+    out[2 * n + signatures + k] = signatureDistance(1, a + at, b + at);
+  }
+}
+
+std::vector<double> pairFeatures(FeatureSet set, const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != featureCount(set) || b.size() != featureCount(set))
+    throw std::invalid_argument("pairFeatures: feature vectors of the wrong size");
+  std::vector<double> out(pairFeatureCount(set));
+  pairFeatures(set, a.data(), b.data(), out.data());
   return out;
 }
 

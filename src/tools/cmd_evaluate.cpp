@@ -27,7 +27,7 @@ llc::TrainingSet rotatedTrainingSet(const std::vector<PairData>& data,
   llc::FeatureExtractor extractor(options);
   llc::Random random(seed ^ 0x5eedULL);
   llc::TrainingSet set;
-  set.dimension = extractor.size();
+  set.dimension = llc::pairFeatureCount(options.feature_set);
   std::vector<double> row(set.dimension);
   for (const PairData& item : data)
     for (const llc::LabeledPair& p : item.pairs) {
@@ -36,7 +36,7 @@ llc::TrainingSet rotatedTrainingSet(const std::vector<PairData>& data,
       angles->push_back(angle);
       const std::vector<double> turned =
           extractor.extract(llc::rotateScan(item.sequence.scans[p.b].scan, angle));
-      llc::pairFeatures(item.features[p.a].data(), turned.data(), set.dimension, row.data());
+      llc::pairFeatures(options.feature_set, item.features[p.a].data(), turned.data(), row.data());
       set.add(row.data(), p.label);
     }
   return set;
@@ -54,7 +54,7 @@ int runEvaluate(const Args& args) {
   ensureDirectory(out_dir);
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<PairData> data = loadPairData(args.all("data"), features);
-  const llc::TrainingSet set = pairTrainingSet(data);
+  const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
   llc::CrossValidationOptions cv;
   cv.folds = int(args.integer("folds", 10));
@@ -110,7 +110,7 @@ int runEvaluate(const Args& args) {
 
   // Table I test 1: features in the order AdaBoost picks them, trained on all pairs.
   const llc::AdaBoostResult full = llc::AdaBoostTrainer(cv.adaboost).train(set);
-  const std::vector<std::string>& names = llc::featureNames(features.feature_set);
+  const std::vector<std::string>& names = llc::pairFeatureNames(features.feature_set);
   {
     std::ofstream order = openCsv(out_dir + "/feature_order.csv");
     order << "round,feature,name,polarity,threshold,alpha,cv_total_error\n";

@@ -15,7 +15,7 @@ int runTrain(const Args& args) {
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<std::string> specs = args.all("data");
   const std::vector<PairData> data = loadPairData(specs, features);
-  const llc::TrainingSet set = pairTrainingSet(data);
+  const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
   llc::AdaBoostOptions boost;
   boost.rounds = int(args.integer("rounds", boost.rounds));
@@ -83,7 +83,7 @@ int runScore(const Args& args) {
   std::size_t matches = 0, total = 0;
   for (const PairData& item : data)
     for (const llc::LabeledPair& p : item.pairs) {
-      row = llc::pairFeatures(item.features[p.a], item.features[p.b]);
+      row = llc::pairFeatures(model.features.feature_set, item.features[p.a], item.features[p.b]);
       const double score = model.classifier.score(row.data());
       matches += score >= model.classifier.thresholdK();
       ++total;

@@ -135,13 +135,13 @@ std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
   return data;
 }
 
-llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data) {
+llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::FeatureSet feature_set) {
   llc::TrainingSet set;
-  set.dimension = data.empty() || data[0].features.empty() ? 0 : data[0].features[0].size();
+  set.dimension = llc::pairFeatureCount(feature_set);
   std::vector<double> row(set.dimension);
   for (const PairData& item : data)
     for (const llc::LabeledPair& p : item.pairs) {
-      llc::pairFeatures(item.features[p.a].data(), item.features[p.b].data(), set.dimension, row.data());
+      llc::pairFeatures(feature_set, item.features[p.a].data(), item.features[p.b].data(), row.data());
       set.add(row.data(), p.label);
     }
   return set;

@@ -58,7 +58,7 @@ std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
                                    const llc::FeatureOptions& options);
 /// Pair feature rows of every pair of every data item, in order.
-llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data);
+llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::FeatureSet feature_set);
 
 /// config/classifier.yaml of the source tree, or of the installed share folder.
 std::string defaultModelPath();

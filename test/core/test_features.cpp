@@ -255,8 +255,33 @@ TEST(Features, OptionsAreValidated) {
   EXPECT_TRUE(FeatureOptions{}.validate().empty());
 }
 
-TEST(Features, PairFeaturesAreAbsoluteDifferences) {
-  EXPECT_EQ(llc::pairFeatures({1.0, 5.0, -2.0}, {3.0, 1.0, -2.0}), (std::vector<double>{2.0, 4.0, 0.0}));
+TEST(Features, PairFeaturesAreAbsoluteThenRelativeDifferences) {
+  std::vector<double> a(20, 0.0), b(20, 0.0);
+  a[0] = 1.0, b[0] = 3.0, a[1] = 5.0, b[1] = 1.0;
+  const std::vector<double> paper = llc::pairFeatures(FeatureSet::kPaper, a, b);
+  ASSERT_EQ(paper.size(), 20u);
+  EXPECT_EQ(paper[0], 2.0);
+  EXPECT_EQ(paper[1], 4.0);
+  EXPECT_EQ(paper[2], 0.0);
+  const std::size_t n = llc::featureCount(FeatureSet::kExtended);
+  std::vector<double> c(n, 0.0), d(n, 0.0);
+  c[0] = 1.0, d[0] = 3.0, c[5] = -2.0, d[5] = 2.0;
+  const std::vector<double> extended = llc::pairFeatures(FeatureSet::kExtended, c, d);
+  ASSERT_EQ(extended.size(), 2 * n + 2 * llc::kSignatureCount);
+  EXPECT_EQ(llc::pairFeatureNames(FeatureSet::kExtended).size(), extended.size());
+  EXPECT_EQ(llc::pairFeatureNames(FeatureSet::kExtended)[n], "area_relative");
+  EXPECT_EQ(extended[0], 2.0);
+  EXPECT_EQ(extended[n], 0.5);      // |1 - 3| / (1 + 3)
+  EXPECT_EQ(extended[n + 5], 1.0);  // |-2 - 2| / (2 + 2)
+  EXPECT_EQ(extended[n + 1], 0.0);  // both zero
+  EXPECT_THROW(llc::pairFeatures(FeatureSet::kExtended, a, b), std::invalid_argument);
+  // Signatures: quantiles all 1 against all 3 -> Wasserstein-1 distance 2, relative 2/4.
+  const std::size_t first = llc::signatureOffset(FeatureSet::kExtended);
+  for (std::size_t q = 0; q < llc::kSignatureLevels; ++q) c[first + q] = 1.0, d[first + q] = 3.0;
+  const std::vector<double> with_signature = llc::pairFeatures(FeatureSet::kExtended, c, d);
+  EXPECT_DOUBLE_EQ(with_signature[2 * n], 2.0);
+  EXPECT_DOUBLE_EQ(with_signature[2 * n + llc::kSignatureCount], 0.5);
+  EXPECT_DOUBLE_EQ(with_signature[2 * n + 1], 0.0);
 }
 
 }  // namespace

@@ -10,8 +10,9 @@ namespace {
 
 TEST(KeyframeStore, ScoresEqualTheClassifierOnPairFeatures) {
   llc::Random random(9);
-  const std::size_t dim = 6, count = 5000;  // more than one block
-  llc::KeyframeStore store(dim);
+  const llc::FeatureSet set = llc::FeatureSet::kExtended;
+  const std::size_t dim = llc::featureCount(set), count = 5000;  // more than one block
+  llc::KeyframeStore store(set);
   std::vector<std::vector<double>> rows;
   for (std::size_t k = 0; k < count; ++k) {
     std::vector<double> f(dim);
@@ -21,14 +22,15 @@ TEST(KeyframeStore, ScoresEqualTheClassifierOnPairFeatures) {
   }
   std::vector<llc::Stump> stumps;
   for (int t = 0; t < 30; ++t)
-    stumps.push_back({int(random.index(dim)), random.uniform() < 0.5 ? 1 : -1, random.uniform(0, 5), random.uniform(0.1, 2)});
+    stumps.push_back({int(random.index(2 * dim)), random.uniform() < 0.5 ? 1 : -1,
+                      t % 2 ? random.uniform(0, 5) : random.uniform(0, 0.5), random.uniform(0.1, 2)});
   const llc::StrongClassifier classifier(stumps, 0.6);
   const std::vector<double> query = rows[17];
   std::vector<double> scores;
   store.scoreAll(classifier, query.data(), count - 100, &scores);
   ASSERT_EQ(scores.size(), count - 100);
   for (std::size_t k = 0; k < scores.size(); ++k)
-    ASSERT_EQ(scores[k], classifier.score(llc::pairFeatures(query, rows[k]).data())) << k;
+    ASSERT_EQ(scores[k], classifier.score(llc::pairFeatures(set, query, rows[k]).data())) << k;
   const auto candidates = store.query(classifier, query.data(), count, 10);
   ASSERT_FALSE(candidates.empty());
   EXPECT_EQ(candidates[0].score, *std::max_element(scores.begin(), scores.end()));
@@ -39,12 +41,12 @@ TEST(KeyframeStore, ScoresEqualTheClassifierOnPairFeatures) {
 }
 
 TEST(KeyframeStore, RefusesAClassifierNeedingMoreFeatures) {
-  llc::KeyframeStore store(2);
-  const double f[2] = {1, 2};
-  store.add(f);
-  const llc::StrongClassifier classifier({{5, 1, 1.0, 1.0}}, 0.5);
+  llc::KeyframeStore store(llc::FeatureSet::kPaper);
+  const std::vector<double> f(20, 1.0);
+  store.add(f.data());
+  const llc::StrongClassifier classifier({{25, 1, 1.0, 1.0}}, 0.5);
   std::vector<double> scores;
-  EXPECT_THROW(store.scoreAll(classifier, f, 1, &scores), std::invalid_argument);
+  EXPECT_THROW(store.scoreAll(classifier, f.data(), 1, &scores), std::invalid_argument);
 }
 
 }  // namespace

@@ -37,6 +37,16 @@ struct FeatureOptions {
 
 /// Number of features in a set (20 for the paper's).
 std::size_t featureCount(FeatureSet set);
+
+/// Signatures (extended set only): distributions stored inside the feature vector as
+/// kSignatureLevels quantiles each, from signatureOffset(set) on.
+constexpr std::size_t kSignatureLevels = 16;
+constexpr std::size_t kSignatureCount = 3;
+std::size_t signatureCount(FeatureSet set);
+std::size_t signatureOffset(FeatureSet set);
+/// Wasserstein-1 distance of two signatures (the mean absolute difference of their
+/// quantiles); relative = that sum divided by the sum of absolute quantiles (kind 1).
+double signatureDistance(std::size_t kind, const double* a, const double* b);
 /// Short snake_case names, in order (feature i of the vector is names[i]).
 const std::vector<std::string>& featureNames(FeatureSet set);
 
@@ -64,8 +74,22 @@ class FeatureExtractor {
   std::vector<unsigned char> valid_;
 };
 
-/// Pair feature vector of the paper: element-wise |a_i - b_i|.
-void pairFeatures(const double* a, const double* b, std::size_t size, double* out);
-std::vector<double> pairFeatures(const std::vector<double>& a, const std::vector<double>& b);
+/// The pair feature vector the classifier sees, from two scans' feature vectors a and b of
+/// featureCount(set) values. Paper set: the paper's |a_i - b_i|. Extended set: those, then the
+/// relative differences |a_i - b_i| / (|a_i| + |b_i|) (0 when both are 0), because how much a
+/// feature changes between two visits of one place grows with its size (area, lengths); then
+/// the Wasserstein-1 distance of each signature, then its relative form.
+std::size_t pairFeatureCount(FeatureSet set);
+const std::vector<std::string>& pairFeatureNames(FeatureSet set);
+void pairFeatures(FeatureSet set, const double* a, const double* b, double* out);
+std::vector<double> pairFeatures(FeatureSet set, const std::vector<double>& a, const std::vector<double>& b);
+
+/// Pair feature `index` of the layout above, from the two scans' values of its scan feature.
+inline double pairFeatureValue(std::size_t index, std::size_t scan_feature_count, double a, double b) {
+  const double difference = a > b ? a - b : b - a;
+  if (index < scan_feature_count) return difference;
+  const double scale = (a < 0 ? -a : a) + (b < 0 ? -b : b);
+  return scale > 0.0 ? difference / scale : 0.0;
+}
 
 }  // namespace llc

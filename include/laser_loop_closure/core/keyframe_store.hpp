@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/adaboost.hpp"
+#include "laser_loop_closure/core/features.hpp"
 
 namespace llc {
 
@@ -16,7 +17,8 @@ struct LoopCandidate {
 
 class KeyframeStore {
  public:
-  explicit KeyframeStore(std::size_t feature_count);
+  /// Stores featureCount(set) values per keyframe; classifiers index pairFeatures(set, ...).
+  explicit KeyframeStore(FeatureSet set);
 
   std::size_t featureCount() const { return columns_.size(); }
   std::size_t size() const { return size_; }
@@ -26,7 +28,7 @@ class KeyframeStore {
   double feature(std::size_t keyframe, std::size_t f) const { return columns_[f][keyframe]; }
 
   /// scores[k] = classifier score of the pair (query, keyframe k) for k < limit; the same
-  /// number StrongClassifier::score gives on pairFeatures(query, keyframe).
+  /// number StrongClassifier::score gives on pairFeatures(set, query, keyframe).
   void scoreAll(const StrongClassifier& classifier, const double* query, std::size_t limit,
                 std::vector<double>* scores) const;
 
@@ -35,6 +37,7 @@ class KeyframeStore {
                                    std::size_t limit, std::size_t max_candidates) const;
 
  private:
+  FeatureSet set_;
   std::vector<std::vector<double>> columns_;
   std::size_t size_ = 0;
 };
