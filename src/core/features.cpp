@@ -43,11 +43,37 @@ std::vector<std::string> signatureValueNames() {
   return names;
 }
 
-/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of v, sorting it; zeros when empty.
+/// Places the elements of ranks[lo, hi) (increasing) of v[first, last) where a full sort would:
+/// select the middle rank, then recurse on each side (cheaper than sorting everything).
+void selectRanks(std::vector<double>& v, std::size_t first, std::size_t last, const std::size_t* ranks,
+                 std::size_t lo, std::size_t hi) {
+  if (lo >= hi || first >= last) return;
+  const std::size_t mid = lo + (hi - lo) / 2, rank = ranks[mid];
+  std::nth_element(v.begin() + long(first), v.begin() + long(rank), v.begin() + long(last));
+  selectRanks(v, first, rank, ranks, lo, mid);
+  selectRanks(v, rank + 1, last, ranks, mid + 1, hi);
+}
+
+/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of v, reordering it; zeros when empty.
 void writeQuantiles(std::vector<double>& v, double* out) {
-  std::sort(v.begin(), v.end());
+  if (v.empty()) {
+    std::fill(out, out + kSignatureLevels, 0.0);
+    return;
+  }
+  std::size_t ranks[kSignatureLevels];
   for (std::size_t q = 0; q < kSignatureLevels; ++q)
-    out[q] = v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t((double(q) + 0.5) / kSignatureLevels * double(v.size())))];
+    ranks[q] = std::min(v.size() - 1, std::size_t((double(q) + 0.5) / kSignatureLevels * double(v.size())));
+  // Equal ranks (few values) need selecting once; the recursion needs them strictly increasing.
+  std::size_t unique[kSignatureLevels], count = 0;
+  for (std::size_t q = 0; q < kSignatureLevels; ++q)
+    if (count == 0 || ranks[q] != unique[count - 1]) unique[count++] = ranks[q];
+  selectRanks(v, 0, v.size(), unique, 0, count);
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) out[q] = v[ranks[q]];
+}
+
+/// Plain Euclidean distance: std::hypot guards against overflow we cannot have here, slowly.
+inline double pointDistance(double ax, double ay, double bx, double by) {
+  return std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay));
 }
 
 double safeDiv(double num, double den) { return den != 0.0 ? num / den : 0.0; }
@@ -111,12 +137,16 @@ FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(opt
 void FeatureExtractor::updateTrigonometry(const std::vector<double>& bearings) {
   if (bearings == cached_bearings_) return;
   cached_bearings_ = bearings;
-  cos_.resize(bearings.size());
-  sin_.resize(bearings.size());
-  for (std::size_t i = 0; i < bearings.size(); ++i) {
+  const std::size_t n = bearings.size();
+  cos_.resize(n);
+  sin_.resize(n);
+  half_sin_.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
     cos_[i] = std::cos(bearings[i]);
     sin_[i] = std::sin(bearings[i]);
+    if (i + 1 < n) half_sin_[i] = std::sin(0.5 * (bearings[i + 1] - bearings[i]));
   }
+  seam_half_sin_ = n > 0 ? std::sin(0.5 * (bearings[0] + 2.0 * M_PI - bearings[n - 1])) : 0.0;
 }
 
 std::vector<double> FeatureExtractor::extract(const Scan& scan) {
@@ -164,10 +194,8 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   double area = 0.0, far_distance = 0.0;
   for (std::size_t i = 0; i < pair_count; ++i) {
     const std::size_t j = next(i);
-    double step = scan.bearings[j] - scan.bearings[i];
-    if (j == 0) step += 2.0 * M_PI;
-    area += clipped_[i] * clipped_[j] * std::sin(0.5 * step);
-    far_distance += std::hypot(x_[j] - x_[i], y_[j] - y_[i]);
+    area += clipped_[i] * clipped_[j] * (j == 0 ? seam_half_sin_ : half_sin_[i]);
+    far_distance += pointDistance(x_[i], y_[i], x_[j], y_[j]);
   }
 
   // Segments between neighbouring valid points (-1 where either end is not valid).
@@ -177,7 +205,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t j = next(i);
     if (i < pair_count && valid_[i] && valid_[j]) {
-      const double d = std::hypot(x_[j] - x_[i], y_[j] - y_[i]);
+      const double d = pointDistance(x_[i], y_[i], x_[j], y_[j]);
       segment_[i] = d;
       distance += d;
       if (d < gate) close_distance += d;
@@ -203,7 +231,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     const double cross = ux * vy - uy * vx;
     const double dot = ux * vx + uy * vy;
     angular += std::acos(std::clamp(dot / (da * db), -1.0, 1.0));
-    const double dc = std::hypot(x_[c] - x_[a], y_[c] - y_[a]);
+    const double dc = pointDistance(x_[a], y_[a], x_[c], y_[c]);
     if (dc <= 0.0) continue;
     const double k = 2.0 * std::abs(cross) / (da * db * dc);  // 4 * triangle area / sides
     sum_k += k;
@@ -288,7 +316,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     const double d = std::sqrt(u * u + v * v) - mean_dev;
     sum_dev_sq += d * d;
     if (circle_radius > 0.0) {
-      const double e = circle_radius - std::hypot(u - cu, v - cv);
+      const double e = circle_radius - std::sqrt((u - cu) * (u - cu) + (v - cv) * (v - cv));
       circle_residual += e * e;
     }
   }
@@ -396,7 +424,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   writeQuantiles(sorted_, signature);
   sorted_.clear();
   for (std::size_t i = 0; i < n; ++i)
-    if (valid_[i]) sorted_.push_back(std::hypot(x_[i] - mean_x, y_[i] - mean_y));
+    if (valid_[i]) sorted_.push_back(pointDistance(x_[i], y_[i], mean_x, mean_y));
   writeQuantiles(sorted_, signature + kSignatureLevels);
   // Chords: distances between valid points an eighth, a quarter and a half of the beams
   // apart, over every beam (cyclically on a closed ring, so a shift changes nothing).
@@ -406,7 +434,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     const std::size_t last = closed ? n : (n > separation ? n - separation : 0);
     for (std::size_t i = 0; i < last; ++i) {
       const std::size_t j = (i + separation) % n;
-      if (valid_[i] && valid_[j]) sorted_.push_back(std::hypot(x_[j] - x_[i], y_[j] - y_[i]));
+      if (valid_[i] && valid_[j]) sorted_.push_back(pointDistance(x_[i], y_[i], x_[j], y_[j]));
     }
   }
   writeQuantiles(sorted_, signature + 2 * kSignatureLevels);

@@ -176,7 +176,6 @@ int runEvaluate(const Args& args) {
   if (const char* plotter = std::getenv("LLC_PLOTTER"); plotter && *plotter) {
     const std::string command = std::string(plotter) + " '" + out_dir + "' >&2";
     if (std::system(command.c_str()) != 0) std::cerr << "llc evaluate: warning: plotting failed\n";
-    else std::cout << "plots: " << out_dir << "/roc.png " << out_dir << "/error_vs_rounds.png\n";
   }
   std::ostringstream last;
   last << std::setprecision(4) << std::fixed << "detection_at_1pct_fa=" << summary.detection_at_1pct

@@ -68,7 +68,8 @@ class FeatureExtractor {
   void updateTrigonometry(const std::vector<double>& bearings);
 
   FeatureOptions options_;
-  std::vector<double> cached_bearings_, cos_, sin_;
+  std::vector<double> cached_bearings_, cos_, sin_, half_sin_;  ///< half_sin_[i]: sin of half the step to i+1
+  double seam_half_sin_ = 0.0;  ///< the same from the last beam round to the first
   // Work arrays, kept to avoid allocating per scan.
   std::vector<double> clipped_, x_, y_, segment_, sorted_, curvature_;
   std::vector<unsigned char> valid_;

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# The llc tool as a user meets it: clear one-line errors with non-zero exits, and a whole
+# pairs -> features -> train -> score -> evaluate round on a real log when ../shared/data is there.
+set -uo pipefail
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+LLC="$REPO/build/ws/devel/lib/laser_loop_closure/llc"
+DATA="${LLC_DATA_DIR:-$REPO/../shared/data}"
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+passed=0 failed=0
+
+check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
+  local name="$1" want="$2" pattern="$3"; shift 4
+  local out rc
+  out="$("$@" 2>&1)"; rc=$?
+  if [ "$rc" -eq "$want" ] && grep -qE "$pattern" <<<"$out"; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1))
+    echo "FAIL: $name (exit $rc, wanted $want; output below)"; echo "$out" | tail -5
+  fi
+}
+
+check "no subcommand" 2 "usage: llc" -- "$LLC"
+check "unknown subcommand" 2 "unknown subcommand" -- "$LLC" fly
+check "unknown option" 1 "unknown option --bogus" -- "$LLC" pairs --bogus 1
+check "missing log" 1 "no such file" -- "$LLC" pairs --log "$TMP/none.log" --out "$TMP/p.csv"
+check "bad feature set" 1 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features fancy
+printf 'FLASER 3 1 2\n' > "$TMP/bad.log"
+check "malformed log" 1 "bad.log:1: FLASER" -- "$LLC" features --log "$TMP/bad.log" --out "$TMP/f.csv"
+printf 'not a model\n' > "$TMP/bad.yaml"
+check "corrupt model" 1 "classifier model .*bad.yaml" -- "$LLC" score --model "$TMP/bad.yaml" --data "a:b" --out "$TMP/s.csv"
+check "default model loads" 1 "no such file" -- "$LLC" score --data "$TMP/none.log:$TMP/none.csv" --out "$TMP/s.csv"
+
+LOG="$DATA/carmen/intel-corrected.log.gz"
+if [ -f "$LOG" ]; then
+  check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
+  head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
+  printf 'a,b,label\n0,99999,1\n' > "$TMP/range.csv"
+  check "index out of range" 1 "scan index 99999 out of range" -- "$LLC" score --data "$LOG:$TMP/range.csv" --out "$TMP/s.csv"
+  check "features" 0 "scans=910 features=" -- "$LLC" features --log "$LOG" --out "$TMP/features.csv"
+  check "train" 0 "rounds=50" -- "$LLC" train --data "$LOG:$TMP/pairs.csv" --model "$TMP/model.yaml" --repeats 1
+  check "score" 0 "pairs=400" -- "$LLC" score --model "$TMP/model.yaml" --data "$LOG:$TMP/pairs.csv" --out "$TMP/scores.csv"
+  head -1 "$TMP/scores.csv" | grep -qx "a,b,label,score" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: score header"; }
+  check "bad folds" 1 "folds must be at least 2" -- "$LLC" evaluate --data "$LOG:$TMP/pairs.csv" --out "$TMP/eval" --folds 0
+  out="$("$LLC" evaluate --data "$LOG:$TMP/pairs.csv" --out "$TMP/eval" --repeats 2 --curve-max-rounds 60 2>&1)"
+  last2="$(tail -2 <<<"$out")"
+  if grep -qE '^detection_at_1pct_fa=[01]\.[0-9]+$' <<<"$(head -1 <<<"$last2")" && grep -qE '^auc=[01]\.[0-9]+$' <<<"$(tail -1 <<<"$last2")" \
+     && [ -s "$TMP/eval/roc.csv" ] && [ -s "$TMP/eval/error_vs_rounds.csv" ] && [ -s "$TMP/eval/feature_removal.csv" ]; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1)); echo "FAIL: evaluate output"; echo "$out" | tail -6
+  fi
+  auc="$(sed -n 's/^auc=//p' <<<"$last2")"
+  if awk -v a="$auc" 'BEGIN { exit !(a > 0.8) }'; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: auc $auc <= 0.8 on intel"; fi
+else
+  echo "skipped the real-log round: $LOG is absent"
+fi
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
