@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
@@ -152,11 +153,6 @@ int runEvaluate(const Args& args) {
     kept_at_half = double(same_half) / double(total);
   }
 
-  std::ofstream text(out_dir + "/summary.txt");
-  auto both = [&](const std::string& line) {
-    std::cout << line << '\n';
-    text << line << '\n';
-  };
   std::ostringstream s;
   s << std::setprecision(4) << std::fixed;
   s << "folds=" << cv.folds << " repeats=" << cv.repeats << " rounds=" << cv.adaboost.rounds
@@ -169,18 +165,21 @@ int runEvaluate(const Args& args) {
   if (rotation)
     s << "rotation_test: pairs=" << set.size() * runs.size() << " kept_class_at_k_1pct=" << kept_at_k
       << " kept_class_at_k_0.5=" << kept_at_half << "\n";
-  s << "seconds=" << std::setprecision(1) << secondsSince(start);
-  both(s.str());
-
-  // Plots, when the plotting helper is known (scripts/llc sets LLC_PLOTTER).
+  s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
+  s << std::setprecision(4) << "detection_at_1pct_fa=" << summary.detection_at_1pct << "\nauc=" << summary.auc << "\n";
+  {
+    std::ofstream text(out_dir + "/summary.txt");
+    text << s.str();
+    if (!text) throw ToolError(out_dir + "/summary.txt: write failed");
+  }
+  // Plots, when the plotting helper is known (scripts/llc sets LLC_PLOTTER); it reads the
+  // files written above, so it runs before the summary goes out (whose last two lines are
+  // the headline numbers).
   if (const char* plotter = std::getenv("LLC_PLOTTER"); plotter && *plotter) {
     const std::string command = std::string(plotter) + " '" + out_dir + "' >&2";
     if (std::system(command.c_str()) != 0) std::cerr << "llc evaluate: warning: plotting failed\n";
   }
-  std::ostringstream last;
-  last << std::setprecision(4) << std::fixed << "detection_at_1pct_fa=" << summary.detection_at_1pct
-       << "\nauc=" << summary.auc;
-  both(last.str());
+  std::cout << s.str() << std::flush;
   return 0;
 }
 
