@@ -352,11 +352,13 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   extra[0] = double(valid_count) / beams;
   extra[1] = double(n - valid_count) / beams;
   extra[2] = out[12] / beams;
+  // The valid ranges, collected once: the quantiles below and the range signature only
+  // reorder them.
+  sorted_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (valid_[i]) sorted_.push_back(clipped_[i]);
   // Quantiles of the valid ranges by nearest rank, each nth_element on a shrinking range.
   if (valid_count > 0) {
-    sorted_.clear();
-    for (std::size_t i = 0; i < n; ++i)
-      if (valid_[i]) sorted_.push_back(clipped_[i]);
     const std::size_t m = sorted_.size();
     auto rank = [m](double q) { return std::min(m - 1, std::size_t(q * double(m - 1) + 0.5)); };
     const std::size_t r10 = rank(0.10), r25 = rank(0.25), r50 = rank(0.5), r75 = rank(0.75),
@@ -418,10 +420,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   // Signatures: distributions of the ranges, of the distances to the centroid of the valid
   // points, and of chords (a cheap, shift-invariant cousin of Osada's D2 shape distribution).
   double* signature = out + signatureOffset(FeatureSet::kExtended);
-  sorted_.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (valid_[i]) sorted_.push_back(clipped_[i]);
-  writeQuantiles(sorted_, signature);
+  writeQuantiles(sorted_, signature);  // still the valid ranges, in another order
   sorted_.clear();
   for (std::size_t i = 0; i < n; ++i)
     if (valid_[i]) sorted_.push_back(pointDistance(x_[i], y_[i], mean_x, mean_y));
