@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/features.hpp"
 
+#include "laser_loop_closure/core/range_profile.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -40,6 +42,12 @@ std::vector<std::string> signatureValueNames() {
   std::vector<std::string> names;
   for (const char* signature : kSignatureNames)
     for (std::size_t q = 0; q < kSignatureLevels; ++q) names.push_back(std::string(signature) + "_" + std::to_string(q));
+  return names;
+}
+
+std::vector<std::string> profileValueNames() {
+  std::vector<std::string> names;
+  for (std::size_t s = 0; s < kProfileSectors; ++s) names.push_back("range_profile_" + std::to_string(s));
   return names;
 }
 
@@ -113,19 +121,26 @@ bool FeatureOptions::operator==(const FeatureOptions& o) const {
          closed_ring == o.closed_ring && feature_set == o.feature_set;
 }
 
-std::size_t featureCount(FeatureSet set) {
+std::size_t scalarFeatureCount(FeatureSet set) {
   return set == FeatureSet::kPaper ? kPaperNames.size()
                                    : kPaperNames.size() + kExtraNames.size() + kSignatureCount * kSignatureLevels;
 }
 
+std::size_t featureCount(FeatureSet set) {
+  return scalarFeatureCount(set) + (set == FeatureSet::kPaper ? 0 : kProfileSectors);
+}
+
+std::size_t profileOffset(FeatureSet set) { return scalarFeatureCount(set); }
+
 std::size_t signatureOffset(FeatureSet set) {
-  return set == FeatureSet::kPaper ? featureCount(set) : kPaperNames.size() + kExtraNames.size();
+  return set == FeatureSet::kPaper ? scalarFeatureCount(set) : kPaperNames.size() + kExtraNames.size();
 }
 
 std::size_t signatureCount(FeatureSet set) { return set == FeatureSet::kPaper ? 0 : kSignatureCount; }
 
 const std::vector<std::string>& featureNames(FeatureSet set) {
-  static const std::vector<std::string> extended = concat(concat(kPaperNames, kExtraNames), signatureValueNames());
+  static const std::vector<std::string> extended =
+      concat(concat(concat(kPaperNames, kExtraNames), signatureValueNames()), profileValueNames());
   return set == FeatureSet::kPaper ? kPaperNames : extended;
 }
 
@@ -437,18 +452,26 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     }
   }
   writeQuantiles(sorted_, signature + 2 * kSignatureLevels);
+  writeRangeProfile(scan.bearings.data(), clipped_.data(), n, out + profileOffset(FeatureSet::kExtended));
 }
 
 std::size_t pairFeatureCount(FeatureSet set) {
-  return set == FeatureSet::kPaper ? featureCount(set) : 2 * featureCount(set) + 2 * signatureCount(set);
+  return set == FeatureSet::kPaper ? scalarFeatureCount(set)
+                                   : 2 * scalarFeatureCount(set) + 2 * signatureCount(set) + 1;
+}
+
+std::size_t profilePairFeature(FeatureSet set) {
+  return set == FeatureSet::kPaper ? pairFeatureCount(set) : pairFeatureCount(set) - 1;
 }
 
 const std::vector<std::string>& pairFeatureNames(FeatureSet set) {
   static const std::vector<std::string> extended = [] {
-    std::vector<std::string> names = featureNames(FeatureSet::kExtended);
-    for (const std::string& name : featureNames(FeatureSet::kExtended)) names.push_back(name + "_relative");
+    const std::vector<std::string>& all = featureNames(FeatureSet::kExtended);
+    std::vector<std::string> names(all.begin(), all.begin() + long(scalarFeatureCount(FeatureSet::kExtended)));
+    for (std::size_t i = 0, n = names.size(); i < n; ++i) names.push_back(names[i] + "_relative");
     for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1");
     for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1_relative");
+    names.push_back("range_profile_distance");
     return names;
   }();
   return set == FeatureSet::kPaper ? featureNames(set) : extended;
@@ -465,7 +488,7 @@ double signatureDistance(std::size_t index, const double* a, const double* b) {
 }
 
 void pairFeatures(FeatureSet set, const double* a, const double* b, double* out) {
-  const std::size_t n = featureCount(set);
+  const std::size_t n = scalarFeatureCount(set);
   for (std::size_t i = 0; i < 2 * n && i < pairFeatureCount(set); ++i) out[i] = pairFeatureValue(i, n, a[i % n], b[i % n]);
   const std::size_t signatures = signatureCount(set), offset = signatureOffset(set);
   for (std::size_t k = 0; k < signatures; ++k) {
@@ -473,6 +496,8 @@ void pairFeatures(FeatureSet set, const double* a, const double* b, double* out)
     out[2 * n + k] = signatureDistance(0, a + at, b + at);
     out[2 * n + signatures + k] = signatureDistance(1, a + at, b + at);
   }
+  if (set != FeatureSet::kPaper)
+    out[profilePairFeature(set)] = profileDistance(a + profileOffset(set), b + profileOffset(set));
 }
 
 std::vector<double> pairFeatures(FeatureSet set, const std::vector<double>& a, const std::vector<double>& b) {

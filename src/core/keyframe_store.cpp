@@ -2,91 +2,333 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <thread>
+
+#include "laser_loop_closure/core/range_profile.hpp"
 
 namespace llc {
+namespace {
 
-KeyframeStore::KeyframeStore(FeatureSet set) : set_(set), columns_(llc::featureCount(set)) {}
+/// Blocks small enough that the partial sums and a block of every column a stump reads stay
+/// in cache while all stumps pass over them.
+constexpr std::size_t kBlock = 2048;
 
-void KeyframeStore::reserve(std::size_t keyframes) {
-  for (auto& column : columns_) column.reserve(keyframes);
+/// Hot loops get an AVX2 twin that the loader picks on CPUs that have it (GCC target_clones).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define LLC_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define LLC_VECTOR_CLONES
+#endif
+
+enum class StumpKind { kScalar, kSignature, kProfile };
+
+/// Which kind of pair feature a stump reads; for signatures also which one and whether relative.
+struct StumpLayout {
+  std::size_t scalars, signatures, profile_feature;
+  StumpKind kind(std::size_t f) const {
+    if (f < 2 * scalars) return StumpKind::kScalar;
+    return f == profile_feature ? StumpKind::kProfile : StumpKind::kSignature;
+  }
+  std::size_t signature(std::size_t f) const { return (f - 2 * scalars) % signatures; }
+  bool relative(std::size_t f) const { return f - 2 * scalars >= signatures; }
+};
+
+/// The float interval [lo, hi] of stored values c for which a stump on |q - c| votes "match".
+/// fl(q - c) is monotone in c, so the voting values form one interval; its ends are found
+/// from float(q -+ t) by stepping ulp by ulp against the stump's own test, which keeps the
+/// votes identical to Stump::vote on pairFeatureValue. Empty when lo > hi.
+struct FloatInterval {
+  float lo, hi;
+  bool inside;  ///< vote "match" inside [lo, hi] (else outside it)
+};
+
+FloatInterval absoluteStumpInterval(const Stump& s, double q) {
+  // Polarity +1: |q - c| < t votes inside; -1: -|q - c| < -t, i.e. |q - c| > t, votes outside
+  // the interval where |q - c| <= t.
+  const double t = s.threshold;
+  auto in = [&](float c) {
+    const double d = std::fabs(q - double(c));
+    return s.polarity > 0 ? d < t : d <= t;
+  };
+  const float inf = std::numeric_limits<float>::infinity();
+  float lo = float(q), hi = float(q);
+  if (!in(lo)) {  // t <= 0 with polarity +1, or t < 0 with -1: no value inside
+    return {1.0f, 0.0f, s.polarity > 0};
+  }
+  // Walk outwards from float(q - t) and float(q + t) to the last values inside.
+  float a = std::isfinite(q - t) ? float(q - t) : -inf, b = std::isfinite(q + t) ? float(q + t) : inf;
+  a = std::max(std::min(a, lo), -std::numeric_limits<float>::max());
+  b = std::min(std::max(b, hi), std::numeric_limits<float>::max());
+  while (!in(a)) a = std::nextafter(a, inf);
+  while (a > -std::numeric_limits<float>::max() && in(std::nextafter(a, -inf))) a = std::nextafter(a, -inf);
+  while (!in(b)) b = std::nextafter(b, -inf);
+  while (b < std::numeric_limits<float>::max() && in(std::nextafter(b, inf))) b = std::nextafter(b, inf);
+  const bool unbounded_lo = a == -std::numeric_limits<float>::max(), unbounded_hi = b == std::numeric_limits<float>::max();
+  return {unbounded_lo ? -inf : a, unbounded_hi ? inf : b, s.polarity > 0};
 }
 
-std::size_t KeyframeStore::add(const double* features) {
-  for (std::size_t f = 0; f < columns_.size(); ++f) columns_[f].push_back(features[f]);
-  return size_++;
-}
-
-void KeyframeStore::scoreAll(const StrongClassifier& classifier, const double* query,
-                             std::size_t limit, std::vector<double>* scores) const {
-  if (classifier.featuresNeeded() > pairFeatureCount(set_))
-    throw std::invalid_argument("keyframe store: the classifier needs more features than stored");
-  limit = std::min(limit, size_);
-  scores->assign(limit, 0.0);
-  if (classifier.alphaSum() <= 0.0) return;
-  // Blocks small enough that the partial sums stay in the first-level cache while every stump
-  // passes over them; each stump is a branch-free compare-and-add the compiler vectorises.
-  constexpr std::size_t kBlock = 2048;
-  const double alpha_sum = classifier.alphaSum();
-  const std::size_t n = columns_.size();
-  const std::size_t signatures = signatureCount(set_), offset = signatureOffset(set_);
-  // Signature distances are computed per block only for the signatures some stump uses.
-  std::vector<bool> used(signatures, false);
-  for (const Stump& s : classifier.stumps())
-    if (std::size_t(s.feature) >= 2 * n) used[(std::size_t(s.feature) - 2 * n) % signatures] = true;
-  std::vector<double> distance(signatures * kBlock), scale(signatures * kBlock);
-  double* out = scores->data();
-  for (std::size_t begin = 0; begin < limit; begin += kBlock) {
-    const std::size_t end = std::min(limit, begin + kBlock), width = end - begin;
-    for (std::size_t g = 0; g < signatures; ++g) {
-      if (!used[g]) continue;
-      double* d = distance.data() + g * kBlock;
-      double* w = scale.data() + g * kBlock;
-      std::fill(d, d + width, 0.0);
-      std::fill(w, w + width, 0.0);
-      for (std::size_t q = 0; q < kSignatureLevels; ++q) {  // same order as signatureDistance
-        const double* column = columns_[offset + g * kSignatureLevels + q].data() + begin;
-        const double v = query[offset + g * kSignatureLevels + q];
-        const double v_abs = v < 0 ? -v : v;
-        for (std::size_t k = 0; k < width; ++k) {
-          const double c = column[k];
-          d[k] += v > c ? v - c : c - v;
-          w[k] += v_abs + (c < 0 ? -c : c);
-        }
-      }
+/// Adds alpha to out[k] for every keyframe k of [0, width) whose scalar stump votes "match",
+/// with exactly the votes of Stump::vote on pairFeatureValue.
+LLC_VECTOR_CLONES
+void addScalarStump(const Stump& s, std::size_t scalars, double q, const float* column, std::size_t width,
+                    double* out) {
+  const double alpha = s.alpha;
+  if (std::size_t(s.feature) < scalars) {  // |q - c|: a float interval test
+    const FloatInterval range = absoluteStumpInterval(s, q);
+    const float lo = range.lo, hi = range.hi;
+    if (range.inside) {
+      for (std::size_t k = 0; k < width; ++k) out[k] += (column[k] >= lo && column[k] <= hi) ? alpha : 0.0;
+    } else {
+      for (std::size_t k = 0; k < width; ++k) out[k] += (column[k] < lo || column[k] > hi) ? alpha : 0.0;
     }
-    for (const Stump& s : classifier.stumps()) {
-      const std::size_t f = std::size_t(s.feature);
-      const double bound = s.polarity * s.threshold;
-      const double polarity = s.polarity, alpha = s.alpha;
-      if (f < 2 * n) {
-        const double* column = columns_[f % n].data();
-        const double q = query[f % n];
-        for (std::size_t k = begin; k < end; ++k)
-          out[k] += (polarity * pairFeatureValue(f, n, q, column[k]) < bound) ? alpha : 0.0;
-      } else {
-        const std::size_t g = (f - 2 * n) % signatures;
-        const bool relative = f - 2 * n >= signatures;
-        const double* d = distance.data() + g * kBlock;
-        const double* w = scale.data() + g * kBlock;
-        for (std::size_t k = 0; k < width; ++k) {
-          const double value = relative ? (w[k] > 0.0 ? d[k] / w[k] : 0.0) : d[k] / double(kSignatureLevels);
-          out[begin + k] += (polarity * value < bound) ? alpha : 0.0;
-        }
-      }
+    return;
+  }
+  // |q - c| / (|q| + |c|): the values pairFeatureValue gives (a - b and b - a are exact
+  // negations, so fabs matches its branches; a zero scale means q = c = 0, so dividing 0 by 1
+  // gives its 0) in a form the compiler vectorises, since no division is conditional.
+  const double q_abs = std::fabs(q), t = s.threshold;
+  if (s.polarity > 0) {
+    for (std::size_t k = 0; k < width; ++k) {
+      const double c = column[k], scale = q_abs + std::fabs(c);
+      const double value = std::fabs(q - c) / (scale > 0.0 ? scale : 1.0);
+      out[k] += value < t ? alpha : 0.0;
     }
-    for (std::size_t k = begin; k < end; ++k) out[k] /= alpha_sum;  // as StrongClassifier::score
+  } else {
+    for (std::size_t k = 0; k < width; ++k) {
+      const double c = column[k], scale = q_abs + std::fabs(c);
+      const double value = std::fabs(q - c) / (scale > 0.0 ? scale : 1.0);
+      out[k] += -value < -t ? alpha : 0.0;
+    }
   }
 }
 
-std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifier,
-                                                const double* query, std::size_t limit,
-                                                std::size_t max_candidates) const {
-  std::vector<double> scores;
-  scoreAll(classifier, query, limit, &scores);
+/// d[k], w[k] for keyframes begin..begin+width: the sums signatureDistance forms for one
+/// signature (first_column.. its kSignatureLevels columns), quantile by quantile.
+LLC_VECTOR_CLONES
+void addSignatureDistances(const std::vector<std::vector<float>>& columns, std::size_t first_column,
+                           const double* query_signature, std::size_t begin, std::size_t width, double* d,
+                           double* w) {
+  std::fill(d, d + width, 0.0);
+  std::fill(w, w + width, 0.0);
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) {
+    const float* column = columns[first_column + q].data() + begin;
+    const double v = query_signature[q], v_abs = std::fabs(v);
+    for (std::size_t k = 0; k < width; ++k) {
+      const double c = column[k];
+      d[k] += std::fabs(v - c);
+      w[k] += v_abs + std::fabs(c);
+    }
+  }
+}
+
+/// Signature distance of the query to keyframe `k` (relative or not), as signatureDistance.
+double signatureValue(const std::vector<std::vector<float>>& columns, std::size_t first_column,
+                      const double* query_signature, std::size_t k, bool relative) {
+  double distance = 0.0, scale = 0.0;
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) {
+    const double v = query_signature[q], c = columns[first_column + q][k];
+    distance += v > c ? v - c : c - v;
+    scale += (v < 0 ? -v : v) + (c < 0 ? -c : c);
+  }
+  if (!relative) return distance / double(kSignatureLevels);
+  return scale > 0.0 ? distance / scale : 0.0;
+}
+
+}  // namespace
+
+KeyframeStore::KeyframeStore(FeatureSet set)
+    : set_(set), columns_(scalarFeatureCount(set)), profile_size_(llc::featureCount(set) - scalarFeatureCount(set)) {}
+
+void KeyframeStore::reserve(std::size_t keyframes) {
+  for (auto& column : columns_) column.reserve(keyframes);
+  profiles_.reserve(keyframes * profile_size_);
+}
+
+std::size_t KeyframeStore::add(const double* features) {
+  for (std::size_t f = 0; f < columns_.size(); ++f) columns_[f].push_back(float(features[f]));
+  for (std::size_t p = 0; p < profile_size_; ++p) profiles_.push_back(float(features[columns_.size() + p]));
+  return size_++;
+}
+
+std::vector<double> KeyframeStore::features(std::size_t keyframe) const {
+  if (keyframe >= size_) throw std::out_of_range("keyframe store: no keyframe " + std::to_string(keyframe));
+  std::vector<double> out(featureCount());
+  for (std::size_t f = 0; f < out.size(); ++f) out[f] = feature(keyframe, f);
+  return out;
+}
+
+void KeyframeStore::checkClassifier(const StrongClassifier& classifier) const {
+  if (classifier.featuresNeeded() > pairFeatureCount(set_))
+    throw std::invalid_argument("keyframe store: the classifier needs more pair features than the store's set has");
+}
+
+void KeyframeStore::scoreAll(const StrongClassifier& classifier, const double* query, std::size_t limit,
+                             std::vector<double>* scores) const {
+  checkClassifier(classifier);
+  limit = std::min(limit, size_);
+  scores->assign(limit, 0.0);
+  if (classifier.alphaSum() <= 0.0) return;
+  const std::size_t n = columns_.size();
+  const StumpLayout layout{n, signatureCount(set_), profilePairFeature(set_)};
+  const std::size_t offset = signatureOffset(set_);
+  std::vector<float> query_profile(query + n, query + n + profile_size_);
+  std::vector<double> profile_distance(kBlock);
+  double* out = scores->data();
+  for (std::size_t begin = 0; begin < limit; begin += kBlock) {
+    const std::size_t end = std::min(limit, begin + kBlock), width = end - begin;
+    bool profile_done = false;
+    for (const Stump& s : classifier.stumps()) {
+      const std::size_t f = std::size_t(s.feature);
+      switch (layout.kind(f)) {
+        case StumpKind::kScalar:
+          addScalarStump(s, n, query[f % n], columns_[f % n].data() + begin, width, out + begin);
+          break;
+        case StumpKind::kSignature: {
+          const std::size_t g = layout.signature(f), first = offset + g * kSignatureLevels;
+          for (std::size_t k = begin; k < end; ++k)
+            out[k] += s.votesMatch(signatureValue(columns_, first, query + first, k, layout.relative(f))) ? s.alpha : 0.0;
+          break;
+        }
+        case StumpKind::kProfile:
+          if (!profile_done)
+            for (std::size_t k = begin; k < end; ++k)
+              profile_distance[k - begin] = profileDistance(query_profile.data(), profiles_.data() + k * profile_size_);
+          profile_done = true;
+          for (std::size_t k = begin; k < end; ++k) out[k] += s.votesMatch(profile_distance[k - begin]) ? s.alpha : 0.0;
+          break;
+      }
+    }
+    for (std::size_t k = begin; k < end; ++k) out[k] /= classifier.alphaSum();  // as StrongClassifier::score
+  }
+}
+
+std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifier, const double* query,
+                                                std::size_t limit, std::size_t max_candidates,
+                                                std::size_t threads) const {
+  checkClassifier(classifier);
+  limit = std::min(limit, size_);
   std::vector<LoopCandidate> candidates;
-  for (std::size_t k = 0; k < scores.size(); ++k)
-    if (scores[k] >= classifier.thresholdK()) candidates.push_back({k, scores[k]});
+  const double alpha_sum = classifier.alphaSum();
+  if (alpha_sum <= 0.0 || limit == 0) return candidates;
+  const std::size_t n = columns_.size();
+  const StumpLayout layout{n, signatureCount(set_), profilePairFeature(set_)};
+  const std::size_t offset = signatureOffset(set_);
+  // Cheap stumps (scalars, signatures) heaviest first, so that keyframes fall out early; the
+  // costly profile stumps last, on the few keyframes still able to reach K.
+  std::vector<Stump> cheap, profile;
+  for (const Stump& s : classifier.stumps())
+    (layout.kind(std::size_t(s.feature)) == StumpKind::kProfile ? profile : cheap).push_back(s);
+  std::stable_sort(cheap.begin(), cheap.end(), [](const Stump& a, const Stump& b) { return a.alpha > b.alpha; });
+  double profile_alpha = 0.0, lowest_profile_threshold = kProfileNoOverlap;
+  for (const Stump& s : profile) {
+    profile_alpha += s.alpha;
+    lowest_profile_threshold = std::min(lowest_profile_threshold, s.threshold);
+  }
+  std::vector<double> remaining(cheap.size() + 1, profile_alpha);  // alpha of cheap[i..] and profile
+  for (std::size_t i = cheap.size(); i-- > 0;) remaining[i] = remaining[i + 1] + cheap[i].alpha;
+  // A keyframe is dropped when even every stump to come cannot lift it to K; the margin keeps
+  // one whose reordered sum rounds just below K.
+  const double needed = classifier.thresholdK() * alpha_sum - 1e-9 * alpha_sum;
+  constexpr std::size_t kCheckEvery = 4;
+
+  // Each thread takes a contiguous run of whole blocks, with its own work arrays.
+  auto scanRange = [&](std::size_t range_begin, std::size_t range_end, std::vector<LoopCandidate>* found) {
+    const std::size_t signatures = signatureCount(set_);
+    std::vector<double> partial(kBlock), distance(signatures * kBlock), scale(signatures * kBlock);
+    std::vector<char> signature_ready(signatures);
+    std::vector<std::size_t> alive;
+    std::vector<float> query_profile(query + n, query + n + profile_size_);
+    auto denseSignature = [&](std::size_t g, std::size_t begin, std::size_t width) {
+      addSignatureDistances(columns_, offset + g * kSignatureLevels, query + offset + g * kSignatureLevels, begin,
+                            width, distance.data() + g * kBlock, scale.data() + g * kBlock);
+      signature_ready[g] = 1;
+    };
+    auto signatureOf = [&](std::size_t f, std::size_t k) {
+      const std::size_t g = layout.signature(f);
+      const double d = distance[g * kBlock + k], w = scale[g * kBlock + k];
+      return layout.relative(f) ? d / (w > 0.0 ? w : 1.0) : d / double(kSignatureLevels);  // w = 0 means d = 0
+    };
+
+    for (std::size_t begin = range_begin; begin < range_end; begin += kBlock) {
+      const std::size_t width = std::min(range_end, begin + kBlock) - begin;
+      std::fill(partial.begin(), partial.begin() + long(width), 0.0);
+      std::fill(signature_ready.begin(), signature_ready.end(), 0);
+      // Dense: every keyframe of the block, while most of them are still in the race.
+      std::size_t i = 0;
+      bool sparse = false, dead = false;
+      while (i < cheap.size() && !sparse) {
+        const Stump& s = cheap[i];
+        const std::size_t f = std::size_t(s.feature);
+        if (layout.kind(f) == StumpKind::kScalar) {
+          addScalarStump(s, n, query[f % n], columns_[f % n].data() + begin, width, partial.data());
+        } else {
+          if (!signature_ready[layout.signature(f)]) denseSignature(layout.signature(f), begin, width);
+          for (std::size_t k = 0; k < width; ++k) partial[k] += s.votesMatch(signatureOf(f, k)) ? s.alpha : 0.0;
+        }
+        ++i;
+        if (i % kCheckEvery == 0 || i == cheap.size()) {
+          std::size_t in_race = 0;
+          for (std::size_t k = 0; k < width; ++k) in_race += partial[k] + remaining[i] >= needed;
+          dead = in_race == 0;
+          sparse = dead || in_race * 4 < width || i == cheap.size();
+        }
+      }
+      if (dead) continue;
+      alive.clear();
+      for (std::size_t k = 0; k < width; ++k)
+        if (partial[k] + remaining[i] >= needed) alive.push_back(k);
+      // Sparse: the rest of the cheap stumps on the keyframes still in the race, one by one.
+      for (; i < cheap.size() && !alive.empty(); ++i) {
+        const Stump& s = cheap[i];
+        const std::size_t f = std::size_t(s.feature);
+        std::size_t kept = 0;
+        for (std::size_t k : alive) {
+          double value;
+          if (layout.kind(f) == StumpKind::kScalar) {
+            value = pairFeatureValue(f, n, query[f % n], double(columns_[f % n][begin + k]));
+          } else if (signature_ready[layout.signature(f)]) {
+            value = signatureOf(f, k);
+          } else {
+            const std::size_t first = offset + layout.signature(f) * kSignatureLevels;
+            value = signatureValue(columns_, first, query + first, begin + k, layout.relative(f));
+          }
+          partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
+          if (partial[k] + remaining[i + 1] >= needed) alive[kept++] = k;
+        }
+        alive.resize(kept);
+      }
+      // The profile distance, once per keyframe still in the race, for every profile stump.
+      if (!profile.empty()) {
+        std::size_t kept = 0;
+        for (std::size_t k : alive) {
+          // Below every profile threshold, every profile stump's vote is known: stop there.
+          const double value = profileDistance(query_profile.data(), profiles_.data() + (begin + k) * profile_size_,
+                                               lowest_profile_threshold);
+          for (const Stump& s : profile) partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
+          if (partial[k] >= needed) alive[kept++] = k;
+        }
+        alive.resize(kept);
+      }
+      for (std::size_t k : alive) {
+        const double score = partial[k] / alpha_sum;
+        if (score >= classifier.thresholdK()) found->push_back({begin + k, score});
+      }
+    }
+  };
+  const std::size_t blocks = (limit + kBlock - 1) / kBlock;
+  const std::size_t workers = std::max<std::size_t>(1, std::min<std::size_t>(threads, blocks));
+  std::vector<std::vector<LoopCandidate>> found(workers);
+  std::vector<std::thread> pool;
+  for (std::size_t w = 0; w < workers; ++w) {
+    const std::size_t range_begin = std::min(limit, blocks * w / workers * kBlock);
+    const std::size_t range_end = std::min(limit, blocks * (w + 1) / workers * kBlock);
+    if (w + 1 == workers) scanRange(range_begin, range_end, &found[w]);  // this thread takes the last run
+    else pool.emplace_back(scanRange, range_begin, range_end, &found[w]);
+  }
+  for (std::thread& t : pool) t.join();
+  for (const auto& part : found) candidates.insert(candidates.end(), part.begin(), part.end());
   const std::size_t keep = std::min(max_candidates, candidates.size());
   std::partial_sort(candidates.begin(), candidates.begin() + long(keep), candidates.end(),
                     [](const LoopCandidate& a, const LoopCandidate& b) {

@@ -9,4 +9,5 @@ int runFeatures(const Args& args);
 int runTrain(const Args& args);
 int runScore(const Args& args);
 int runEvaluate(const Args& args);
+int runSimulate(const Args& args);
 }  // namespace llc_tool

@@ -50,6 +50,8 @@ const std::vector<Command>& commands() {
        "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]"},
       {"score", llc_tool::runScore, {"model", "data", "out"}, {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
+      {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz"}, {},
+       "simulate --out DIR [--seed 1] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]"},
   };
   return list;
 }

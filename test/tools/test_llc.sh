@@ -13,7 +13,7 @@ check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
   local name="$1" want="$2" pattern="$3"; shift 4
   local out rc
   out="$("$@" 2>&1)"; rc=$?
-  if [ "$rc" -eq "$want" ] && grep -qE "$pattern" <<<"$out"; then
+  if [ "$rc" -eq "$want" ] && grep -qE -- "$pattern" <<<"$out"; then
     passed=$((passed + 1))
   else
     failed=$((failed + 1))
@@ -31,6 +31,14 @@ check "malformed log" 1 "bad.log:1: FLASER" -- "$LLC" features --log "$TMP/bad.l
 printf 'not a model\n' > "$TMP/bad.yaml"
 check "corrupt model" 1 "classifier model .*bad.yaml" -- "$LLC" score --model "$TMP/bad.yaml" --data "a:b" --out "$TMP/s.csv"
 check "default model loads" 1 "no such file" -- "$LLC" score --data "$TMP/none.log:$TMP/none.csv" --out "$TMP/s.csv"
+
+# The simulator: bad arguments, then a short drive that the other subcommands read.
+check "simulate negative length" 1 "length-m must be a positive" -- "$LLC" simulate --out "$TMP/sim" --length-m -5
+check "simulate unknown scanner" 1 "scanners must be" -- "$LLC" simulate --out "$TMP/sim" --scanners left
+check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
+check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 400 --seed 2
+check "pairs on sim.log (360 degrees)" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.log" --out "$TMP/sim/pairs.csv"
+head -c 8 "$TMP/sim/world.png" | od -c | grep -q "P   N   G" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: world.png is no PNG"; }
 
 LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then

@@ -14,9 +14,9 @@ struct Stump {
   double threshold = 0.0;  ///< lambda
   double alpha = 0.0;      ///< log(1 / beta_t), its weight in the strong classifier
 
-  bool vote(const double* pair_features) const {
-    return polarity * pair_features[feature] < polarity * threshold;
-  }
+  bool vote(const double* pair_features) const { return votesMatch(pair_features[feature]); }
+  /// The vote on a value of its feature.
+  bool votesMatch(double value) const { return polarity * value < polarity * threshold; }
 };
 
 /// The strong classifier: match iff sum_t alpha_t c_t(F) >= K sum_t alpha_t.

@@ -35,8 +35,13 @@ struct FeatureOptions {
   bool operator!=(const FeatureOptions& other) const { return !(*this == other); }
 };
 
-/// Number of features in a set (20 for the paper's).
+/// Number of values in a scan's feature vector (20 for the paper's).
 std::size_t featureCount(FeatureSet set);
+/// The first scalarFeatureCount(set) of them are rotation-invariant numbers whose pair
+/// features are differences; the extended set's range profile (kProfileSectors values from
+/// profileOffset(set)) follows them and is compared only as a whole, at the best rotation.
+std::size_t scalarFeatureCount(FeatureSet set);
+std::size_t profileOffset(FeatureSet set);
 
 /// Signatures (extended set only): distributions stored inside the feature vector as
 /// kSignatureLevels quantiles each, from signatureOffset(set) on.
@@ -76,11 +81,14 @@ class FeatureExtractor {
 };
 
 /// The pair feature vector the classifier sees, from two scans' feature vectors a and b of
-/// featureCount(set) values. Paper set: the paper's |a_i - b_i|. Extended set: those, then the
-/// relative differences |a_i - b_i| / (|a_i| + |b_i|) (0 when both are 0), because how much a
-/// feature changes between two visits of one place grows with its size (area, lengths); then
-/// the Wasserstein-1 distance of each signature, then its relative form.
+/// featureCount(set) values. Paper set: the paper's |a_i - b_i|. Extended set: those over the
+/// scalar features, then their relative differences |a_i - b_i| / (|a_i| + |b_i|) (0 when both
+/// are 0), because how much a feature changes between two visits of one place grows with its
+/// size (area, lengths); then the Wasserstein-1 distance of each signature, then its relative
+/// form; last the range-profile distance at the best rotation (profileDistance).
 std::size_t pairFeatureCount(FeatureSet set);
+/// Index of the range-profile distance among the pair features (extended set).
+std::size_t profilePairFeature(FeatureSet set);
 const std::vector<std::string>& pairFeatureNames(FeatureSet set);
 void pairFeatures(FeatureSet set, const double* a, const double* b, double* out);
 std::vector<double> pairFeatures(FeatureSet set, const std::vector<double>& a, const std::vector<double>& b);

@@ -2,6 +2,7 @@
 // fully specified; the std distributions are not, so they are not used).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <utility>
@@ -23,6 +24,11 @@ class Random {
   /// Uniform real in [0, 1).
   double uniform() { return double(engine_() >> 11) * (1.0 / 9007199254740992.0); }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+  /// Normal deviate (Box-Muller, one of the pair).
+  double normal(double mean, double sigma) {
+    const double u = 1.0 - uniform();  // (0, 1]
+    return mean + sigma * std::sqrt(-2.0 * std::log(u)) * std::cos(2.0 * M_PI * uniform());
+  }
 
   template <typename T>
   void shuffle(std::vector<T>& values) {  // Fisher-Yates

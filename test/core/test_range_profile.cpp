@@ -1,0 +1,94 @@
+// The range profile and its distance at the best rotation, by hand and as invariants.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/random.hpp"
+#include "laser_loop_closure/core/range_profile.hpp"
+
+namespace {
+
+using llc::kProfileSectors;
+
+/// Beams at the middle of equal slices of [-pi, pi) (or of the front half), `per_sector` per sector.
+llc::Scan sliceScan(const std::vector<double>& ranges, bool full_circle) {
+  llc::Scan scan;
+  scan.ranges = ranges;
+  scan.full_circle = full_circle;
+  const double span = full_circle ? 2 * M_PI : M_PI, first = full_circle ? -M_PI : -M_PI / 2;
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+    scan.bearings.push_back(first + span * (double(i) + 0.5) / double(ranges.size()));
+  return scan;
+}
+
+std::vector<double> profileOf(const llc::Scan& scan) {
+  llc::FeatureExtractor extractor;
+  const std::vector<double> f = extractor.extract(scan);
+  return std::vector<double>(f.begin() + long(llc::profileOffset(llc::FeatureSet::kExtended)), f.end());
+}
+
+TEST(RangeProfile, SectorsHoldTheMeanLogRange) {
+  // Two beams per sector: 2 m and 8 m -> mean log = log 4; max-range beams count as r_max.
+  std::vector<double> ranges;
+  for (std::size_t s = 0; s < kProfileSectors; ++s) {
+    ranges.push_back(2.0);
+    ranges.push_back(s == 3 ? INFINITY : 8.0);
+  }
+  const std::vector<double> p = profileOf(sliceScan(ranges, true));
+  ASSERT_EQ(p.size(), kProfileSectors);
+  EXPECT_NEAR(p[0], std::log(4.0), 1e-12);
+  EXPECT_NEAR(p[3], 0.5 * (std::log(2.0) + std::log(50.0)), 1e-12);
+  // A 180-degree scan fills the front half only: sectors [-90, 90) degrees.
+  const std::vector<double> front = profileOf(sliceScan(std::vector<double>(kProfileSectors, 3.0), false));
+  std::size_t filled = 0;
+  for (std::size_t s = 0; s < kProfileSectors; ++s) {
+    if (front[s] == llc::kProfileEmpty) continue;
+    ++filled;
+    EXPECT_GE(s, kProfileSectors / 4);
+    EXPECT_LT(s, 3 * kProfileSectors / 4);
+    EXPECT_NEAR(front[s], std::log(3.0), 1e-12);
+  }
+  EXPECT_EQ(filled, kProfileSectors / 2);
+  // A sector hidden by something nearer than 1 m on average counts as empty.
+  std::vector<double> cluttered(2 * kProfileSectors, 5.0);
+  cluttered[0] = cluttered[1] = 0.5;
+  const std::vector<double> q = profileOf(sliceScan(cluttered, true));
+  EXPECT_EQ(q[0], llc::kProfileEmpty);
+  EXPECT_NEAR(q[1], std::log(5.0), 1e-12);
+}
+
+TEST(RangeProfile, DistanceByHand) {
+  std::vector<double> a(kProfileSectors), b(kProfileSectors);
+  for (std::size_t s = 0; s < kProfileSectors; ++s) a[s] = std::log(1.0 + double(s % 5));
+  for (std::size_t s = 0; s < kProfileSectors; ++s) b[s] = a[(s + 7) % kProfileSectors] + 0.25;
+  // Best rotation undoes the 7-sector turn, leaving the constant 0.25 everywhere.
+  EXPECT_NEAR(llc::profileDistance(a.data(), b.data()), 0.25, 1e-6);
+  EXPECT_NEAR(llc::profileDistance(b.data(), a.data()), 0.25, 1e-6);
+  EXPECT_EQ(llc::profileDistance(a.data(), a.data()), 0.0);
+  // Nothing in common: a front half against a back half.
+  std::vector<double> front(kProfileSectors, llc::kProfileEmpty), back = front;
+  for (std::size_t s = 0; s < kProfileSectors / 2; ++s) front[s] = 1.0;
+  EXPECT_EQ(llc::profileDistance(front.data(), back.data()), llc::kProfileNoOverlap);
+}
+
+TEST(RangeProfile, PairDistanceIsZeroForAnyWholeSectorTurnOfAFullScan) {
+  llc::Random random(2);
+  std::vector<double> ranges(3 * kProfileSectors);
+  for (double& r : ranges) r = random.uniform() < 0.1 ? INFINITY : random.uniform(0.5, 30.0);
+  const llc::Scan scan = sliceScan(ranges, true);
+  llc::FeatureExtractor extractor;
+  const std::vector<double> f = extractor.extract(scan);
+  const std::size_t feature = llc::profilePairFeature(llc::FeatureSet::kExtended);
+  for (std::size_t turn = 0; turn < ranges.size(); turn += 3) {  // three beams per sector
+    llc::Scan turned = scan;
+    for (std::size_t i = 0; i < ranges.size(); ++i) turned.ranges[i] = ranges[(i + turn) % ranges.size()];
+    const std::vector<double> g = extractor.extract(turned);
+    EXPECT_EQ(llc::pairFeatures(llc::FeatureSet::kExtended, f, g)[feature], 0.0) << turn;
+  }
+  // A different place is not at distance 0.
+  std::vector<double> other(ranges.size(), 4.0);
+  EXPECT_GT(llc::pairFeatures(llc::FeatureSet::kExtended, f, extractor.extract(sliceScan(other, true)))[feature], 0.3);
+}
+
+}  // namespace
