@@ -11,7 +11,9 @@ void writeRangeProfile(const double* bearings, const double* clipped_ranges, std
   int count[kProfileSectors] = {};
   const double sectors_per_radian = double(kProfileSectors) / (2.0 * M_PI);
   for (std::size_t i = 0; i < beams; ++i) {
-    // Bearings may lie anywhere; wrap into [-pi, pi) before binning.
+    // Bearings may lie anywhere; wrap into [-pi, pi) before binning. A beam without a finite
+    // bearing has no sector.
+    if (!std::isfinite(bearings[i])) continue;
     double b = std::fmod(bearings[i] + M_PI, 2.0 * M_PI);
     if (b < 0.0) b += 2.0 * M_PI;
     const std::size_t s = std::min(kProfileSectors - 1, std::size_t(b * sectors_per_radian));

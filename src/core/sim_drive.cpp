@@ -31,6 +31,7 @@ struct PathPiece {
 
 std::string SimDriveOptions::validate() const {
   if (!(std::isfinite(length_m) && length_m > 0)) return "--length-m must be a positive number of metres";
+  if (length_m > 100000.0) return "--length-m must be at most 100000 (100 km)";
   if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 100)) return "--rate-hz must be in (0, 100]";
   if (!(std::isfinite(speed) && speed > 0)) return "speed must be positive";
   return {};
@@ -101,17 +102,16 @@ SimDrive simulateDrive(const SimWorld& world, const SimDriveOptions& options) {
   for (std::size_t k = 0; k + 1 < nodes.size(); ++k) {
     const WorldPoint a = world.node(nodes[k].first, nodes[k].second), b = world.node(nodes[k + 1].first, nodes[k + 1].second);
     const double heading = std::atan2(b.y - a.y, b.x - a.x);
-    double turn_in = 0.0, turn_out = 0.0;
+    // The walk never turns back, so every change of heading at a node is a quarter turn.
+    double turn_in = 0.0, turn_out = 0.0, next_turn = 0.0;
     if (k > 0) {
       const WorldPoint p = world.node(nodes[k - 1].first, nodes[k - 1].second);
-      turn_in = std::abs(normalizeAngle(heading - std::atan2(a.y - p.y, a.x - p.x))) > 1e-6 ? kTurnRadius : 0.0;
-      if (std::abs(std::abs(normalizeAngle(heading - std::atan2(a.y - p.y, a.x - p.x))) - M_PI) < 1e-6) turn_in = 0.0;
+      if (std::abs(normalizeAngle(heading - std::atan2(a.y - p.y, a.x - p.x))) > 1e-6) turn_in = kTurnRadius;
     }
-    double next_turn = 0.0;
     if (k + 2 < nodes.size()) {
       const WorldPoint c = world.node(nodes[k + 2].first, nodes[k + 2].second);
       next_turn = normalizeAngle(std::atan2(c.y - b.y, c.x - b.x) - heading);
-      if (std::abs(next_turn) > 1e-6 && std::abs(std::abs(next_turn) - M_PI) > 1e-6) turn_out = kTurnRadius;
+      if (std::abs(next_turn) > 1e-6) turn_out = kTurnRadius;
     }
     const Pose2 start{a.x + std::cos(heading) * turn_in, a.y + std::sin(heading) * turn_in, heading};
     pieces.push_back({start, pitch - turn_in - turn_out, 0.0});

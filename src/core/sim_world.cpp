@@ -75,7 +75,7 @@ SimWorld::SimWorld(const WorldOptions& options) : options_(options) {
   // points away from the street): pieces of 6-25 m set back 0-3 m, with door recesses.
   auto facade = [&](WorldPoint a, WorldPoint b, WorldPoint inward, std::vector<WorldPoint>* out) {
     const double length = std::hypot(b.x - a.x, b.y - a.y);
-    double s = 0.0, depth = 0.0;
+    double s = 0.0;
     out->push_back(a);
     while (s < length - 1e-9) {
       const double piece = std::min(length - s, random.uniform(6.0, 25.0));
@@ -92,9 +92,7 @@ SimWorld::SimWorld(const WorldOptions& options) : options_(options) {
       }
       out->push_back(along(a, b, s + piece, next_depth, inward));
       s += piece;
-      depth = next_depth;
     }
-    (void)depth;
   };
   // Parked-car slot: occupied in random intervals, by cars of random size (visits differ).
   auto parkedSlot = [&](double x, double y, double heading) {

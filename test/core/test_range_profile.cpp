@@ -56,6 +56,13 @@ TEST(RangeProfile, SectorsHoldTheMeanLogRange) {
   const std::vector<double> q = profileOf(sliceScan(cluttered, true));
   EXPECT_EQ(q[0], llc::kProfileEmpty);
   EXPECT_NEAR(q[1], std::log(5.0), 1e-12);
+  // Beams with NaN or infinite bearings fall in no sector (and do not crash the binning).
+  llc::Scan broken = sliceScan(std::vector<double>(2 * kProfileSectors, 5.0), true);
+  broken.bearings[0] = NAN;
+  broken.bearings[1] = INFINITY;
+  const std::vector<double> r = profileOf(broken);
+  EXPECT_EQ(r[0], llc::kProfileEmpty);
+  EXPECT_NEAR(r[2], std::log(5.0), 1e-12);
 }
 
 TEST(RangeProfile, DistanceByHand) {

@@ -101,6 +101,9 @@ TEST(Simulator, BadOptionsAreRefused) {
   options = llc::SimDriveOptions{};
   options.rate_hz = 0;
   EXPECT_FALSE(options.validate().empty());
+  options = llc::SimDriveOptions{};
+  options.length_m = 1e9;  // would exhaust memory: refused
+  EXPECT_FALSE(options.validate().empty());
 }
 
 }  // namespace
