@@ -1,6 +1,8 @@
 #include "laser_loop_closure/core/features.hpp"
 
 #include "laser_loop_closure/core/range_profile.hpp"
+#include "laser_loop_closure/core/rank_selection.hpp"
+#include "laser_loop_closure/core/vector_kernels.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -51,32 +53,11 @@ std::vector<std::string> profileValueNames() {
   return names;
 }
 
-/// Places the elements of ranks[lo, hi) (increasing) of v[first, last) where a full sort would:
-/// select the middle rank, then recurse on each side (cheaper than sorting everything).
-void selectRanks(std::vector<double>& v, std::size_t first, std::size_t last, const std::size_t* ranks,
-                 std::size_t lo, std::size_t hi) {
-  if (lo >= hi || first >= last) return;
-  const std::size_t mid = lo + (hi - lo) / 2, rank = ranks[mid];
-  std::nth_element(v.begin() + long(first), v.begin() + long(rank), v.begin() + long(last));
-  selectRanks(v, first, rank, ranks, lo, mid);
-  selectRanks(v, rank + 1, last, ranks, mid + 1, hi);
-}
-
-/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of v, reordering it; zeros when empty.
-void writeQuantiles(std::vector<double>& v, double* out) {
-  if (v.empty()) {
-    std::fill(out, out + kSignatureLevels, 0.0);
-    return;
-  }
-  std::size_t ranks[kSignatureLevels];
+/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of the selector's values; zeros when empty.
+void writeQuantiles(RankSelector& values, double* out) {
+  const std::size_t m = values.size();
   for (std::size_t q = 0; q < kSignatureLevels; ++q)
-    ranks[q] = std::min(v.size() - 1, std::size_t((double(q) + 0.5) / kSignatureLevels * double(v.size())));
-  // Equal ranks (few values) need selecting once; the recursion needs them strictly increasing.
-  std::size_t unique[kSignatureLevels], count = 0;
-  for (std::size_t q = 0; q < kSignatureLevels; ++q)
-    if (count == 0 || ranks[q] != unique[count - 1]) unique[count++] = ranks[q];
-  selectRanks(v, 0, v.size(), unique, 0, count);
-  for (std::size_t q = 0; q < kSignatureLevels; ++q) out[q] = v[ranks[q]];
+    out[q] = m == 0 ? 0.0 : values.at(std::min(m - 1, std::size_t((double(q) + 0.5) / kSignatureLevels * double(m))));
 }
 
 /// Plain Euclidean distance: std::hypot guards against overflow we cannot have here, slowly.
@@ -89,12 +70,6 @@ double safeDiv(double num, double den) { return den != 0.0 ? num / den : 0.0; }
 /// Sample standard deviation from a count, a sum and a sum of squared deviations.
 double sampleStd(double sum_sq_dev, std::size_t n) {
   return n > 1 ? std::sqrt(std::max(0.0, sum_sq_dev / double(n - 1))) : 0.0;
-}
-
-/// Quantile of sorted-in-place values by nearest rank on [lo, hi); data is partially ordered.
-double quantile(std::vector<double>& v, std::size_t lo, std::size_t hi, std::size_t rank) {
-  std::nth_element(v.begin() + lo, v.begin() + rank, v.begin() + hi);
-  return v[rank];
 }
 
 }  // namespace
@@ -156,6 +131,8 @@ void FeatureExtractor::updateTrigonometry(const std::vector<double>& bearings) {
   cos_.resize(n);
   sin_.resize(n);
   half_sin_.assign(n, 0.0);
+  sector_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) sector_[i] = profileSector(bearings[i]);
   for (std::size_t i = 0; i < n; ++i) {
     cos_[i] = std::cos(bearings[i]);
     sin_[i] = std::sin(bearings[i]);
@@ -205,12 +182,18 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   const double mean_y = safeDiv(sum_y, double(valid_count));
   const double mean_r = safeDiv(sum_r, double(valid_count));
 
+  // Distances between neighbours, computed once: step_[i] = |p[i+1] - p[i]| (the seam's too
+  // on a closed ring), for #11 over every pair and for the segments between valid points.
+  step_.resize(n);
+  distancesAhead(x_.data(), y_.data(), n, 1, step_.data());
+  step_[n - 1] = closed ? pointDistance(x_[n - 1], y_[n - 1], x_[0], y_[0]) : 0.0;
+
   // #1 area and #11 far distance run over every neighbour pair.
   double area = 0.0, far_distance = 0.0;
   for (std::size_t i = 0; i < pair_count; ++i) {
     const std::size_t j = next(i);
     area += clipped_[i] * clipped_[j] * (j == 0 ? seam_half_sin_ : half_sin_[i]);
-    far_distance += pointDistance(x_[i], y_[i], x_[j], y_[j]);
+    far_distance += step_[i];
   }
 
   // Segments between neighbouring valid points (-1 where either end is not valid).
@@ -220,7 +203,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t j = next(i);
     if (i < pair_count && valid_[i] && valid_[j]) {
-      const double d = pointDistance(x_[i], y_[i], x_[j], y_[j]);
+      const double d = step_[i];
       segment_[i] = d;
       distance += d;
       if (d < gate) close_distance += d;
@@ -235,8 +218,22 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
 
   // #8 #9 curvature and #15 angular difference over triples of neighbouring valid points.
   double sum_k = 0.0, angular = 0.0;
-  curvature_.clear();
-  const std::size_t triple_count = closed ? n : (n >= 2 ? n - 2 : 0);
+    const std::size_t triple_count = closed ? n : (n >= 2 ? n - 2 : 0);
+  // |p[a+2] - p[a]|, with the two wrapped triples of a closed ring.
+  skip2_.resize(n);
+  distancesAhead(x_.data(), y_.data(), n, 2, skip2_.data());
+  // The turn at every interior point (#15), likewise.
+  turn_.resize(n);
+  turnAngles(x_.data(), y_.data(), n, turn_.data());
+  if (closed) {
+    for (std::size_t a = n - 2; a < n; ++a) {
+      const std::size_t b = next(a), c = next(b);
+      skip2_[a] = pointDistance(x_[a], y_[a], x_[c], y_[c]);
+      turn_[a] = angleBetween(x_[b] - x_[a], y_[b] - y_[a], x_[c] - x_[b], y_[c] - y_[b]);
+    }
+  }
+  curvature_.resize(n);
+  std::size_t curvature_count = 0;
   for (std::size_t a = 0; a < triple_count; ++a) {
     const std::size_t b = next(a), c = next(b);
     const double da = segment_[a], db = segment_[b];
@@ -244,18 +241,17 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     const double ux = x_[b] - x_[a], uy = y_[b] - y_[a];
     const double vx = x_[c] - x_[b], vy = y_[c] - y_[b];
     const double cross = ux * vy - uy * vx;
-    const double dot = ux * vx + uy * vy;
-    angular += std::acos(std::clamp(dot / (da * db), -1.0, 1.0));
-    const double dc = pointDistance(x_[a], y_[a], x_[c], y_[c]);
+    angular += turn_[a];
+    const double dc = skip2_[a];
     if (dc <= 0.0) continue;
     const double k = 2.0 * std::abs(cross) / (da * db * dc);  // 4 * triangle area / sides
     sum_k += k;
-    curvature_.push_back(k);
+    curvature_[curvature_count++] = k;
   }
-  const double k_mean = safeDiv(sum_k, double(curvature_.size()));
+  const double k_mean = safeDiv(sum_k, double(curvature_count));
   double sum_k_sq_dev = 0.0;
-  for (double k : curvature_) sum_k_sq_dev += (k - k_mean) * (k - k_mean);
-  const double k_std = sampleStd(sum_k_sq_dev, curvature_.size());
+  for (std::size_t i = 0; i < curvature_count; ++i) sum_k_sq_dev += (curvature_[i] - k_mean) * (curvature_[i] - k_mean);
+  const double k_std = sampleStd(sum_k_sq_dev, curvature_count);
 
   // #12 #13 groups: runs of valid neighbours closer than the gate; with a closed ring the run
   // through the seam is one group.
@@ -285,7 +281,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
       std::size_t points = 0;
       double length = 0.0;
       for (std::size_t step = 0; step < n; ++step) {
-        const std::size_t i = (start + step) % n;
+        const std::size_t i = start + step < n ? start + step : start + step - n;
         if (!valid_[i]) { close_run(points, length); points = 0; length = 0.0; continue; }
         ++points;
         const bool last = step + 1 == n;
@@ -303,12 +299,14 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   // Moments about the mean of the valid points: #3 #6 #7 #16 #19 #20 and principal axes.
   double suu = 0.0, svv = 0.0, suv = 0.0, suuu = 0.0, svvv = 0.0, suvv = 0.0, svuu = 0.0;
   double sum_dev = 0.0, sum_r_sq_dev = 0.0, close_area = 0.0;
+  centre_distance_.resize(n);
+  distancesFromCentred(x_.data(), y_.data(), n, mean_x, mean_y, 0.0, 0.0, centre_distance_.data());
   for (std::size_t i = 0; i < n; ++i) {
     if (!valid_[i]) continue;
     const double u = x_[i] - mean_x, v = y_[i] - mean_y;
     suu += u * u; svv += v * v; suv += u * v;
     suuu += u * u * u; svvv += v * v * v; suvv += u * v * v; svuu += v * u * u;
-    sum_dev += std::sqrt(u * u + v * v);
+    sum_dev += centre_distance_[i];
     sum_r_sq_dev += (clipped_[i] - mean_r) * (clipped_[i] - mean_r);
     close_area += clipped_[i] * clipped_[i];
   }
@@ -325,13 +323,16 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     circle_radius = std::sqrt(cu * cu + cv * cv + trace / double(valid_count));
   }
   double sum_dev_sq = 0.0;
+  if (circle_radius > 0.0) {
+    circle_distance_.resize(n);
+    distancesFromCentred(x_.data(), y_.data(), n, mean_x, mean_y, cu, cv, circle_distance_.data());
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (!valid_[i]) continue;
-    const double u = x_[i] - mean_x, v = y_[i] - mean_y;
-    const double d = std::sqrt(u * u + v * v) - mean_dev;
+    const double d = centre_distance_[i] - mean_dev;
     sum_dev_sq += d * d;
     if (circle_radius > 0.0) {
-      const double e = circle_radius - std::sqrt((u - cu) * (u - cu) + (v - cv) * (v - cv));
+      const double e = circle_radius - circle_distance_[i];
       circle_residual += e * e;
     }
   }
@@ -367,22 +368,22 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   extra[0] = double(valid_count) / beams;
   extra[1] = double(n - valid_count) / beams;
   extra[2] = out[12] / beams;
-  // The valid ranges, collected once: the quantiles below and the range signature only
-  // reorder them.
-  sorted_.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (valid_[i]) sorted_.push_back(clipped_[i]);
-  // Quantiles of the valid ranges by nearest rank, each nth_element on a shrinking range.
-  if (valid_count > 0) {
-    const std::size_t m = sorted_.size();
+  // The valid ranges, bucketed once for the quantiles below and the range signature.
+  std::size_t m = 0;
+  work_.resize(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {  // branch-free compaction
+    work_[m] = clipped_[i];
+    m += valid_[i];
+  }
+  ranks_.assign(work_.data(), m);
+  // Quantiles of the valid ranges by nearest rank.
+  if (m > 0) {
     auto rank = [m](double q) { return std::min(m - 1, std::size_t(q * double(m - 1) + 0.5)); };
-    const std::size_t r10 = rank(0.10), r25 = rank(0.25), r50 = rank(0.5), r75 = rank(0.75),
-                      r90 = rank(0.90);
-    extra[5] = quantile(sorted_, 0, m, r50);
-    extra[4] = r25 < r50 ? quantile(sorted_, 0, r50, r25) : extra[5];
-    extra[3] = r10 < r25 ? quantile(sorted_, 0, r25, r10) : extra[4];
-    extra[6] = quantile(sorted_, r50, m, r75);
-    extra[7] = quantile(sorted_, r75, m, r90);
+    extra[3] = ranks_.at(rank(0.10));
+    extra[4] = ranks_.at(rank(0.25));
+    extra[5] = ranks_.at(rank(0.50));
+    extra[6] = ranks_.at(rank(0.75));
+    extra[7] = ranks_.at(rank(0.90));
   }
   // Principal axes of the valid points: square roots of the covariance eigenvalues.
   if (valid_count > 1) {
@@ -410,7 +411,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
     const double step = angle_step;
     std::size_t run = 0;
     for (i = 0; i < n; ++i) {
-      const std::size_t k = (start + i) % n;
+      const std::size_t k = start + i < n ? start + i : start + i - n;
       if (!valid_[k]) { ++run; continue; }
       if (run > 0) { ++gaps; widest = std::max(widest, double(run) * step); }
       run = 0;
@@ -423,36 +424,55 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   extra[14] = safeDiv(group_length_sum, double(group_count));
   // Histogram of clipped ranges, as fractions of the beams (max-range beams in none of them).
   {
-    double hist[6] = {0, 0, 0, 0, 0, 0};
+    // Counted as "valid and nearer than each edge" (branch-free sums), then differenced.
+    std::size_t below[5] = {0, 0, 0, 0, 0};
     for (std::size_t i = 0; i < n; ++i) {
-      if (!valid_[i]) continue;
       const double r = clipped_[i];
-      const int bin = r < 1.0 ? 0 : r < 2.0 ? 1 : r < 4.0 ? 2 : r < 8.0 ? 3 : r < 16.0 ? 4 : 5;
-      hist[bin] += 1.0;
+      const std::size_t v = valid_[i];
+      below[0] += v & (r < 1.0);
+      below[1] += v & (r < 2.0);
+      below[2] += v & (r < 4.0);
+      below[3] += v & (r < 8.0);
+      below[4] += v & (r < 16.0);
     }
+    const double hist[6] = {double(below[0]),
+                            double(below[1] - below[0]),
+                            double(below[2] - below[1]),
+                            double(below[3] - below[2]),
+                            double(below[4] - below[3]),
+                            double(valid_count - below[4])};
     for (int b = 0; b < 6; ++b) extra[15 + b] = hist[b] / beams;
   }
   // Signatures: distributions of the ranges, of the distances to the centroid of the valid
   // points, and of chords (a cheap, shift-invariant cousin of Osada's D2 shape distribution).
   double* signature = out + signatureOffset(FeatureSet::kExtended);
-  writeQuantiles(sorted_, signature);  // still the valid ranges, in another order
-  sorted_.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (valid_[i]) sorted_.push_back(pointDistance(x_[i], y_[i], mean_x, mean_y));
-  writeQuantiles(sorted_, signature + kSignatureLevels);
+  writeQuantiles(ranks_, signature);  // still the valid ranges
+  m = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    work_[m] = centre_distance_[i];
+    m += valid_[i];
+  }
+  ranks_.assign(work_.data(), m);
+  writeQuantiles(ranks_, signature + kSignatureLevels);
   // Chords: distances between valid points an eighth, a quarter and a half of the beams
   // apart, over every beam (cyclically on a closed ring, so a shift changes nothing).
-  sorted_.clear();
+  m = 0;
   for (const std::size_t separation : {n / 8, n / 4, n / 2}) {
     if (separation == 0) continue;
-    const std::size_t last = closed ? n : (n > separation ? n - separation : 0);
-    for (std::size_t i = 0; i < last; ++i) {
-      const std::size_t j = (i + separation) % n;
-      if (valid_[i] && valid_[j]) sorted_.push_back(pointDistance(x_[i], y_[i], x_[j], y_[j]));
+    distancesAhead(x_.data(), y_.data(), n, separation, skip2_.data());
+    for (std::size_t i = 0; i + separation < n; ++i) {  // branch-free compaction
+      work_[m] = skip2_[i];
+      m += valid_[i] & valid_[i + separation];
+    }
+    if (!closed) continue;
+    for (std::size_t i = n - separation; i < n; ++i) {
+      const std::size_t j = i + separation - n;
+      if (valid_[i] && valid_[j]) work_[m++] = pointDistance(x_[i], y_[i], x_[j], y_[j]);
     }
   }
-  writeQuantiles(sorted_, signature + 2 * kSignatureLevels);
-  writeRangeProfile(scan.bearings.data(), clipped_.data(), n, out + profileOffset(FeatureSet::kExtended));
+  ranks_.assign(work_.data(), m);
+  writeQuantiles(ranks_, signature + 2 * kSignatureLevels);
+  writeRangeProfileBySector(sector_.data(), clipped_.data(), n, out + profileOffset(FeatureSet::kExtended));
 }
 
 std::size_t pairFeatureCount(FeatureSet set) {

@@ -3,28 +3,45 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 namespace llc {
 
+std::size_t profileSector(double bearing) {
+  if (!std::isfinite(bearing)) return kProfileSectors;
+  double b = std::fmod(bearing + M_PI, 2.0 * M_PI);
+  if (b < 0.0) b += 2.0 * M_PI;
+  return std::min(kProfileSectors - 1, std::size_t(b * (double(kProfileSectors) / (2.0 * M_PI))));
+}
+
 void writeRangeProfile(const double* bearings, const double* clipped_ranges, std::size_t beams, double* out) {
-  double sum[kProfileSectors] = {};
-  int count[kProfileSectors] = {};
-  const double sectors_per_radian = double(kProfileSectors) / (2.0 * M_PI);
+  std::vector<std::size_t> sectors(beams);
+  for (std::size_t i = 0; i < beams; ++i) sectors[i] = profileSector(bearings[i]);
+  writeRangeProfileBySector(sectors.data(), clipped_ranges, beams, out);
+}
+
+void writeRangeProfileBySector(const std::size_t* sectors, const double* clipped_ranges, std::size_t beams, double* out) {
+  // The sum of logs as the log of a product, one logarithm per sector instead of per beam;
+  // the product is folded into the sum before it could leave double range.
+  double product[kProfileSectors + 1], log_sum[kProfileSectors + 1] = {};
+  int count[kProfileSectors + 1] = {};
+  std::fill(product, product + kProfileSectors + 1, 1.0);
   for (std::size_t i = 0; i < beams; ++i) {
-    // Bearings may lie anywhere; wrap into [-pi, pi) before binning. A beam without a finite
-    // bearing has no sector.
-    if (!std::isfinite(bearings[i])) continue;
-    double b = std::fmod(bearings[i] + M_PI, 2.0 * M_PI);
-    if (b < 0.0) b += 2.0 * M_PI;
-    const std::size_t s = std::min(kProfileSectors - 1, std::size_t(b * sectors_per_radian));
-    sum[s] += std::log(std::max(clipped_ranges[i], kProfileMinRange));
+    const std::size_t s = sectors[i];  // kProfileSectors: no sector, collected and ignored
+    product[s] *= std::max(clipped_ranges[i], kProfileMinRange);
     ++count[s];
+    if (!(product[s] < 1e150 && product[s] > 1e-150)) {  // also catches an infinite range
+      log_sum[s] += std::log(product[s]);
+      product[s] = 1.0;
+    }
   }
   // A sector whose beams are on average nearer than kProfileNearRange is taken as hidden by
   // something close (a person, a door frame), which says little about the place: empty.
   const double near = std::log(kProfileNearRange);
-  for (std::size_t s = 0; s < kProfileSectors; ++s)
-    out[s] = count[s] > 0 && sum[s] / count[s] >= near ? sum[s] / count[s] : kProfileEmpty;
+  for (std::size_t s = 0; s < kProfileSectors; ++s) {
+    const double mean = count[s] > 0 ? (log_sum[s] + std::log(product[s])) / count[s] : 0.0;
+    out[s] = count[s] > 0 && mean >= near ? mean : kProfileEmpty;
+  }
 }
 
 double profileDistance(const double* a, const double* b) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "laser_loop_closure/core/rank_selection.hpp"
 #include "laser_loop_closure/core/scan.hpp"
 
 namespace llc {
@@ -76,7 +77,9 @@ class FeatureExtractor {
   std::vector<double> cached_bearings_, cos_, sin_, half_sin_;  ///< half_sin_[i]: sin of half the step to i+1
   double seam_half_sin_ = 0.0;  ///< the same from the last beam round to the first
   // Work arrays, kept to avoid allocating per scan.
-  std::vector<double> clipped_, x_, y_, segment_, sorted_, curvature_;
+  std::vector<double> clipped_, x_, y_, step_, skip2_, segment_, centre_distance_, circle_distance_, work_, turn_, curvature_;
+  RankSelector ranks_;
+  std::vector<std::size_t> sector_;  ///< range-profile sector of each beam (cached with the trigonometry)
   std::vector<unsigned char> valid_;
 };
 

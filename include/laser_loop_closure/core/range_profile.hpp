@@ -25,6 +25,11 @@ constexpr double kProfileNoOverlap = 100.0;
 /// when no beam falls in it or that mean is below log(kProfileNearRange).
 /// Logarithms, so that a difference is a ratio of ranges, which suits near and far walls alike.
 void writeRangeProfile(const double* bearings, const double* clipped_ranges, std::size_t beams, double* out);
+/// Sector of a bearing (any angle, wrapped), or kProfileSectors when it is not finite.
+std::size_t profileSector(double bearing);
+/// The same profile from each beam's profileSector, for callers that cache the sectors of a
+/// fixed beam layout.
+void writeRangeProfileBySector(const std::size_t* sectors, const double* clipped_ranges, std::size_t beams, double* out);
 
 /// Mean absolute difference of two profiles over the sectors both cover, minimised over every
 /// rotation of b by a whole number of sectors that leaves enough overlap. Symmetric, >= 0,
