@@ -15,7 +15,8 @@ LLC_PACKAGES=(build-essential cmake ros-base-dev ros-core-python-dev
   python3-rostest libgtest-dev rosbash libeigen3-dev libpcl-dev libpcl-conversions-dev
   libsuitesparse-dev libyaml-cpp-dev libnanoflann-dev libbenchmark-dev zlib1g-dev
   pluginlib-dev libnodeletlib-dev libnodeletlib-tools libmessage-filters-dev
-  libdiagnostic-updater-dev python3-matplotlib python3-numpy)
+  libdiagnostic-updater-dev librosbag-storage-dev librosbag-dev libnav-msgs-dev libtf2-msgs-dev
+  python3-rosbag python3-matplotlib python3-numpy)
 
 llc_install_missing() {
   local missing=() p

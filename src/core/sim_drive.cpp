@@ -34,6 +34,7 @@ std::string SimDriveOptions::validate() const {
   if (length_m > 100000.0) return "--length-m must be at most 100000 (100 km)";
   if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 100)) return "--rate-hz must be in (0, 100]";
   if (!(std::isfinite(speed) && speed > 0)) return "speed must be positive";
+  if (!(std::isfinite(parking_mean_s) && parking_mean_s >= 1.0)) return "--parking-mean-s must be at least 1 second";
   return {};
 }
 
@@ -62,6 +63,7 @@ WorldOptions simWorldOptions(const SimDriveOptions& options) {
   const int blocks = std::clamp(int(std::ceil(std::sqrt(options.length_m / 100.0))), 3, 12);
   world.blocks_x = world.blocks_y = blocks;
   world.duration = options.length_m / (0.5 * options.speed) + 60.0;
+  world.parking_mean_s = options.parking_mean_s;
   return world;
 }
 

@@ -72,7 +72,8 @@ SimWorld::SimWorld(const WorldOptions& options) : options_(options) {
   const int bx = options.blocks_x, by = options.blocks_y;
 
   // A facade from a to b (a side of a block, street on the left of a->b... any side: `inward`
-  // points away from the street): pieces of 6-25 m set back 0-3 m, with door recesses.
+  // points away from the street): pieces of 6-25 m set back 0-3 m, with door recesses and
+  // gaps between buildings.
   auto facade = [&](WorldPoint a, WorldPoint b, WorldPoint inward, std::vector<WorldPoint>* out) {
     const double length = std::hypot(b.x - a.x, b.y - a.y);
     double s = 0.0;
@@ -82,7 +83,17 @@ SimWorld::SimWorld(const WorldOptions& options) : options_(options) {
       const double next_depth = (s == 0.0 || s + piece >= length - 1e-9) ? 0.0
                                 : random.uniform() < 0.55 ? 0.0 : random.uniform(0.5, 3.0);
       out->push_back(along(a, b, s, next_depth, inward));
-      if (piece > 5.0 && random.uniform() < 0.6) {  // a door: 1.2-2 m wide, 0.4-0.8 m deep
+      const bool inner = s > 0.0 && s + piece < length - 1e-9;
+      if (inner && piece > 8.0 && random.uniform() < 0.3) {
+        // A gap between two buildings: a driveway or passage 3-8 m wide into a yard whose
+        // back wall stands 8-30 m in, so each stretch of street looks different.
+        const double at = s + random.uniform(1.0, piece - 7.0), width = std::min(random.uniform(3.0, 8.0), s + piece - at - 1.0);
+        const double deep = next_depth + random.uniform(8.0, 30.0);
+        out->push_back(along(a, b, at, next_depth, inward));
+        out->push_back(along(a, b, at, deep, inward));
+        out->push_back(along(a, b, at + width, deep, inward));
+        out->push_back(along(a, b, at + width, next_depth, inward));
+      } else if (piece > 5.0 && random.uniform() < 0.6) {  // a door: 1.2-2 m wide, 0.4-0.8 m deep
         const double at = s + random.uniform(1.5, piece - 3.5), width = random.uniform(1.2, 2.0);
         const double deep = next_depth + random.uniform(0.4, 0.8);
         out->push_back(along(a, b, at, next_depth, inward));
@@ -95,16 +106,20 @@ SimWorld::SimWorld(const WorldOptions& options) : options_(options) {
     }
   };
   // Parked-car slot: occupied in random intervals, by cars of random size (visits differ).
+  // Each slot draws from its own stream, so the rest of the world is the same whatever the
+  // parking times and the duration.
+  std::uint64_t slot_count = 0;
   auto parkedSlot = [&](double x, double y, double heading) {
+    Random slot(options.seed * 0xD1B54A32D192ED03ULL + 0x9E3779B97F4A7C15ULL * ++slot_count);
     double t = -1.0;
-    bool occupied = random.uniform() < 0.6;
+    bool occupied = slot.uniform() < 0.6;
     while (t < options.duration) {
-      const double next = t + 1.0 + -std::log(1.0 - random.uniform()) * 150.0;
+      const double next = t + 1.0 + -std::log(1.0 - slot.uniform()) * options.parking_mean_s;
       if (occupied) {
-        const double shift = random.uniform(-0.5, 0.5);
+        const double shift = slot.uniform(-0.5, 0.5);
         const auto corners = boxCorners(x + std::cos(heading) * shift, y + std::sin(heading) * shift,
-                                        heading + random.uniform(-0.04, 0.04), random.uniform(4.0, 5.0),
-                                        random.uniform(1.7, 1.9));
+                                        heading + slot.uniform(-0.04, 0.04), slot.uniform(4.0, 5.0),
+                                        slot.uniform(1.7, 1.9));
         for (std::size_t k = 0; k < 4; ++k)
           addSegment(corners[k], corners[(k + 1) % 4], t < 0 ? -kForever : t,
                      next >= options.duration ? kForever : next);

@@ -54,7 +54,7 @@ int runEvaluate(const Args& args) {
   const std::string out_dir = args.required("out");
   ensureDirectory(out_dir);
   const llc::FeatureOptions features = featureOptions(args);
-  const std::vector<PairData> data = loadPairData(args.all("data"), features);
+  const std::vector<PairData> data = loadPairData(args.all("data"), features, args);
   const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
   llc::CrossValidationOptions cv;

@@ -10,7 +10,7 @@ namespace llc_tool {
 
 int runPairs(const Args& args) {
   const std::string log = args.required("log"), out = args.required("out");
-  const llc::ScanSequence sequence = loadSequence(log);
+  const llc::ScanSequence sequence = loadSequence(log, args);
   llc::PairLabelingOptions options;
   options.positive_max_distance = args.number("positive-distance", options.positive_max_distance);
   options.positive_max_heading =
@@ -43,7 +43,7 @@ int runPairs(const Args& args) {
 int runFeatures(const Args& args) {
   const std::string log = args.required("log"), out_path = args.required("out");
   const llc::FeatureOptions options = featureOptions(args);
-  const llc::ScanSequence sequence = loadSequence(log);
+  const llc::ScanSequence sequence = loadSequence(log, args);
   const std::vector<std::vector<double>> features = extractAll(sequence, options);
   std::ofstream out(out_path);
   if (!out) throw ToolError(out_path + ": cannot write");

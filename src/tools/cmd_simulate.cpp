@@ -1,5 +1,4 @@
-// llc simulate: the deterministic urban drive (sim.log, world.png; sim.bag comes with the
-// rosbag writer of the adapter).
+// llc simulate: the deterministic urban drive as sim.bag, sim.log and world.png.
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -11,6 +10,7 @@
 #include "laser_loop_closure/core/png_image.hpp"
 #include "laser_loop_closure/core/sim_drive.hpp"
 #include "laser_loop_closure/core/sim_world.hpp"
+#include "laser_loop_closure/ros/bag_io.hpp"
 
 namespace llc_tool {
 namespace {
@@ -52,6 +52,7 @@ int runSimulate(const Args& args) {
   options.seed = std::uint64_t(seed);
   options.length_m = args.number("length-m", 2000.0);
   options.rate_hz = args.number("rate-hz", 10.0);
+  options.parking_mean_s = args.number("parking-mean-s", options.parking_mean_s);
   const std::string scanners = args.get("scanners", "front,back");
   if (scanners == "front,back" || scanners == "back,front") options.back_scanner = true;
   else if (scanners == "front") options.back_scanner = false;
@@ -65,6 +66,11 @@ int runSimulate(const Args& args) {
   const llc::SimDrive drive = llc::simulateDrive(world, options);
   const double simulated = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   llc::writeCarmenLog(drive, out_dir + "/sim.log");
+  try {
+    llc_ros::writeSimBag(drive, out_dir + "/sim.bag");
+  } catch (const llc_ros::BagError& e) {
+    throw ToolError(e.what());
+  }
   drawWorld(world, drive, out_dir + "/world.png");
   const double drive_seconds = drive.frames.empty() ? 0.0 : drive.frames.back().stamp;
   std::cout << std::fixed << std::setprecision(2) << "frames=" << drive.frames.size() << " drive_seconds=" << drive_seconds
@@ -73,7 +79,7 @@ int runSimulate(const Args& args) {
             << " movers=" << world.movers().size() << "\n"
             << "simulated in " << simulated << " s: " << std::setprecision(0)
             << (simulated > 0 ? drive_seconds / simulated : 0.0) << "x real time\n"
-            << "wrote " << out_dir << "/sim.log " << out_dir << "/world.png\n";
+            << "wrote " << out_dir << "/sim.bag " << out_dir << "/sim.log " << out_dir << "/world.png\n";
   return 0;
 }
 

@@ -14,7 +14,7 @@ int runTrain(const Args& args) {
   const std::string model_path = args.required("model");
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<std::string> specs = args.all("data");
-  const std::vector<PairData> data = loadPairData(specs, features);
+  const std::vector<PairData> data = loadPairData(specs, features, args);
   const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
   llc::AdaBoostOptions boost;
@@ -75,7 +75,7 @@ int runScore(const Args& args) {
   } catch (const llc::ModelError& e) {
     throw ToolError(e.what());
   }
-  const std::vector<PairData> data = loadPairData(args.all("data"), model.features);
+  const std::vector<PairData> data = loadPairData(args.all("data"), model.features, args);
   std::ofstream out(out_path);
   if (!out) throw ToolError(out_path + ": cannot write");
   out << "a,b,label,score\n" << std::setprecision(17);

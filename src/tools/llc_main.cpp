@@ -24,34 +24,39 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 const std::vector<Command>& commands() {
   using llc_tool::kFeatureFlags;
   using llc_tool::kFeatureSwitches;
+  using llc_tool::kInputFlags;
   static const std::vector<Command> list = {
       {"pairs", llc_tool::runPairs,
-       {"log", "out", "positive-distance", "positive-heading-deg", "min-gap", "negative-distance",
-        "max-per-class", "seed"},
+       with({"log", "out", "positive-distance", "positive-heading-deg", "min-gap", "negative-distance",
+             "max-per-class", "seed"},
+            kInputFlags),
        {"full-circle", "partial"},
        "pairs --log LOG --out PAIRS.csv [--positive-distance 1.5] [--positive-heading-deg 45]\n"
        "      [--min-gap 30] [--negative-distance 10] [--max-per-class 200] [--seed 1]\n"
        "      [--full-circle|--partial]   (default: full circle when every scan is 360 degrees)"},
-      {"features", llc_tool::runFeatures, with({"log", "out"}, kFeatureFlags), kFeatureSwitches,
+      {"features", llc_tool::runFeatures, with(with({"log", "out"}, kFeatureFlags), kInputFlags), kFeatureSwitches,
        "features --log LOG --out FEATURES.csv [--features paper|extended] [--r-max 50]\n"
        "      [--g-max-dist 2.5] [--g-min-size 3] [--open-ring]"},
       {"train", llc_tool::runTrain,
-       with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed"}, kFeatureFlags),
+       with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed"}, kFeatureFlags),
+            kInputFlags),
        kFeatureSwitches,
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
       {"evaluate", llc_tool::runEvaluate,
-       with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
-             "ablation-repeats"},
-            kFeatureFlags),
+       with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
+                  "ablation-repeats"},
+                 kFeatureFlags),
+            kInputFlags),
        with({"no-curve", "no-ablation", "no-rotation"}, kFeatureSwitches),
        "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
        "      [--seed 1] [--features paper|extended] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
        "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]"},
-      {"score", llc_tool::runScore, {"model", "data", "out"}, {},
+      {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
-      {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz"}, {},
-       "simulate --out DIR [--seed 1] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]"},
+      {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},
+       "simulate --out DIR [--seed 1] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]\n"
+       "      [--parking-mean-s 1800]"},
   };
   return list;
 }
@@ -59,6 +64,8 @@ const std::vector<Command>& commands() {
 void usage(std::ostream& out) {
   out << "usage: llc SUBCOMMAND [options]\n";
   for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
+  out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
+         "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";
 }
 
 }  // namespace

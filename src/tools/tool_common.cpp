@@ -6,13 +6,25 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 
 #include "laser_loop_closure/core/carmen_reader.hpp"
+#include "laser_loop_closure/ros/bag_io.hpp"
 
 namespace llc_tool {
 
 const std::vector<std::string> kFeatureFlags = {"features", "r-max", "g-max-dist", "g-min-size"};
 const std::vector<std::string> kFeatureSwitches = {"open-ring"};
+const std::vector<std::string> kInputFlags = {"front-topic", "back-topic", "odom-topic", "truth-topic"};
+
+llc_ros::BagReadOptions bagOptions(const Args& args) {
+  llc_ros::BagReadOptions options;
+  options.topics.front = args.get("front-topic", options.topics.front);
+  options.topics.back = args.get("back-topic", options.topics.back);
+  options.topics.odom = args.get("odom-topic", options.topics.odom);
+  options.topics.truth = args.get("truth-topic", options.topics.truth);
+  return options;
+}
 
 Args::Args(int argc, char** argv, const std::vector<std::string>& options,
            const std::vector<std::string>& flags) {
@@ -95,16 +107,37 @@ std::pair<std::string, std::string> splitDataSpec(const std::string& spec) {
   return {spec.substr(0, colon), spec.substr(colon + 1)};
 }
 
-llc::ScanSequence loadSequence(const std::string& path) {
+namespace {
+bool endsWith(const std::string& text, const std::string& end) {
+  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+}
+}  // namespace
+
+llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
   std::ifstream probe(path);
   if (!probe) throw ToolError(path + ": no such file or not readable");
-  try {
-    llc::ScanSequence sequence = llc::loadScanSequence(path);
-    if (sequence.scans.empty()) throw ToolError(path + ": the log holds no laser scan");
-    return sequence;
-  } catch (const llc::CarmenError& e) {
-    throw ToolError(e.what());
+  llc::ScanSequence sequence;
+  if (endsWith(path, ".bag")) {
+    llc_ros::BagReadReport report;
+    try {
+      sequence = llc_ros::readBagSequence(path, bagOptions(args), &report);
+    } catch (const llc_ros::BagError& e) {
+      throw ToolError(e.what());
+    }
+    if (report.skipped_scans > 0)
+      std::cerr << "warning: " << path << ": skipped " << report.skipped_scans << " front scans; the first: "
+                << report.first_problem << "\n";
+    if (report.truth_from_odometry)
+      std::cerr << "warning: " << path << ": no messages on the truth topic; poses come from odometry\n";
+  } else {
+    try {
+      sequence = llc::loadScanSequence(path);
+    } catch (const llc::CarmenError& e) {
+      throw ToolError(e.what());
+    }
   }
+  if (sequence.scans.empty()) throw ToolError(path + ": the log holds no laser scan");
+  return sequence;
 }
 
 std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
@@ -116,14 +149,14 @@ std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
   return features;
 }
 
-std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
-                                   const llc::FeatureOptions& options) {
+std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
+                                   const Args& args) {
   if (specs.empty()) throw ToolError("--data LOG:PAIRS is required");
   std::vector<PairData> data;
   for (const std::string& spec : specs) {
     PairData item;
     std::tie(item.log_path, item.pairs_path) = splitDataSpec(spec);
-    item.sequence = loadSequence(item.log_path);
+    item.sequence = loadSequence(item.log_path, args);
     try {
       item.pairs = llc::readPairs(item.pairs_path, item.sequence.scans.size());
     } catch (const llc::PairFileError& e) {

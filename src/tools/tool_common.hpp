@@ -52,11 +52,14 @@ struct PairData {
 
 /// Splits LOG:PAIRS at the last ':'.
 std::pair<std::string, std::string> splitDataSpec(const std::string& spec);
-llc::ScanSequence loadSequence(const std::string& path);
+/// Flags naming the topics of a .bag input (every subcommand that reads a log takes them).
+extern const std::vector<std::string> kInputFlags;
+/// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
+llc::ScanSequence loadSequence(const std::string& path, const Args& args);
 std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
                                             const llc::FeatureOptions& options);
-std::vector<PairData> loadPairData(const std::vector<std::string>& specs,
-                                   const llc::FeatureOptions& options);
+std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
+                                   const Args& args);
 /// Pair feature rows of every pair of every data item, in order.
 llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::FeatureSet feature_set);
 

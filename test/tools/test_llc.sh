@@ -36,9 +36,20 @@ check "default model loads" 1 "no such file" -- "$LLC" score --data "$TMP/none.l
 check "simulate negative length" 1 "length-m must be a positive" -- "$LLC" simulate --out "$TMP/sim" --length-m -5
 check "simulate unknown scanner" 1 "scanners must be" -- "$LLC" simulate --out "$TMP/sim" --scanners left
 check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
-check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 400 --seed 2
+check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 600 --seed 1
 check "pairs on sim.log (360 degrees)" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.log" --out "$TMP/sim/pairs.csv"
 head -c 8 "$TMP/sim/world.png" | od -c | grep -q "P   N   G" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: world.png is no PNG"; }
+# Every log-taking subcommand also takes the bag, with topic flags.
+check "pairs on sim.bag" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.bag" --out "$TMP/sim/bag_pairs.csv" --max-per-class 60
+check "features on sim.bag" 0 "features=125" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/sim/f.csv"
+check "train on sim.bag" 0 "rounds=20" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/sim/m.yaml" --rounds 20 --repeats 1
+check "score on sim.bag" 0 "pairs=120" -- "$LLC" score --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/s.csv"
+check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev" --repeats 1 --no-curve --no-ablation
+check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front
+check "bag: a topic of another type" 1 "does not hold sensor_msgs/LaserScan" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --back-topic /odom
+head -c 100000 "$TMP/sim/sim.bag" > "$TMP/cut.bag"
+check "bag: truncated" 1 "cut.bag: (not a readable bag|the bag is damaged)" -- "$LLC" features --log "$TMP/cut.bag" --out "$TMP/f.csv"
+check "simulate bad parking time" 1 "parking-mean-s must be" -- "$LLC" simulate --out "$TMP/sim" --parking-mean-s 0
 
 LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then

@@ -28,6 +28,7 @@ struct SimDriveOptions {
   double rate_hz = 10.0;         ///< scans per second
   double speed = 7.0;            ///< m/s on straights (half of it in turns)
   bool back_scanner = true;      ///< false: front scanner only
+  double parking_mean_s = 1800.0;  ///< s; mean time a parking slot stays occupied or free
   double odometry_distance_noise = 0.02;  ///< relative standard deviation of each step's length
   double odometry_turn_noise = 0.02;      ///< relative standard deviation of each step's turn
   double odometry_turn_per_metre = 0.002; ///< rad/m, standard deviation of heading drift

@@ -38,6 +38,9 @@ struct WorldOptions {
   double block_pitch = 100.0;  ///< m between street centre lines
   double street_width = 20.0;  ///< m from facade line to facade line minus sidewalks
   double duration = 600.0;     ///< s the world must cover (parked-car turnover, movers)
+  /// s; mean time a parking slot stays occupied (or free). Short-stay city-centre parking:
+  /// a street revisited minutes later has some of its cars changed, not all of them.
+  double parking_mean_s = 1800.0;
   std::uint64_t seed = 1;
 };
 

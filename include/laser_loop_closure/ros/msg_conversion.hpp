@@ -1,6 +1,8 @@
 // Conversions between ROS messages and core types: free functions, no state.
 #pragma once
 
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Transform.h>
 #include <sensor_msgs/LaserScan.h>
 
 #include <string>
@@ -21,5 +23,18 @@ bool toScan(const sensor_msgs::LaserScan& msg, const llc::Pose2& mount, llc::Sca
 laser_loop_closure::Scan360 toScan360(const llc::Scan& scan, const std_msgs::Header& header);
 /// False with a reason when ranges and bearings differ in length.
 bool fromScan360(const laser_loop_closure::Scan360& msg, llc::Scan* scan, std::string* error);
+
+/// The planar pose of a 3D pose or transform (x, y, yaw); z, roll and pitch are dropped.
+llc::Pose2 toPose2(const geometry_msgs::Pose& pose);
+geometry_msgs::Pose toPoseMsg(const llc::Pose2& pose);
+geometry_msgs::Transform toTransformMsg(const llc::Pose2& pose);
+/// A scanner mounting from a 3D transform (base frame -> scanner frame). A level mount gives
+/// its planar pose; an upside-down one (rolled by pi) also, with *upside_down set, since its
+/// beams then sweep clockwise seen from above; any other tilt (more than tilt_tolerance rad)
+/// is refused with a reason, because the scan then does not lie in the base plane.
+bool toPlanarMount(const geometry_msgs::Transform& transform, llc::Pose2* mount, bool* upside_down,
+                   std::string* error, double tilt_tolerance = 0.05);
+/// The same scan as seen by an upside-down scanner's mirror: angles negated (sweep reversed).
+sensor_msgs::LaserScan mirrored(const sensor_msgs::LaserScan& msg);
 
 }  // namespace llc_ros
