@@ -109,30 +109,16 @@ Scan rotateScan(const Scan& scan, double angle) {
     for (double& b : rotated.bearings) b -= angle;
     return rotated;
   }
-  // Full circle: the output keeps the input's bearings; the range seen at bearing b after the
-  // turn is what was seen at bearing b + angle before it.
-  const double first = scan.bearings.front();
-  for (std::size_t j = 0; j < n; ++j) {
-    double target = scan.bearings[j] + angle;
-    target = first + std::fmod(std::fmod(target - first, 2.0 * M_PI) + 2.0 * M_PI, 2.0 * M_PI);
-    const auto upper = std::upper_bound(scan.bearings.begin(), scan.bearings.end(), target);
-    const std::size_t hi = std::size_t(upper - scan.bearings.begin()) % n;
-    const std::size_t lo = (hi + n - 1) % n;
-    double span = scan.bearings[hi] - scan.bearings[lo];
-    double offset = target - scan.bearings[lo];
-    if (span <= 0.0) span += 2.0 * M_PI;
-    if (offset < 0.0) offset += 2.0 * M_PI;
-    const double t = span > 0.0 ? std::clamp(offset / span, 0.0, 1.0) : 0.0;
-    const double r0 = scan.ranges[lo], r1 = scan.ranges[hi];
-    // Interpolate along one surface; across a depth edge, or without a return, take the
-    // nearer beam as a scanner would (interpolating there would invent a phantom point).
-    const bool same_surface =
-        hasReturn(r0) && hasReturn(r1) && std::abs(r0 - r1) <= 0.05 + 0.1 * std::min(r0, r1);
-    if (same_surface)
-      rotated.ranges[j] = (1.0 - t) * r0 + t * r1;
-    else
-      rotated.ranges[j] = t < 0.5 ? r0 : r1;
+  // Full circle: every point turns about the base origin (bearing - angle, wrapped into
+  // [-pi, pi)) and the beams are put back in increasing order, a cyclic shift. Exact for any
+  // angle and any beam layout, including merged scans whose beams are not evenly spaced.
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    rotated.bearings[i] = normalizeAngle(scan.bearings[i] - angle);
+    if (rotated.bearings[i] < rotated.bearings[first]) first = i;
   }
+  std::rotate(rotated.bearings.begin(), rotated.bearings.begin() + long(first), rotated.bearings.end());
+  std::rotate(rotated.ranges.begin(), rotated.ranges.begin() + long(first), rotated.ranges.end());
   return rotated;
 }
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/range_profile.hpp"
 #include "laser_loop_closure/core/scan.hpp"
 #include "laser_loop_closure/core/se2.hpp"
 #include "test_util.hpp"
@@ -77,11 +79,43 @@ TEST(Scan, RotateFullCircleByWholeBeamsIsACyclicShift) {
   for (int i = 0; i < 8; ++i) ranges.push_back(1.0 + i);
   const llc::Scan scan = llc_test::ringScan(ranges);
   const llc::Scan turned = llc::rotateScan(scan, 2.0 * (2.0 * M_PI / 8));  // two beams
-  for (std::size_t j = 0; j < 8; ++j) EXPECT_NEAR(turned.ranges[j], ranges[(j + 2) % 8], 1e-9);
+  for (std::size_t j = 0; j < 8; ++j) {
+    EXPECT_NEAR(turned.ranges[j], ranges[(j + 2) % 8], 1e-9);
+    EXPECT_NEAR(turned.bearings[j], scan.bearings[j], 1e-12);
+  }
   // Partial scans turn their bearings.
   llc::Scan partial = scan;
   partial.full_circle = false;
   EXPECT_NEAR(llc::rotateScan(partial, 0.5).bearings[0], scan.bearings[0] - 0.5, 1e-12);
+}
+
+TEST(Scan, RotatingAMergedScanByAnyAngleKeepsEveryClosedRingFeature) {
+  // A front and a back scanner at different offsets merge into unevenly spaced beams; a turn
+  // by an angle that is no multiple of anything must leave the points' shape, and with it
+  // every scalar feature of the closed ring, unchanged (the range profile is binned by
+  // bearing, so only its best-rotation distance is invariant, to a sector).
+  const llc::ScannerGeometry g{-M_PI / 2, M_PI / 360, 80.0};
+  std::vector<double> front, back;
+  for (int i = 0; i < 361; ++i) {
+    front.push_back(6.0 + 3.0 * std::sin(0.05 * i) + (i % 37 == 0 ? 1e9 : 0.0));
+    back.push_back(4.0 + 0.01 * i);
+  }
+  const llc::Scan merged = llc::mergeScans(llc::scanFromRanges(front, g, {1.5, 0.0, 0.0}),
+                                           llc::scanFromRanges(back, g, {-1.0, 0.0, M_PI}));
+  ASSERT_TRUE(merged.full_circle);
+  llc::FeatureExtractor extractor;
+  const std::vector<double> before = extractor.extract(merged);
+  const std::size_t scalars = llc::scalarFeatureCount(llc::FeatureSet::kExtended);
+  for (const double angle : {2.0, -1.234, M_PI, 0.5 * M_PI / 360}) {
+    const llc::Scan turned = llc::rotateScan(merged, angle);
+    ASSERT_EQ(turned.size(), merged.size());
+    for (std::size_t i = 1; i < turned.size(); ++i) ASSERT_LT(turned.bearings[i - 1], turned.bearings[i]);
+    const std::vector<double> after = extractor.extract(turned);
+    for (std::size_t f = 0; f < scalars; ++f)
+      EXPECT_NEAR(after[f], before[f], 1e-9 * std::max(1.0, std::abs(before[f])))
+          << llc::featureNames(llc::FeatureSet::kExtended)[f] << " at " << angle;
+    EXPECT_LT(llc::profileDistance(before.data() + scalars, after.data() + scalars), 0.35);
+  }
 }
 
 }  // namespace

@@ -51,9 +51,9 @@ struct ScanMergeOptions {
 /// return that falls into its angular cell (+inf when none does).
 Scan mergeScans(const Scan& front, const Scan& back, const ScanMergeOptions& options = {});
 
-/// The scan a scanner would have produced after the robot turned by `angle` on the spot:
-/// a full-circle scan is re-sampled on its own bearings (cyclic shift plus linear
-/// interpolation of the fractional beam); a partial scan has its bearings rotated.
+/// The scan seen after the robot turned by `angle` on the spot: every bearing decreases by
+/// `angle`. A full-circle scan has its bearings wrapped into [-pi, pi) and its beams put back
+/// in increasing order (a cyclic shift), so any angle is exact for any beam layout.
 Scan rotateScan(const Scan& scan, double angle);
 
 }  // namespace llc
