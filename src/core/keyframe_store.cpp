@@ -15,6 +15,7 @@ namespace {
 /// in cache while all stumps pass over them.
 constexpr std::size_t kBlock = 2048;
 
+
 /// Hot loops get an AVX2 twin that the loader picks on CPUs that have it (GCC target_clones).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define LLC_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
@@ -220,12 +221,32 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   std::vector<Stump> cheap, profile;
   for (const Stump& s : classifier.stumps())
     (layout.kind(std::size_t(s.feature)) == StumpKind::kProfile ? profile : cheap).push_back(s);
+  // (Ordering by alpha per unit of work instead, a signature stump costing 3 or 8 scalar
+  // ones, measured slower in BM_QueryKeyframes: the heavy stumps prune more.)
   std::stable_sort(cheap.begin(), cheap.end(), [](const Stump& a, const Stump& b) { return a.alpha > b.alpha; });
   double profile_alpha = 0.0, lowest_profile_threshold = kProfileNoOverlap;
   for (const Stump& s : profile) {
     profile_alpha += s.alpha;
     lowest_profile_threshold = std::min(lowest_profile_threshold, s.threshold);
   }
+  // Profile stumps that vote "match" below their threshold, largest threshold first: a keyframe
+  // that still needs r of their alpha needs a distance below the threshold where their
+  // cumulated alpha first reaches r, so the profile distance may give up at that threshold.
+  bool profile_all_below = true;
+  for (const Stump& s : profile) profile_all_below = profile_all_below && s.polarity > 0;
+  std::vector<Stump> profile_by_threshold = profile;
+  std::sort(profile_by_threshold.begin(), profile_by_threshold.end(),
+            [](const Stump& a, const Stump& b) { return a.threshold > b.threshold; });
+  const double alpha_margin = 1e-9 * alpha_sum;  // cumulated alpha in another order: stay safe
+  auto rejectAbove = [&](double still_needed) {
+    if (!profile_all_below || still_needed <= alpha_margin) return kProfileNoOverlap;
+    double cumulated = 0.0;
+    for (const Stump& s : profile_by_threshold) {
+      cumulated += s.alpha;
+      if (cumulated >= still_needed - alpha_margin) return std::min(s.threshold, kProfileNoOverlap);
+    }
+    return -1.0;  // cannot reach K whatever the distance (the alive test keeps none such)
+  };
   std::vector<double> remaining(cheap.size() + 1, profile_alpha);  // alpha of cheap[i..] and profile
   for (std::size_t i = cheap.size(); i-- > 0;) remaining[i] = remaining[i + 1] + cheap[i].alpha;
   // A keyframe is dropped when even every stump to come cannot lift it to K; the margin keeps
@@ -302,10 +323,20 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
       // The profile distance, once per keyframe still in the race, for every profile stump.
       if (!profile.empty()) {
         std::size_t kept = 0;
-        for (std::size_t k : alive) {
+        constexpr std::size_t kAhead = 4;  // survivors are scattered: fetch their rows early
+        auto prefetchRow = [&](std::size_t k) {
+          const char* row = reinterpret_cast<const char*>(profiles_.data() + (begin + k) * profile_size_);
+          const std::size_t bytes = profile_size_ * sizeof(float);
+          for (std::size_t byte = 0; byte < bytes; byte += 64) __builtin_prefetch(row + byte);
+          __builtin_prefetch(row + bytes - 1);  // rows need not start on a cache line
+        };
+        for (std::size_t i = 0; i < kAhead && i < alive.size(); ++i) prefetchRow(alive[i]);
+        for (std::size_t i = 0; i < alive.size(); ++i) {
+          const std::size_t k = alive[i];
+          if (i + kAhead < alive.size()) prefetchRow(alive[i + kAhead]);
           // Below every profile threshold, every profile stump's vote is known: stop there.
           const double value = profileDistance(query_profile.data(), profiles_.data() + (begin + k) * profile_size_,
-                                               lowest_profile_threshold);
+                                               lowest_profile_threshold, rejectAbove(needed - partial[k]));
           for (const Stump& s : profile) partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
           if (partial[k] >= needed) alive[kept++] = k;
         }

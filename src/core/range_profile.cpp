@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 namespace llc {
@@ -53,9 +55,10 @@ double profileDistance(const double* a, const double* b) {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))  // an AVX2 twin, picked on CPUs that have it
 #endif
-double profileDistance(const float* a, const float* b, double stop_below) {
+double profileDistance(const float* a, const float* b, double stop_below, double reject_at_or_above) {
   constexpr std::size_t n = kProfileSectors;
   constexpr float empty = float(kProfileEmpty);
+  static_assert(kProfileSectors < 64, "sector masks are 64-bit words");
   // Eight lanes (GCC/Clang vector extension: one AVX register, or two SSE/NEON ones): lane l
   // sums the sectors s = l mod 8, a fixed order of additions, so every caller and every CPU
   // gets the same bits. a is padded with empty sectors to a multiple of 8; b is doubled, so
@@ -63,38 +66,57 @@ double profileDistance(const float* a, const float* b, double stop_below) {
   typedef float Lanes __attribute__((vector_size(32)));
   typedef int Bits __attribute__((vector_size(32)));
   constexpr std::size_t padded = (n + 7) / 8 * 8;
-  alignas(32) float ma[padded] = {}, va[padded] = {}, mb[n + padded] = {}, vb[n + padded] = {};
-  std::size_t count_a = 0, count_b = 0;
+  // Filled element by element: zero-initialising these small arrays (rep stos) cost more
+  // than the arithmetic below.
+  alignas(32) float ma[padded], va[padded], mb[n + padded], vb[n + padded];
+  std::uint64_t bits_a = 0, bits_b = 0;  // sector s present: bit s
   for (std::size_t s = 0; s < n; ++s) {
     const bool has_a = a[s] != empty, has_b = b[s] != empty;
     ma[s] = has_a ? 1.0f : 0.0f;
     va[s] = has_a ? a[s] : 0.0f;
     mb[s] = has_b ? 1.0f : 0.0f;
     vb[s] = has_b ? b[s] : 0.0f;
-    count_a += has_a;
-    count_b += has_b;
+    bits_a |= std::uint64_t(has_a) << s;
+    bits_b |= std::uint64_t(has_b) << s;
   }
-  for (std::size_t s = n; s < n + padded && s < 2 * n; ++s) mb[s] = mb[s - n], vb[s] = vb[s - n];
-  const float needed = std::max(1.0f, std::ceil(float(kProfileMinOverlap) * float(std::min(count_a, count_b))));
+  for (std::size_t s = n; s < padded; ++s) ma[s] = 0.0f, va[s] = 0.0f;
+  for (std::size_t s = n; s < n + padded; ++s) {
+    mb[s] = s < 2 * n ? mb[s - n] : 0.0f;
+    vb[s] = s < 2 * n ? vb[s - n] : 0.0f;
+  }
+  const int count_a = __builtin_popcountll(bits_a), count_b = __builtin_popcountll(bits_b);
+  const int needed = std::max(1, int(std::ceil(float(kProfileMinOverlap) * float(std::min(count_a, count_b)))));
+  const std::uint64_t all = (std::uint64_t(1) << n) - 1;
   const Bits magnitude = ~(Bits)(Lanes{-0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f});
+  auto reduce = [](const Lanes& v) { return ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7])); };
   double best = kProfileNoOverlap;
   for (std::size_t shift = 0; shift < n; ++shift) {
-    Lanes sum = {}, overlap = {};
+    // Sectors shared at this rotation (sector j of a against sector j + shift of b), counted
+    // from the masks first: a rotation without enough overlap costs no arithmetic.
+    const std::uint64_t rotated = shift == 0 ? bits_b : ((bits_b >> shift) | (bits_b << (n - shift))) & all;
+    const int shared = __builtin_popcountll(bits_a & rotated);
+    if (shared < needed) continue;
+    // Sums of non-negative terms only grow (rounding is monotone), so a partial sum already at
+    // the limit proves this rotation cannot go below min(best, reject_at_or_above).
+    // Rounded up: float() of a value 2^-22 larger is still at least the bound.
+    const float limit = float(std::min(best, reject_at_or_above) * double(shared) * (1.0 + 0x1p-22));
+    Lanes sum = {};
+    bool beaten = false;
     for (std::size_t s = 0; s < padded; s += 8) {
       Lanes xa, xm, ya, ym;
       std::memcpy(&xa, va + s, sizeof xa);
       std::memcpy(&xm, ma + s, sizeof xm);
       std::memcpy(&ya, vb + s + shift, sizeof ya);
       std::memcpy(&ym, mb + s + shift, sizeof ym);
-      const Lanes m = xm * ym;
       const Lanes difference = (Lanes)((Bits)(xa - ya) & magnitude);  // |x| by clearing the sign bit
-      sum += m * difference;
-      overlap += m;
+      sum += (xm * ym) * difference;
+      if (s == 16 && reduce(sum) >= limit) {
+        beaten = true;
+        break;
+      }
     }
-    const float total = ((sum[0] + sum[1]) + (sum[2] + sum[3])) + ((sum[4] + sum[5]) + (sum[6] + sum[7]));
-    const float shared =
-        ((overlap[0] + overlap[1]) + (overlap[2] + overlap[3])) + ((overlap[4] + overlap[5]) + (overlap[6] + overlap[7]));
-    if (shared >= needed) best = std::min(best, double(total) / double(shared));
+    if (beaten) continue;
+    best = std::min(best, double(reduce(sum)) / double(shared));
     if (best < stop_below) break;
   }
   return best;

@@ -99,3 +99,34 @@ TEST(RangeProfile, PairDistanceIsZeroForAnyWholeSectorTurnOfAFullScan) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(RangeProfile, GivingUpAtALimitNeverChangesADistanceBelowIt) {
+  // Random profiles with empty sectors (180-degree scans leave half empty): with a limit the
+  // distance is bit for bit the full one when that is below the limit, and at least the
+  // limit otherwise.
+  llc::Random random(21);
+  std::size_t below = 0, above = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    float a[kProfileSectors], b[kProfileSectors];
+    for (std::size_t s = 0; s < kProfileSectors; ++s) {
+      a[s] = random.uniform() < 0.3 ? float(llc::kProfileEmpty) : float(random.uniform(0.0, 4.0));
+      b[s] = random.uniform() < 0.3 ? float(llc::kProfileEmpty) : float(random.uniform(0.0, 4.0));
+    }
+    const double full = llc::profileDistance(a, b);
+    const double limit = random.uniform(0.2, 1.6);
+    const double limited = llc::profileDistance(a, b, -1.0, limit);
+    if (full < limit) {
+      ++below;
+      EXPECT_EQ(limited, full) << "trial " << trial;
+    } else {
+      ++above;
+      EXPECT_GE(limited, limit) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(below, 300u);
+  EXPECT_GT(above, 300u);
+}
+
+}  // namespace

@@ -40,6 +40,10 @@ double profileDistance(const double* a, const double* b);
 /// The same; with stop_below > 0 it may stop at the first rotation closer than stop_below and
 /// return that distance (which is then below stop_below, as the minimum is): enough for a
 /// classifier whose profile thresholds are all at or above stop_below, and cheaper.
-double profileDistance(const float* a, const float* b, double stop_below = -1.0);
+/// With reject_at_or_above finite it may also give up on a pair whose distance is at least
+/// that, and then returns some value >= reject_at_or_above (for a classifier that drops the
+/// pair whenever the distance is that large).
+double profileDistance(const float* a, const float* b, double stop_below = -1.0,
+                       double reject_at_or_above = kProfileNoOverlap);
 
 }  // namespace llc
