@@ -497,13 +497,17 @@ const std::vector<std::string>& pairFeatureNames(FeatureSet set) {
   return set == FeatureSet::kPaper ? featureNames(set) : extended;
 }
 
+double signatureMagnitude(const double* signature) {
+  double sum = 0.0;
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) sum += signature[q] < 0 ? -signature[q] : signature[q];
+  return sum;
+}
+
 double signatureDistance(std::size_t index, const double* a, const double* b) {
-  double distance = 0.0, scale = 0.0;
-  for (std::size_t q = 0; q < kSignatureLevels; ++q) {
-    distance += a[q] > b[q] ? a[q] - b[q] : b[q] - a[q];
-    scale += (a[q] < 0 ? -a[q] : a[q]) + (b[q] < 0 ? -b[q] : b[q]);
-  }
+  double distance = 0.0;
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) distance += a[q] > b[q] ? a[q] - b[q] : b[q] - a[q];
   if (index == 0) return distance / double(kSignatureLevels);
+  const double scale = signatureMagnitude(a) + signatureMagnitude(b);
   return scale > 0.0 ? distance / scale : 0.0;
 }
 

@@ -105,51 +105,61 @@ void addScalarStump(const Stump& s, std::size_t scalars, double q, const float* 
   }
 }
 
-/// d[k], w[k] for keyframes begin..begin+width: the sums signatureDistance forms for one
-/// signature (first_column.. its kSignatureLevels columns), quantile by quantile.
+/// d[k] for keyframes begin..begin+width: the sum of absolute quantile differences that
+/// signatureDistance forms for one signature (first_column.. its kSignatureLevels columns).
 LLC_VECTOR_CLONES
 void addSignatureDistances(const std::vector<std::vector<float>>& columns, std::size_t first_column,
-                           const double* query_signature, std::size_t begin, std::size_t width, double* d,
-                           double* w) {
+                           const double* query_signature, std::size_t begin, std::size_t width, double* d) {
   std::fill(d, d + width, 0.0);
-  std::fill(w, w + width, 0.0);
   for (std::size_t q = 0; q < kSignatureLevels; ++q) {
     const float* column = columns[first_column + q].data() + begin;
-    const double v = query_signature[q], v_abs = std::fabs(v);
-    for (std::size_t k = 0; k < width; ++k) {
-      const double c = column[k];
-      d[k] += std::fabs(v - c);
-      w[k] += v_abs + std::fabs(c);
-    }
+    const double v = query_signature[q];
+    for (std::size_t k = 0; k < width; ++k) d[k] += std::fabs(v - double(column[k]));
   }
 }
 
-/// Signature distance of the query to keyframe `k` (relative or not), as signatureDistance.
-double signatureValue(const std::vector<std::vector<float>>& columns, std::size_t first_column,
-                      const double* query_signature, std::size_t k, bool relative) {
-  double distance = 0.0, scale = 0.0;
+/// Signature value from the distance sum d and the two magnitudes, as signatureDistance.
+inline double signatureFromSums(double d, double query_magnitude, double keyframe_magnitude, bool relative) {
+  if (!relative) return d / double(kSignatureLevels);
+  const double scale = query_magnitude + keyframe_magnitude;
+  return scale > 0.0 ? d / scale : 0.0;
+}
+
+/// Signature distance sum of the query to keyframe `k`, as signatureDistance forms it.
+double signatureSum(const std::vector<std::vector<float>>& columns, std::size_t first_column,
+                    const double* query_signature, std::size_t k) {
+  double distance = 0.0;
   for (std::size_t q = 0; q < kSignatureLevels; ++q) {
     const double v = query_signature[q], c = columns[first_column + q][k];
     distance += v > c ? v - c : c - v;
-    scale += (v < 0 ? -v : v) + (c < 0 ? -c : c);
   }
-  if (!relative) return distance / double(kSignatureLevels);
-  return scale > 0.0 ? distance / scale : 0.0;
+  return distance;
 }
 
 }  // namespace
 
 KeyframeStore::KeyframeStore(FeatureSet set)
-    : set_(set), columns_(scalarFeatureCount(set)), profile_size_(llc::featureCount(set) - scalarFeatureCount(set)) {}
+    : set_(set),
+      columns_(scalarFeatureCount(set)),
+      profile_size_(llc::featureCount(set) - scalarFeatureCount(set)),
+      magnitudes_(signatureCount(set)) {}
 
 void KeyframeStore::reserve(std::size_t keyframes) {
   for (auto& column : columns_) column.reserve(keyframes);
+  for (auto& magnitude : magnitudes_) magnitude.reserve(keyframes);
   profiles_.reserve(keyframes * profile_size_);
 }
 
 std::size_t KeyframeStore::add(const double* features) {
   for (std::size_t f = 0; f < columns_.size(); ++f) columns_[f].push_back(float(features[f]));
   for (std::size_t p = 0; p < profile_size_; ++p) profiles_.push_back(float(features[columns_.size() + p]));
+  // Each signature's magnitude, from the values as stored (float), for relative distances.
+  const std::size_t offset = signatureOffset(set_);
+  for (std::size_t g = 0; g < magnitudes_.size(); ++g) {
+    double stored[kSignatureLevels];
+    for (std::size_t q = 0; q < kSignatureLevels; ++q) stored[q] = double(columns_[offset + g * kSignatureLevels + q].back());
+    magnitudes_[g].push_back(signatureMagnitude(stored));
+  }
   return size_++;
 }
 
@@ -188,8 +198,12 @@ void KeyframeStore::scoreAll(const StrongClassifier& classifier, const double* q
           break;
         case StumpKind::kSignature: {
           const std::size_t g = layout.signature(f), first = offset + g * kSignatureLevels;
-          for (std::size_t k = begin; k < end; ++k)
-            out[k] += s.votesMatch(signatureValue(columns_, first, query + first, k, layout.relative(f))) ? s.alpha : 0.0;
+          const double query_magnitude = signatureMagnitude(query + first);
+          for (std::size_t k = begin; k < end; ++k) {
+            const double value = signatureFromSums(signatureSum(columns_, first, query + first, k), query_magnitude,
+                                                   magnitudes_[g][k], layout.relative(f));
+            out[k] += s.votesMatch(value) ? s.alpha : 0.0;
+          }
           break;
         }
         case StumpKind::kProfile:
@@ -257,19 +271,19 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   // Each thread takes a contiguous run of whole blocks, with its own work arrays.
   auto scanRange = [&](std::size_t range_begin, std::size_t range_end, std::vector<LoopCandidate>* found) {
     const std::size_t signatures = signatureCount(set_);
-    std::vector<double> partial(kBlock), distance(signatures * kBlock), scale(signatures * kBlock);
+    std::vector<double> partial(kBlock), distance(signatures * kBlock), query_magnitude(signatures);
+    for (std::size_t g = 0; g < signatures; ++g) query_magnitude[g] = signatureMagnitude(query + offset + g * kSignatureLevels);
     std::vector<char> signature_ready(signatures);
     std::vector<std::size_t> alive;
     std::vector<float> query_profile(query + n, query + n + profile_size_);
     auto denseSignature = [&](std::size_t g, std::size_t begin, std::size_t width) {
       addSignatureDistances(columns_, offset + g * kSignatureLevels, query + offset + g * kSignatureLevels, begin,
-                            width, distance.data() + g * kBlock, scale.data() + g * kBlock);
+                            width, distance.data() + g * kBlock);
       signature_ready[g] = 1;
     };
-    auto signatureOf = [&](std::size_t f, std::size_t k) {
+    auto signatureOf = [&](std::size_t f, std::size_t begin, std::size_t k) {
       const std::size_t g = layout.signature(f);
-      const double d = distance[g * kBlock + k], w = scale[g * kBlock + k];
-      return layout.relative(f) ? d / (w > 0.0 ? w : 1.0) : d / double(kSignatureLevels);  // w = 0 means d = 0
+      return signatureFromSums(distance[g * kBlock + k], query_magnitude[g], magnitudes_[g][begin + k], layout.relative(f));
     };
 
     for (std::size_t begin = range_begin; begin < range_end; begin += kBlock) {
@@ -286,7 +300,7 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
           addScalarStump(s, n, query[f % n], columns_[f % n].data() + begin, width, partial.data());
         } else {
           if (!signature_ready[layout.signature(f)]) denseSignature(layout.signature(f), begin, width);
-          for (std::size_t k = 0; k < width; ++k) partial[k] += s.votesMatch(signatureOf(f, k)) ? s.alpha : 0.0;
+          for (std::size_t k = 0; k < width; ++k) partial[k] += s.votesMatch(signatureOf(f, begin, k)) ? s.alpha : 0.0;
         }
         ++i;
         if (i % kCheckEvery == 0 || i == cheap.size()) {
@@ -310,10 +324,11 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
           if (layout.kind(f) == StumpKind::kScalar) {
             value = pairFeatureValue(f, n, query[f % n], double(columns_[f % n][begin + k]));
           } else if (signature_ready[layout.signature(f)]) {
-            value = signatureOf(f, k);
+            value = signatureOf(f, begin, k);
           } else {
-            const std::size_t first = offset + layout.signature(f) * kSignatureLevels;
-            value = signatureValue(columns_, first, query + first, begin + k, layout.relative(f));
+            const std::size_t g = layout.signature(f), first = offset + g * kSignatureLevels;
+            value = signatureFromSums(signatureSum(columns_, first, query + first, begin + k), query_magnitude[g],
+                                      magnitudes_[g][begin + k], layout.relative(f));
           }
           partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
           if (partial[k] + remaining[i + 1] >= needed) alive[kept++] = k;

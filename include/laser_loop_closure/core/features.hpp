@@ -51,8 +51,11 @@ constexpr std::size_t kSignatureCount = 3;
 std::size_t signatureCount(FeatureSet set);
 std::size_t signatureOffset(FeatureSet set);
 /// Wasserstein-1 distance of two signatures (the mean absolute difference of their
-/// quantiles); relative = that sum divided by the sum of absolute quantiles (kind 1).
+/// quantiles); relative = that sum divided by signatureMagnitude(a) + signatureMagnitude(b)
+/// (kind 1), so that a store of signatures can keep each one's magnitude.
 double signatureDistance(std::size_t kind, const double* a, const double* b);
+/// Sum of the absolute quantiles of one signature, in quantile order.
+double signatureMagnitude(const double* signature);
 /// Short snake_case names, in order (feature i of the vector is names[i]).
 const std::vector<std::string>& featureNames(FeatureSet set);
 

@@ -56,6 +56,7 @@ class KeyframeStore {
   std::vector<std::vector<float>> columns_;  ///< scalar features, one array each
   std::size_t profile_size_;                 ///< range-profile values per keyframe
   std::vector<float> profiles_;              ///< range profiles, keyframe after keyframe
+  std::vector<std::vector<double>> magnitudes_;  ///< per signature: signatureMagnitude of each keyframe's stored values
   std::size_t size_ = 0;
 };
 
