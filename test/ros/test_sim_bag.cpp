@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -234,6 +235,53 @@ TEST(SimBag, BadBagsAndTopicsGiveAClearError) {
   wrong = {};
   wrong.topics.front = "/nothing";
   EXPECT_THROW(llc_ros::readBagSequence(dir.file("sim.bag"), wrong), llc_ros::BagError);
+}
+
+TEST(SimBag, MalformedAndOutOfOrderScansAreSkippedAndAMissingMountIsAnError) {
+  llc_test::TempDir dir;
+  auto scanAt = [](double t, float increment) {
+    sensor_msgs::LaserScan scan;
+    scan.header.stamp = ros::Time(t);
+    scan.header.frame_id = "laser";
+    scan.angle_min = -0.5f, scan.angle_increment = increment, scan.angle_max = 0.5f;
+    scan.range_min = 0.1f, scan.range_max = 30.0f;
+    scan.ranges = {2.0f, std::numeric_limits<float>::quiet_NaN(), -1.0f};
+    return scan;
+  };
+  {
+    rosbag::Bag bag(dir.file("odd.bag"), rosbag::bagmode::Write);
+    tf2_msgs::TFMessage tf;
+    geometry_msgs::TransformStamped mount;
+    mount.header.frame_id = "base_link";
+    mount.child_frame_id = "laser";
+    mount.transform.rotation.w = 1.0;
+    tf.transforms.push_back(mount);
+    bag.write("/tf_static", ros::Time(100.0), tf);
+    bag.write("/scan_front", ros::Time(100.0), scanAt(100.0, 0.5f));
+    bag.write("/scan_front", ros::Time(100.1), scanAt(99.0, 0.5f));   // time went backwards
+    bag.write("/scan_front", ros::Time(100.2), scanAt(100.2, 0.0f));  // zero angle increment
+    bag.write("/scan_front", ros::Time(100.3), scanAt(100.3, 0.5f));
+    bag.close();
+  }
+  llc_ros::BagReadReport report;
+  const llc::ScanSequence sequence = llc_ros::readBagSequence(dir.file("odd.bag"), {}, &report);
+  ASSERT_EQ(sequence.scans.size(), 2u);  // the two good ones, in order
+  EXPECT_DOUBLE_EQ(sequence.scans[1].stamp, 100.3);
+  EXPECT_EQ(report.skipped_scans, 2u);
+  EXPECT_NE(report.first_problem.find("not newer"), std::string::npos) << report.first_problem;
+  EXPECT_TRUE(report.truth_from_odometry);
+  EXPECT_TRUE(std::isnan(sequence.scans[0].scan.ranges[1]));  // NaN passed on for the features to judge
+  {
+    rosbag::Bag bag(dir.file("nomount.bag"), rosbag::bagmode::Write);
+    bag.write("/scan_front", ros::Time(100.0), scanAt(100.0, 0.5f));
+    bag.close();
+  }
+  try {
+    llc_ros::readBagSequence(dir.file("nomount.bag"));
+    FAIL() << "a scanner without a mounting was accepted";
+  } catch (const llc_ros::BagError& e) {
+    EXPECT_NE(std::string(e.what()).find("no mounting of scanner frame 'laser'"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
