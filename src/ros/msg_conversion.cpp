@@ -74,12 +74,20 @@ llc::Pose2 toPose2(const geometry_msgs::Pose& pose) {
   return {pose.position.x, pose.position.y, yaw};
 }
 
+namespace {
+geometry_msgs::Quaternion yawQuaternion(double yaw) {
+  geometry_msgs::Quaternion q;
+  q.z = std::sin(0.5 * yaw);
+  q.w = std::cos(0.5 * yaw);
+  return q;
+}
+}  // namespace
+
 geometry_msgs::Pose toPoseMsg(const llc::Pose2& pose) {
   geometry_msgs::Pose msg;
   msg.position.x = pose.x;
   msg.position.y = pose.y;
-  msg.orientation.z = std::sin(0.5 * pose.theta);
-  msg.orientation.w = std::cos(0.5 * pose.theta);
+  msg.orientation = yawQuaternion(pose.theta);
   return msg;
 }
 
@@ -87,8 +95,7 @@ geometry_msgs::Transform toTransformMsg(const llc::Pose2& pose) {
   geometry_msgs::Transform msg;
   msg.translation.x = pose.x;
   msg.translation.y = pose.y;
-  msg.rotation.z = std::sin(0.5 * pose.theta);
-  msg.rotation.w = std::cos(0.5 * pose.theta);
+  msg.rotation = yawQuaternion(pose.theta);
   return msg;
 }
 
