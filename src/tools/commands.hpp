@@ -1,6 +1,7 @@
 // The llc subcommands; each returns the process exit code.
 #pragma once
 
+#include "laser_loop_closure/core/scan_aligner.hpp"
 #include "tool_common.hpp"
 
 namespace llc_tool {
@@ -10,4 +11,9 @@ int runTrain(const Args& args);
 int runScore(const Args& args);
 int runEvaluate(const Args& args);
 int runSimulate(const Args& args);
+int runAlign(const Args& args);
+int runTrainCrf(const Args& args);
+/// Alignment options from --max-range, --validation-distance, --validation-share, --crf-weights.
+llc::ScanAlignerOptions alignerOptions(const Args& args);
+extern const std::vector<std::string> kAlignerFlags;
 }  // namespace llc_tool

@@ -57,6 +57,14 @@ const std::vector<Command>& commands() {
       {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},
        "simulate --out DIR [--seed 1] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]\n"
        "      [--parking-mean-s 1800]"},
+      {"align", llc_tool::runAlign,
+       with(with({"data", "out", "model", "tolerance-m", "tolerance-deg"}, llc_tool::kAlignerFlags), kInputFlags),
+       {"compare-pcl"},
+       "align --data LOG:PAIRS [...] --out ALIGN.csv [--model MODEL.yaml] [--compare-pcl]\n"
+       "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
+      {"train-crf", llc_tool::runTrainCrf,
+       with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
+       "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},
   };
   return list;
 }
@@ -64,6 +72,8 @@ const std::vector<Command>& commands() {
 void usage(std::ostream& out) {
   out << "usage: llc SUBCOMMAND [options]\n";
   for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
+  out << "alignment options: [--max-range 40] [--validation-distance 1] [--validation-share 0.9]\n"
+         "  [--crf-weights CRF.yaml]\n";
   out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
          "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";
 }

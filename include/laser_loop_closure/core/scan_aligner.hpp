@@ -1,0 +1,56 @@
+// The alignment stage of a loop-closure candidate: CRF-match (no initial guess), then ICP,
+// then shape validation. One class for the nodelet and the offline tools.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "laser_loop_closure/core/crf_match.hpp"
+#include "laser_loop_closure/core/icp.hpp"
+#include "laser_loop_closure/core/shape_validation.hpp"
+
+namespace llc {
+
+struct ScanAlignerOptions {
+  double max_range = 40.0;  ///< m; returns at or beyond this are not aligned (sparse, noisy)
+  double selection_distance = 0.25;  ///< m; of several ICP results, the one with most points this near wins
+  CrfMatchOptions crf{};
+  IcpOptions icp{};
+  ShapeValidationOptions validation{};
+  std::string validate() const;  ///< names the stage whose option is wrong
+};
+
+/// Everything the aligner needs of one scan, computed once (a keyframe keeps it).
+struct PreparedScan {
+  PreparedScan(Points2 points, const ScanAlignerOptions& options);
+  Points2 points;
+  CrfScan crf;
+  IcpTarget icp_target;  ///< its k-d tree also serves shape validation
+};
+
+struct ScanAlignmentResult {
+  bool accepted = false;     ///< aligned and shape-validated
+  Pose2 pose;                ///< scan b in the frame of scan a (valid when icp.converged)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose, from ICP
+  CrfMatchResult crf;
+  IcpResult icp;
+  ShapeValidationResult validation;
+  double seconds = 0.0;      ///< all stages
+  std::string reject_reason;  ///< "crf: ...", "icp: ..." or "validation: ..."; empty when accepted
+};
+
+class ScanAligner {
+ public:
+  /// Throws std::invalid_argument when options.validate() finds a problem.
+  explicit ScanAligner(const ScanAlignerOptions& options = {});
+  const ScanAlignerOptions& options() const { return options_; }
+
+  std::shared_ptr<const PreparedScan> prepare(const Scan& scan) const;
+  /// Aligns b to a with no initial guess.
+  ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b) const;
+
+ private:
+  ScanAlignerOptions options_;
+};
+
+}  // namespace llc

@@ -1,0 +1,73 @@
+#include "laser_loop_closure/core/scan_aligner.hpp"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace llc {
+
+std::string ScanAlignerOptions::validate() const {
+  if (!(max_range > 0.0)) return "max_range must be > 0";
+  if (!(selection_distance > 0.0)) return "selection_distance must be > 0";
+  std::string error = crf.validate();
+  if (!error.empty()) return "crf: " + error;
+  error = icp.validate();
+  if (!error.empty()) return "icp: " + error;
+  error = validation.validate();
+  if (!error.empty()) return "validation: " + error;
+  return "";
+}
+
+PreparedScan::PreparedScan(Points2 points_in, const ScanAlignerOptions& options)
+    : points(std::move(points_in)), crf(describeForCrf(points, options.crf)), icp_target(points, options.icp) {}
+
+ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("alignment options: " + error);
+}
+
+std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const {
+  return std::make_shared<const PreparedScan>(scanPoints(scan, options_.max_range), options_);
+}
+
+ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
+  const auto start = std::chrono::steady_clock::now();
+  ScanAlignmentResult result;
+  auto finish = [&](std::string reason) {
+    result.reject_reason = std::move(reason);
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  };
+  result.crf = matchCrf(b.crf, a.crf, options_.crf);
+  if (!result.crf.ok) return finish("crf: " + result.crf.reject_reason);
+  // ICP from the CRF's transform and from its runners-up; the result that brings the most
+  // points within selection_distance of scan a wins (tighter than validation's d, so that a
+  // result shifted along a corridor loses to the right one).
+  std::vector<Pose2> starts = {result.crf.pose};
+  starts.insert(starts.end(), result.crf.alternatives.begin(), result.crf.alternatives.end());
+  bool any = false;
+  double best_fit = -1.0;
+  ShapeValidationOptions tight = options_.validation;
+  tight.max_distance = options_.selection_distance;
+  for (const Pose2& start_pose : starts) {
+    IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options_.icp);
+    if (!icp.converged) {
+      if (!any && result.icp.reject_reason.empty()) result.icp = icp;
+      continue;
+    }
+    const double fit = validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share;
+    if (!any || fit > best_fit) {
+      result.icp = std::move(icp);
+      best_fit = fit;
+      any = true;
+    }
+  }
+  if (!any) return finish("icp: " + result.icp.reject_reason);
+  result.pose = result.icp.pose;
+  result.covariance = result.icp.covariance;
+  result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation);
+  if (!result.validation.accepted) return finish("validation: " + result.validation.reject_reason);
+  result.accepted = true;
+  return finish("");
+}
+
+}  // namespace llc

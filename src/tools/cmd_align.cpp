@@ -1,0 +1,191 @@
+// llc align: CRF-match + ICP + shape validation on labelled pairs, against the ground truth,
+// optionally side by side with PCL's ICP and GICP started from the identity.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "commands.hpp"
+#include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/crf_training.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "pcl_baselines.hpp"
+
+namespace llc_tool {
+namespace {
+
+/// Share of the positive pairs aligned within tolerance, and timing, for one method.
+struct MethodStats {
+  std::size_t positives = 0, within = 0;
+  std::vector<double> ms;
+  void add(bool positive, const llc::Pose2& estimate, const llc::Pose2& truth, bool ok, double milliseconds,
+           double max_translation, double max_rotation) {
+    ms.push_back(milliseconds);
+    if (!positive) return;
+    ++positives;
+    const llc::Pose2 error = llc::between(truth, estimate);
+    within += ok && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation;
+  }
+  double median() const {
+    if (ms.empty()) return 0.0;
+    std::vector<double> v = ms;
+    std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  }
+};
+
+}  // namespace
+
+const std::vector<std::string> kAlignerFlags = {"max-range", "validation-distance", "validation-share", "crf-weights"};
+
+llc::ScanAlignerOptions alignerOptions(const Args& args) {
+  llc::ScanAlignerOptions options;
+  options.max_range = args.number("max-range", options.max_range);
+  options.validation.max_distance = args.number("validation-distance", options.validation.max_distance);
+  options.validation.min_inlier_share = args.number("validation-share", options.validation.min_inlier_share);
+  if (args.has("crf-weights")) {
+    try {
+      options.crf.weights = llc::loadCrfWeights(args.get("crf-weights", ""));
+    } catch (const llc::CrfWeightsError& e) {
+      throw ToolError(e.what());
+    }
+  }
+  const std::string error = options.validate();
+  if (!error.empty()) throw ToolError(error);
+  return options;
+}
+
+int runAlign(const Args& args) {
+  const std::string out_path = args.required("out");
+  const llc::ScanAligner aligner(alignerOptions(args));
+  const double max_translation = args.number("tolerance-m", 0.2);
+  const double max_rotation = args.number("tolerance-deg", 2.0) * M_PI / 180.0;
+  std::unique_ptr<llc::ClassifierModel> model;
+  if (args.has("model")) {
+    try {
+      model = std::make_unique<llc::ClassifierModel>(llc::loadClassifierModel(args.get("model", "")));
+    } catch (const llc::ModelError& e) {
+      throw ToolError(e.what());
+    }
+  }
+  const std::vector<PairData> data =
+      loadPairData(args.all("data"), model ? model->features : llc::FeatureOptions{}, args);
+  const bool compare = args.has("compare-pcl");
+  std::ofstream out(out_path);
+  if (!out) throw ToolError(out_path + ": cannot write");
+  out << "a,b,label,x,y,theta,inlier_share,accepted,ms\n" << std::setprecision(9);
+
+  MethodStats ours, pcl_icp, pcl_gicp;
+  std::map<std::string, std::size_t> reasons;
+  std::size_t candidates = 0, negatives_classified = 0, negatives_refused = 0, positives_accepted = 0, positives = 0;
+  for (const PairData& item : data) {
+    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
+    auto get = [&](std::size_t i) {
+      auto& slot = prepared[i];
+      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan);
+      return slot;
+    };
+    for (const llc::LabeledPair& p : item.pairs) {
+      if (model) {
+        const std::vector<double> row =
+            llc::pairFeatures(model->features.feature_set, item.features[p.a], item.features[p.b]);
+        if (!model->classifier.isMatch(row.data())) continue;  // not a candidate
+      }
+      ++candidates;
+      const llc::Pose2 truth = llc::between(item.sequence.scans[p.a].truth, item.sequence.scans[p.b].truth);
+      const auto a = get(p.a), b = get(p.b);
+      const llc::ScanAlignmentResult r = aligner.align(*a, *b);
+      const bool aligned = r.icp.converged;
+      ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, max_translation, max_rotation);
+      if (!r.accepted) ++reasons[r.reject_reason.substr(0, r.reject_reason.find(':'))];
+      if (p.label == 1) ++positives, positives_accepted += r.accepted;
+      if (p.label == 0) ++negatives_classified, negatives_refused += !r.accepted;
+      out << p.a << ',' << p.b << ',' << p.label << ',';
+      if (aligned) out << r.pose.x << ',' << r.pose.y << ',' << r.pose.theta;
+      else out << "nan,nan,nan";
+      out << ',' << r.validation.inlier_share << ',' << int(r.accepted) << ',' << 1e3 * r.seconds << '\n';
+      if (compare) {
+        const PclAlignment icp = alignPcl(PclMethod::kIcp, b->points, a->points, aligner.options().icp);
+        pcl_icp.add(p.label == 1, icp.pose, truth, icp.converged, icp.ms, max_translation, max_rotation);
+        const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp);
+        pcl_gicp.add(p.label == 1, gicp.pose, truth, gicp.converged, gicp.ms, max_translation, max_rotation);
+      }
+    }
+  }
+  if (!out) throw ToolError(out_path + ": write failed");
+  std::cout << std::fixed << std::setprecision(4);
+  std::cout << "pairs=" << candidates << (model ? " (accepted by the classifier)" : "") << " positives=" << positives
+            << " -> " << out_path << "\n";
+  for (const auto& [reason, count] : reasons) std::cout << "refused_by_" << reason << "=" << count << "\n";
+  std::cout << "tolerance: " << max_translation << " m, " << max_rotation * 180.0 / M_PI << " deg\n";
+  auto line = [&](const char* name, const MethodStats& s) {
+    std::cout << name << ": within_tolerance=" << (s.positives ? double(s.within) / double(s.positives) : 0.0)
+              << " (" << s.within << "/" << s.positives << ") median_ms=" << s.median() << "\n";
+  };
+  line("crf_icp", ours);
+  if (compare) {
+    line("pcl_icp_identity", pcl_icp);
+    line("pcl_gicp_identity", pcl_gicp);
+  }
+  std::cout << "positives_accepted=" << (positives ? double(positives_accepted) / double(positives) : 0.0) << "\n";
+  std::cout << "negatives_refused=" << (negatives_classified ? double(negatives_refused) / double(negatives_classified) : 0.0)
+            << " (" << negatives_refused << "/" << negatives_classified << ")\n";
+  return 0;
+}
+
+}  // namespace llc_tool
+
+namespace llc_tool {
+
+int runTrainCrf(const Args& args) {
+  const std::string out_path = args.required("out");
+  const llc::ScanAligner aligner(alignerOptions(args));
+  llc::CrfTrainingOptions training;
+  training.epochs = int(args.integer("epochs", training.epochs));
+  training.seed = std::uint64_t(args.integer("seed", long(training.seed)));
+  const std::string invalid = training.validate();
+  if (!invalid.empty()) throw ToolError(invalid);
+  const std::vector<std::string> specs = args.all("data");
+  const std::vector<PairData> data = loadPairData(specs, llc::FeatureOptions{}, args);
+  std::vector<std::shared_ptr<const llc::PreparedScan>> keep;
+  std::vector<llc::CrfTrainingPair> pairs;
+  for (const PairData& item : data) {
+    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
+    auto get = [&](std::size_t i) {
+      auto& slot = prepared[i];
+      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan), keep.push_back(slot);
+      return slot.get();
+    };
+    for (const llc::LabeledPair& p : item.pairs) {
+      if (p.label != 1) continue;
+      // Source b in the frame of target a, as the aligner uses them.
+      pairs.push_back({&get(p.b)->crf, &get(p.a)->crf,
+                       llc::between(item.sequence.scans[p.a].truth, item.sequence.scans[p.b].truth)});
+    }
+  }
+  if (pairs.empty()) throw ToolError("no positive pairs to learn from");
+  const llc::CrfTrainingResult result = llc::trainCrfWeights(pairs, aligner.options().crf, training);
+  std::ostringstream data_text;
+  for (const std::string& spec : specs) data_text << (data_text.tellp() ? " " : "") << spec;
+  std::ostringstream errors;
+  for (double e : result.error_by_epoch) errors << (errors.tellp() ? " " : "") << std::setprecision(4) << e;
+  try {
+    llc::saveCrfWeights(result.weights, {{"data", data_text.str()}, {"positive_pairs", std::to_string(pairs.size())},
+                                         {"epochs", std::to_string(training.epochs)}, {"error_by_epoch", errors.str()}},
+                        out_path);
+  } catch (const llc::CrfWeightsError& e) {
+    throw ToolError(e.what());
+  }
+  std::cout << "positive_pairs=" << pairs.size() << " node_error_by_epoch=" << errors.str() << " -> " << out_path << "\n";
+  const auto w = result.weights.asArray();
+  std::cout << "weights=";
+  for (std::size_t q = 0; q < w.size(); ++q) std::cout << (q ? "," : "") << std::setprecision(3) << w[q];
+  std::cout << "\n";
+  return 0;
+}
+
+}  // namespace llc_tool

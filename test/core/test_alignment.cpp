@@ -1,0 +1,355 @@
+// Alignment with no initial guess: rigid fits, k-d tree, ICP, CRF-match, shape validation and
+// the whole ScanAligner, on scans ray-cast in a small synthetic room.
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <cmath>
+#include <limits>
+
+#include "laser_loop_closure/core/crf_training.hpp"
+#include "laser_loop_closure/core/random.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+using llc::Point2;
+using llc::Points2;
+using llc::Pose2;
+
+struct Wall {
+  Point2 a, b;
+};
+
+/// An irregular room (12 x 8 m with an alcove and a slanted corner) with two square pillars:
+/// no symmetry, so every pose is determined.
+std::vector<Wall> room() {
+  const std::vector<Point2> outline = {{-6, -4}, {3, -4}, {6, -1.5}, {6, 4}, {1, 4}, {1, 5.5},
+                                       {-1.5, 5.5}, {-1.5, 4}, {-6, 4}};
+  std::vector<Wall> walls;
+  for (std::size_t i = 0; i < outline.size(); ++i) walls.push_back({outline[i], outline[(i + 1) % outline.size()]});
+  auto box = [&](Point2 c, double h) {
+    const Point2 p[4] = {c + Point2(-h, -h), c + Point2(h, -h), c + Point2(h, h), c + Point2(-h, h)};
+    for (int k = 0; k < 4; ++k) walls.push_back({p[k], p[(k + 1) % 4]});
+  };
+  box({-3.0, 1.5}, 0.3);
+  box({2.5, -1.0}, 0.2);
+  return walls;
+}
+
+/// Two parallel walls 3 m apart and 200 m long: nothing fixes the position along them.
+std::vector<Wall> corridor() { return {{{-100, -1.5}, {100, -1.5}}, {{-100, 1.5}, {100, 1.5}}}; }
+
+double castRay(const std::vector<Wall>& walls, const Point2& origin, double angle) {
+  const Point2 d(std::cos(angle), std::sin(angle));
+  double best = std::numeric_limits<double>::infinity();
+  for (const Wall& w : walls) {
+    const Point2 e = w.b - w.a;
+    const double denom = d.x() * e.y() - d.y() * e.x();
+    if (std::abs(denom) < 1e-12) continue;
+    const Point2 o = w.a - origin;
+    const double t = (o.x() * e.y() - o.y() * e.x()) / denom;
+    const double u = (o.x() * d.y() - o.y() * d.x()) / denom;
+    if (t > 0.0 && u >= 0.0 && u <= 1.0) best = std::min(best, t);
+  }
+  return best;
+}
+
+/// A 360-degree scan of `beams` beams taken at `pose`, with Gaussian range noise.
+llc::Scan scanAt(const std::vector<Wall>& walls, const Pose2& pose, std::size_t beams = 720, double noise = 0.0,
+                 std::uint64_t seed = 1) {
+  std::vector<double> ranges(beams);
+  llc::Random random(seed);
+  for (std::size_t i = 0; i < beams; ++i) {
+    const double bearing = -M_PI + 2.0 * M_PI * double(i) / double(beams);
+    ranges[i] = castRay(walls, {pose.x, pose.y}, pose.theta + bearing);
+    if (std::isfinite(ranges[i]) && noise > 0.0) ranges[i] += random.normal(0.0, noise);
+  }
+  return llc_test::ringScan(ranges);
+}
+
+void expectPoseNear(const Pose2& actual, const Pose2& expected, double metres, double radians) {
+  EXPECT_NEAR(actual.x, expected.x, metres);
+  EXPECT_NEAR(actual.y, expected.y, metres);
+  EXPECT_NEAR(llc::normalizeAngle(actual.theta - expected.theta), 0.0, radians);
+}
+
+TEST(RigidFit, RecoversAnExactTransformAndRefusesDegenerateInput) {
+  const Pose2 truth{1.5, -0.7, 2.4};
+  std::vector<llc::Correspondence2> cs;
+  for (int i = 0; i < 5; ++i) {
+    const Point2 s(i * 0.7 - 1.0, std::sin(i));
+    cs.push_back({s, llc::transformPoint(truth, s), 1.0 + i});
+  }
+  Pose2 fitted;
+  ASSERT_TRUE(llc::fitRigid(cs, &fitted));
+  expectPoseNear(fitted, truth, 1e-12, 1e-12);
+  // All source points at one place: rotation undetermined. No weight: nothing to fit.
+  std::vector<llc::Correspondence2> same(3, llc::Correspondence2{Point2(1, 1), Point2(2, 2), 1.0});
+  EXPECT_FALSE(llc::fitRigid(same, &fitted));
+  for (auto& c : cs) c.weight = 0.0;
+  EXPECT_FALSE(llc::fitRigid(cs, &fitted));
+  EXPECT_FALSE(llc::fitRigid({}, &fitted));
+}
+
+TEST(RigidFit, RobustFitIgnoresThirtyPercentOutliers) {
+  const Pose2 truth{-2.0, 0.5, -1.1};
+  llc::Random random(7);
+  std::vector<llc::Correspondence2> cs;
+  for (int i = 0; i < 70; ++i) {
+    const Point2 s(random.uniform(-5, 5), random.uniform(-5, 5));
+    cs.push_back({s, llc::transformPoint(truth, s), 1.0});
+  }
+  for (int i = 0; i < 30; ++i)
+    cs.push_back({Point2(random.uniform(-5, 5), random.uniform(-5, 5)),
+                  Point2(random.uniform(-5, 5), random.uniform(-5, 5)), 1.0});
+  const llc::RobustFitResult fit = llc::fitRigidRobust(cs, llc::RobustFitOptions{});
+  ASSERT_TRUE(fit.ok);
+  expectPoseNear(fit.pose, truth, 1e-9, 1e-9);
+  EXPECT_GE(fit.inlier_count, 70u);
+  for (int i = 0; i < 70; ++i) EXPECT_TRUE(fit.inlier[std::size_t(i)]);
+}
+
+TEST(KdTree, NearestMatchesBruteForce) {
+  llc::Random random(3);
+  Points2 points;
+  for (int i = 0; i < 500; ++i) points.emplace_back(random.uniform(-10, 10), random.uniform(-10, 10));
+  const llc::KdTree2 tree(points);
+  for (int q = 0; q < 200; ++q) {
+    const Point2 query(random.uniform(-12, 12), random.uniform(-12, 12));
+    double best = std::numeric_limits<double>::infinity();
+    for (const Point2& p : points) best = std::min(best, (p - query).squaredNorm());
+    std::size_t index;
+    double distance;
+    ASSERT_TRUE(tree.nearest(query, &index, &distance));
+    EXPECT_DOUBLE_EQ(distance, best);
+    EXPECT_DOUBLE_EQ((points[index] - query).squaredNorm(), best);
+  }
+  const llc::KdTree2 empty(Points2{});
+  std::size_t index;
+  double distance;
+  EXPECT_FALSE(empty.nearest(Point2(0, 0), &index, &distance));
+}
+
+TEST(Normals, OfAWallArePerpendicularToIt) {
+  Points2 wall;
+  for (int i = 0; i < 20; ++i) wall.emplace_back(0.1 * i, 2.0 + 0.1 * i);  // along (1, 1)
+  const Points2 normals = llc::estimateNormals(llc::KdTree2(wall), 6, 0.6);
+  for (const Point2& n : normals) {
+    EXPECT_NEAR(n.norm(), 1.0, 1e-12);
+    EXPECT_NEAR(n.dot(Point2(1, 1).normalized()), 0.0, 1e-9);
+  }
+}
+
+TEST(ShapeValidation, CountsNearestNeighbourPairsWithinD) {
+  Points2 target, source;
+  for (int i = 0; i < 10; ++i) target.emplace_back(double(i), 0.0);
+  // Nine source points 0.5 m from the line of targets, one 3 m away: share 0.9.
+  for (int i = 0; i < 9; ++i) source.emplace_back(double(i), 0.5);
+  source.emplace_back(20.0, 3.0);
+  const llc::KdTree2 tree(target);
+  llc::ShapeValidationOptions options;  // d = 1 m, N = 90%
+  llc::ShapeValidationResult r = llc::validateShape(source, tree, Pose2{}, options);
+  EXPECT_EQ(r.points, 10u);
+  EXPECT_DOUBLE_EQ(r.inlier_share, 0.9);
+  EXPECT_TRUE(r.accepted);
+  // Moved 0.6 m further up, every pair is 1.1 m long: nothing within d.
+  r = llc::validateShape(source, tree, Pose2{0.0, 0.6, 0.0}, options);
+  EXPECT_DOUBLE_EQ(r.inlier_share, 0.0);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_NE(r.reject_reason.find("below"), std::string::npos);
+  r = llc::validateShape({}, tree, Pose2{}, options);
+  EXPECT_FALSE(r.accepted);
+}
+
+TEST(Icp, ConvergesToTheTruthFromANearbyStartWithACovariance) {
+  const Pose2 a{0.3, -0.2, 0.1}, b{1.4, 0.6, 0.5};
+  const Pose2 truth = llc::between(a, b);
+  const llc::IcpOptions options;
+  const llc::IcpTarget target(llc::scanPoints(scanAt(room(), a), 40.0), options);
+  const Points2 source = llc::scanPoints(scanAt(room(), b), 40.0);
+  const Pose2 start{truth.x + 0.3, truth.y - 0.2, truth.theta + 0.15};
+  const llc::IcpResult r = llc::alignIcp(source, target, start, options);
+  ASSERT_TRUE(r.converged) << r.reject_reason;
+  EXPECT_TRUE(r.reject_reason.empty());
+  expectPoseNear(r.pose, truth, 2e-3, 1e-3);
+  EXPECT_LT(r.rms_residual, 0.01);
+  EXPECT_TRUE(r.covariance.allFinite());
+  EXPECT_GT(r.covariance.determinant(), 0.0);
+  EXPECT_GT(r.covariance(0, 0), 0.0);
+}
+
+TEST(Icp, RefusesDegenerateAndEmptyInputWithAReason) {
+  const llc::IcpOptions options;
+  // A straight corridor: the position along it is unconstrained.
+  const llc::IcpTarget target(llc::scanPoints(scanAt(corridor(), Pose2{}), 40.0), options);
+  const Points2 source = llc::scanPoints(scanAt(corridor(), Pose2{0.5, 0.0, 0.0}), 40.0);
+  llc::IcpResult r = llc::alignIcp(source, target, Pose2{}, options);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.reject_reason, "degenerate geometry");
+  EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.y) && std::isfinite(r.pose.theta));
+  r = llc::alignIcp({}, target, Pose2{}, options);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.reject_reason, "too few points");
+  r = llc::alignIcp(source, target, Pose2{std::nan(""), 0.0, 0.0}, options);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.reject_reason, "initial pose not finite");
+  EXPECT_FALSE(llc::IcpOptions{}.validate().size());
+  llc::IcpOptions bad;
+  bad.trim_fraction = 0.0;
+  EXPECT_FALSE(bad.validate().empty());
+}
+
+/// The whole stage, no initial guess: rotations up to 180 degrees either way.
+class AlignerRecovers : public ::testing::TestWithParam<double> {};
+
+TEST_P(AlignerRecovers, AKnownRigidTransformOfASyntheticScan) {
+  const double turn = GetParam();
+  const Pose2 a{-1.0, 0.5, 0.3};
+  const Pose2 b{a.x + 1.2 * std::cos(turn), a.y + 0.8 * std::sin(turn), llc::normalizeAngle(a.theta + turn)};
+  const llc::ScanAligner aligner;
+  const auto pa = aligner.prepare(scanAt(room(), a, 720, 0.005, 1));
+  const auto pb = aligner.prepare(scanAt(room(), b, 720, 0.005, 2));
+  const llc::ScanAlignmentResult r = aligner.align(*pa, *pb);
+  ASSERT_TRUE(r.accepted) << r.reject_reason;
+  expectPoseNear(r.pose, llc::between(a, b), 0.02, 0.005);
+  EXPECT_GT(r.validation.inlier_share, 0.95);
+  EXPECT_TRUE(r.covariance.allFinite());
+}
+
+INSTANTIATE_TEST_SUITE_P(Turns, AlignerRecovers,
+                         ::testing::Values(0.0, 0.4, M_PI / 2, 2.5, M_PI - 1e-9, -M_PI / 2, -2.9));
+
+TEST(Aligner, ConvergesWithThirtyPercentClutterAndPartialOverlap) {
+  const Pose2 a{0.0, 0.0, 0.0}, b{1.0, -0.8, 2.2};
+  llc::Scan sb = scanAt(room(), b, 720, 0.005, 4);
+  // Scan b sees only 240 degrees of the room (the rest blocked), and 30% of its beams hit
+  // clutter at random ranges that scan a never saw.
+  llc::Random random(11);
+  for (std::size_t i = 0; i < sb.size(); ++i) {
+    if (sb.bearings[i] > M_PI / 3) sb.ranges[i] = std::numeric_limits<double>::infinity();
+    else if (random.uniform() < 0.3) sb.ranges[i] = random.uniform(0.3, 0.9) * sb.ranges[i];
+  }
+  llc::ScanAlignerOptions options;
+  options.validation.min_inlier_share = 0.6;  // the clutter is not in scan a
+  const llc::ScanAligner aligner(options);
+  const llc::ScanAlignmentResult r = aligner.align(*aligner.prepare(scanAt(room(), a)), *aligner.prepare(sb));
+  ASSERT_TRUE(r.icp.converged) << r.reject_reason;
+  expectPoseNear(r.pose, llc::between(a, b), 0.05, 0.01);
+  EXPECT_TRUE(r.accepted) << r.reject_reason;
+}
+
+TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {
+  const llc::ScanAligner aligner;
+  llc::Scan empty;
+  llc::Scan two = llc_test::ringScan({1.0, std::nan(""), -1.0, 2.0});
+  llc::Scan garbage = llc_test::ringScan(std::vector<double>(360, std::numeric_limits<double>::infinity()));
+  const auto room_scan = aligner.prepare(scanAt(room(), Pose2{}));
+  for (const llc::Scan* s : {&empty, &two, &garbage}) {
+    const auto p = aligner.prepare(*s);
+    for (const llc::ScanAlignmentResult& r : {aligner.align(*p, *room_scan), aligner.align(*room_scan, *p), aligner.align(*p, *p)}) {
+      EXPECT_FALSE(r.accepted);
+      EXPECT_FALSE(r.reject_reason.empty());
+      EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.y) && std::isfinite(r.pose.theta));
+    }
+  }
+  // A straight corridor: CRF-match may find associations, but ICP must call it degenerate.
+  const auto c1 = aligner.prepare(scanAt(corridor(), Pose2{}));
+  const auto c2 = aligner.prepare(scanAt(corridor(), Pose2{0.7, 0.1, 0.2}));
+  const llc::ScanAlignmentResult r = aligner.align(*c1, *c2);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_FALSE(r.reject_reason.empty());
+  EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.theta));
+}
+
+TEST(Aligner, RefusesBadOptions) {
+  llc::ScanAlignerOptions options;
+  options.validation.min_inlier_share = 1.5;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.crf.weights.distance = -1.0;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+}
+
+/// Energy of an association under the weights: what max-product minimises.
+double energy(const llc::CrfScan& s, const llc::CrfScan& t, const std::vector<long>& y, const llc::CrfWeights& w) {
+  const auto totals = llc::crfFeatureTotals(s, t, y);
+  const auto weights = w.asArray();
+  double e = 0.0;
+  for (std::size_t q = 0; q < totals.size(); ++q) e += weights[q] * totals[q];
+  return e;
+}
+
+TEST(CrfMatch, MapAssociationHasTheLowestEnergyAndConfidencesAreProbabilities) {
+  const llc::CrfMatchOptions options;
+  const Pose2 a{0.0, 0.0, 0.0}, b{0.8, 0.4, 1.9};
+  const llc::CrfScan sa = llc::describeForCrf(llc::scanPoints(scanAt(room(), a), 40.0), options);
+  const llc::CrfScan sb = llc::describeForCrf(llc::scanPoints(scanAt(room(), b), 40.0), options);
+  ASSERT_GT(sb.nodes.size(), 20u);
+  const llc::CrfMatchResult r = llc::matchCrf(sb, sa, options);
+  ASSERT_TRUE(r.ok) << r.reject_reason;
+  ASSERT_EQ(r.association.size(), sb.nodes.size());
+  for (double c : r.confidence) EXPECT_TRUE(c >= 0.0 && c <= 1.0 + 1e-12);
+  // The MAP association is at least as good as the true one and any change of one state.
+  const double best = energy(sb, sa, r.association, options.weights);
+  const std::vector<long> truth = llc::crfTrueAssociation(sb, sa, llc::between(a, b), 0.3);
+  EXPECT_LE(best, energy(sb, sa, truth, options.weights) + 1e-9);
+  llc::Random random(5);
+  for (int k = 0; k < 200; ++k) {
+    std::vector<long> changed = r.association;
+    changed[random.index(changed.size())] = long(random.index(sa.nodes.size() + 1)) - 1;
+    EXPECT_LE(best, energy(sb, sa, changed, options.weights) + 1e-9);
+  }
+  expectPoseNear(r.pose, llc::between(a, b), 0.2, 0.05);
+}
+
+TEST(CrfWeightsFile, RoundTripAndRefusals) {
+  llc_test::TempDir dir;
+  llc::CrfWeights w;
+  w.local[2] = 0.125;
+  w.order = 3.5;
+  llc::saveCrfWeights(w, {{"data", "test"}}, dir.file("w.yaml"));
+  const llc::CrfWeights back = llc::loadCrfWeights(dir.file("w.yaml"));
+  EXPECT_EQ(back.asArray(), w.asArray());
+  EXPECT_THROW(llc::loadCrfWeights(dir.file("missing.yaml")), llc::CrfWeightsError);
+  llc_test::writeText(dir.file("text.yaml"), "hello: [");
+  EXPECT_THROW(llc::loadCrfWeights(dir.file("text.yaml")), llc::CrfWeightsError);
+  llc_test::writeText(dir.file("v2.yaml"), "format: laser_loop_closure/crf_weights\nversion: 2\n");
+  try {
+    llc::loadCrfWeights(dir.file("v2.yaml"));
+    FAIL();
+  } catch (const llc::CrfWeightsError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 2"), std::string::npos);
+  }
+  llc_test::writeText(dir.file("cut.yaml"), "format: laser_loop_closure/crf_weights\nversion: 1\nlocal: [1, 1, 1, 1, 1, 1, 1]\n");
+  EXPECT_THROW(llc::loadCrfWeights(dir.file("cut.yaml")), llc::CrfWeightsError);
+  llc_test::writeText(dir.file("neg.yaml"),
+                      "format: laser_loop_closure/crf_weights\nversion: 1\nlocal: [1, 1, 1, 1, 1, 1, 1]\n"
+                      "outlier: 1\ndistance: -2\norder: 1\n");
+  EXPECT_THROW(llc::loadCrfWeights(dir.file("neg.yaml")), llc::CrfWeightsError);
+  llc_test::writeText(dir.file("short.yaml"),
+                      "format: laser_loop_closure/crf_weights\nversion: 1\nlocal: [1, 1]\noutlier: 1\ndistance: 2\norder: 1\n");
+  EXPECT_THROW(llc::loadCrfWeights(dir.file("short.yaml")), llc::CrfWeightsError);
+}
+
+TEST(CrfTraining, PerceptronIsDeterministicAndKeepsWeightsNonNegative) {
+  const llc::CrfMatchOptions options;
+  std::vector<llc::CrfScan> scans;
+  std::vector<Pose2> poses = {{0, 0, 0}, {1.0, 0.5, 1.0}, {-1.5, -1.0, -2.0}, {2.0, 1.0, 3.0}};
+  for (std::size_t k = 0; k < poses.size(); ++k)
+    scans.push_back(llc::describeForCrf(llc::scanPoints(scanAt(room(), poses[k], 720, 0.01, k + 1), 40.0), options));
+  std::vector<llc::CrfTrainingPair> pairs;
+  for (std::size_t k = 1; k < poses.size(); ++k) pairs.push_back({&scans[k], &scans[0], llc::between(poses[0], poses[k])});
+  llc::CrfTrainingOptions training;
+  training.epochs = 3;
+  const llc::CrfTrainingResult one = llc::trainCrfWeights(pairs, options, training);
+  const llc::CrfTrainingResult two = llc::trainCrfWeights(pairs, options, training);
+  EXPECT_EQ(one.weights.asArray(), two.weights.asArray());
+  ASSERT_EQ(one.error_by_epoch.size(), 3u);
+  for (double v : one.weights.asArray()) EXPECT_GE(v, 0.0);
+  EXPECT_DOUBLE_EQ(one.weights.outlier, 1.0);
+  training.epochs = 0;
+  EXPECT_THROW(llc::trainCrfWeights(pairs, options, training), std::invalid_argument);
+}
+
+}  // namespace
