@@ -24,9 +24,15 @@ def main(folder):
     roc = read(os.path.join(folder, "roc.csv"))
     fa = [float(r["false_alarm"]) for r in roc]
     det = [float(r["detection"]) for r in roc]
+    validated = None
+    if os.path.exists(os.path.join(folder, "roc_validated.csv")):
+        rows = read(os.path.join(folder, "roc_validated.csv"))
+        validated = ([float(r["false_alarm"]) for r in rows], [float(r["detection"]) for r in rows])
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     for ax, limit in zip(axes, (1.0, 0.1)):
         ax.plot(fa, det, "b-", label="strong classifier (cross-validated)")
+        if validated:
+            ax.plot(validated[0], validated[1], "r--", label="+ alignment and shape validation")
         ax.axvline(0.01, color="grey", ls=":", label="1% false alarm")
         ax.set_xlim(0, limit)
         ax.set_ylim(0, 1.01)

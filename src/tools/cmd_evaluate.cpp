@@ -4,11 +4,14 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <sstream>
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
 #include "laser_loop_closure/core/random.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
 
 namespace llc_tool {
 namespace {
@@ -41,6 +44,21 @@ llc::TrainingSet rotatedTrainingSet(const std::vector<PairData>& data,
       set.add(row.data(), p.label);
     }
   return set;
+}
+
+/// Whether each pair (in pairTrainingSet order) survives alignment and shape validation.
+std::vector<char> validateAll(const std::vector<PairData>& data, const llc::ScanAligner& aligner) {
+  std::vector<char> accepted;
+  for (const PairData& item : data) {
+    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
+    auto get = [&](std::size_t i) {
+      auto& slot = prepared[i];
+      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan);
+      return slot;
+    };
+    for (const llc::LabeledPair& p : item.pairs) accepted.push_back(aligner.align(*get(p.a), *get(p.b)).accepted);
+  }
+  return accepted;
 }
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
@@ -153,6 +171,33 @@ int runEvaluate(const Args& args) {
     kept_at_half = double(same_half) / double(total);
   }
 
+  // The paper's Figure 5 (dashed): a pair is a loop only if the classifier calls it a match
+  // and its scans align and pass shape validation; a refused pair scores -1, below every K.
+  std::ostringstream validated_text;
+  if (args.has("validate")) {
+    const llc::ScanAligner aligner(alignerOptions(args));
+    const std::vector<char> accepted = validateAll(data, aligner);
+    std::vector<llc::CrossValidationRun> validated = runs;
+    std::size_t negatives_called = 0, negatives_refused = 0;
+    for (llc::CrossValidationRun& run : validated)
+      for (std::size_t i = 0; i < run.scores.size(); ++i) {
+        if (set.labels[i] == 0 && run.scores[i] >= summary.k_at_1pct) ++negatives_called, negatives_refused += !accepted[i];
+        if (!accepted[i]) run.scores[i] = -1.0;
+      }
+    const llc::CrossValidationSummary v = llc::summarize(validated, set.labels);
+    std::ofstream roc = openCsv(out_dir + "/roc_validated.csv");
+    roc << "false_alarm,detection\n";
+    for (std::size_t g = 0; g < v.roc_false_alarm.size(); ++g) roc << v.roc_false_alarm[g] << ',' << v.roc_detection[g] << '\n';
+    std::size_t positives_refused = 0, negatives_refused_all = 0;
+    for (std::size_t i = 0; i < accepted.size(); ++i)
+      (set.labels[i] == 1 ? positives_refused : negatives_refused_all) += !accepted[i];
+    validated_text << std::setprecision(4) << std::fixed << "validation: positives_refused=" << positives_refused
+                   << " negatives_refused=" << negatives_refused_all << " of " << positives << " and "
+                   << set.size() - positives << "\n"
+                   << "validation_refused_negatives_above_k_1pct=" << negatives_refused << "/" << negatives_called << "\n"
+                   << "validated_detection_at_1pct_fa=" << v.detection_at_1pct << "\nvalidated_auc=" << v.auc << "\n";
+  }
+
   std::ostringstream s;
   s << std::setprecision(4) << std::fixed;
   s << "folds=" << cv.folds << " repeats=" << cv.repeats << " rounds=" << cv.adaboost.rounds
@@ -165,6 +210,7 @@ int runEvaluate(const Args& args) {
   if (rotation)
     s << "rotation_test: pairs=" << set.size() * runs.size() << " kept_class_at_k_1pct=" << kept_at_k
       << " kept_class_at_k_0.5=" << kept_at_half << "\n";
+  s << validated_text.str();
   s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
   s << std::setprecision(4) << "detection_at_1pct_fa=" << summary.detection_at_1pct << "\nauc=" << summary.auc << "\n";
   {

@@ -46,12 +46,13 @@ const std::vector<Command>& commands() {
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
                   "ablation-repeats"},
-                 kFeatureFlags),
+                 with(kFeatureFlags, llc_tool::kAlignerFlags)),
             kInputFlags),
-       with({"no-curve", "no-ablation", "no-rotation"}, kFeatureSwitches),
+       with({"no-curve", "no-ablation", "no-rotation", "validate"}, kFeatureSwitches),
        "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
        "      [--seed 1] [--features paper|extended] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
-       "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]"},
+       "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]\n"
+       "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
       {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},
