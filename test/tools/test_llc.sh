@@ -45,6 +45,17 @@ check "features on sim.bag" 0 "features=125" -- "$LLC" features --log "$TMP/sim/
 check "train on sim.bag" 0 "rounds=20" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/sim/m.yaml" --rounds 20 --repeats 1
 check "score on sim.bag" 0 "pairs=120" -- "$LLC" score --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/s.csv"
 check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev" --repeats 1 --no-curve --no-ablation
+# Alignment: CRF-match + ICP + shape validation against the drive's ground truth, PCL beside it.
+check "align on sim.bag" 0 "pcl_gicp_identity: within_tolerance=" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/align.csv" --compare-pcl
+check "align csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms$" -- head -1 "$TMP/sim/align.csv"
+check "align: >= 90% of positives within 0.2 m / 2 deg" 0 "^ok$" -- bash -c "'$LLC' align --data '$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv' --out '$TMP/sim/a2.csv' | awk -F'[= ]' '/^crf_icp/ {print (\$3 >= 0.9 ? \"ok\" : \"low \" \$3)}'"
+check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
+check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/crf.yaml" --epochs 2
+check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
+check "align: corrupt CRF weights" 1 "bad.yaml: not a laser_loop_closure CRF weights file" -- "$LLC" align --crf-weights "$TMP/bad.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a5.csv"
+check "align: bad validation share" 1 "validation: min_inlier_share must be in" -- "$LLC" align --validation-share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
+check "evaluate --validate" 0 "validated_detection_at_1pct_fa=" -- "$LLC" evaluate --validate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev2" --repeats 1 --no-curve --no-ablation --no-rotation
+check "evaluate --validate writes the validated ROC" 0 "false_alarm,detection" -- head -1 "$TMP/sim/ev2/roc_validated.csv"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front
 check "bag: a topic of another type" 1 "does not hold sensor_msgs/LaserScan" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --back-topic /odom
 head -c 100000 "$TMP/sim/sim.bag" > "$TMP/cut.bag"
