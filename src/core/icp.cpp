@@ -47,6 +47,8 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
   if (!(std::isfinite(initial.x) && std::isfinite(initial.y) && std::isfinite(initial.theta)))
     return finish("initial pose not finite");
   const double gate_sq = options.max_correspondence_distance * options.max_correspondence_distance;
+  // Every stride-th source point: enough to constrain three parameters, and cheaper.
+  const std::size_t stride = options.max_source_points > 0 ? (source.size() + options.max_source_points - 1) / options.max_source_points : 1;
   std::vector<Pair> pairs;
   pairs.reserve(source.size());
   Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
@@ -54,8 +56,9 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
   for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
     result.iterations = iteration;
     pairs.clear();
-    for (const Point2& p : source) {
-      const Point2 moved = transformPoint(result.pose, p);
+    const RigidMotion2 motion(result.pose);
+    for (std::size_t k = 0; k < source.size(); k += stride) {
+      const Point2 moved = motion(source[k]);
       std::size_t index;
       double distance_sq;
       if (!target.tree.nearest(moved, &index, &distance_sq) || distance_sq > gate_sq) continue;

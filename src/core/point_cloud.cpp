@@ -19,7 +19,8 @@ Points2 scanPoints(const Scan& scan, double max_range) {
 Points2 transformPoints(const Pose2& pose, const Points2& points) {
   Points2 out;
   out.reserve(points.size());
-  for (const Point2& p : points) out.push_back(transformPoint(pose, p));
+  const RigidMotion2 motion(pose);
+  for (const Point2& p : points) out.push_back(motion(p));
   return out;
 }
 

@@ -52,8 +52,9 @@ double markInliers(const std::vector<Correspondence2>& cs, const Pose2& pose, do
                    std::vector<char>* inlier, std::size_t* count) {
   double weight = 0.0;
   *count = 0;
+  const RigidMotion2 motion(pose);
   for (std::size_t i = 0; i < cs.size(); ++i) {
-    const bool in = cs[i].weight > 0.0 && (transformPoint(pose, cs[i].source) - cs[i].target).squaredNorm() <= limit_sq;
+    const bool in = cs[i].weight > 0.0 && (motion(cs[i].source) - cs[i].target).squaredNorm() <= limit_sq;
     (*inlier)[i] = in;
     if (in) weight += cs[i].weight, ++*count;
   }

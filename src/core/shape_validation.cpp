@@ -20,10 +20,11 @@ ShapeValidationResult validateShape(const Points2& source, const KdTree2& target
   }
   const double limit_sq = options.max_distance * options.max_distance;
   std::size_t inliers = 0;
+  const RigidMotion2 motion(pose);
   for (const Point2& p : source) {
     std::size_t index;
     double distance_sq;
-    if (target.nearest(transformPoint(pose, p), &index, &distance_sq) && distance_sq <= limit_sq) ++inliers;
+    if (target.nearest(motion(p), &index, &distance_sq) && distance_sq <= limit_sq) ++inliers;
   }
   result.inlier_share = double(inliers) / double(source.size());
   result.accepted = result.inlier_share >= options.min_inlier_share;

@@ -45,7 +45,7 @@ struct CrfMatchOptions {
   double min_contour_length = 0.2;  ///< m; shorter contours (clutter) get no node
   std::size_t candidates = 12;    ///< states per node kept (best local energy), plus outlier
   double temperature = 0.3;       ///< marginals ~ exp(-energy / temperature)
-  double min_confidence = 0.2;    ///< associations less probable than this do not enter the fit
+  double min_confidence = 0.05;   ///< associations less probable than this do not enter the fit
   std::size_t min_associations = 4;  ///< fewer confident associations: no transform
   RobustFitOptions fit{};         ///< the robust rigid fit on the associations
   CrfWeights weights{};

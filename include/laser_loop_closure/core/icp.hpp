@@ -21,6 +21,7 @@ struct IcpOptions {
                                            ///< Hessian below this: a direction is unconstrained
   int normal_neighbours = 6;               ///< points used for each target normal
   double normal_radius = 0.6;              ///< m; neighbours beyond this do not shape a normal
+  std::size_t max_source_points = 400;     ///< source points paired per step, evenly strided (0 = all)
   std::string validate() const;
 };
 

@@ -26,6 +26,13 @@ inline Point2 transformPoint(const Pose2& pose, const Point2& p) {
 }
 Points2 transformPoints(const Pose2& pose, const Points2& points);
 
+/// A pose's rotation and translation, its sine and cosine computed once, for moving many points.
+struct RigidMotion2 {
+  explicit RigidMotion2(const Pose2& pose) : c(std::cos(pose.theta)), s(std::sin(pose.theta)), x(pose.x), y(pose.y) {}
+  Point2 operator()(const Point2& p) const { return {x + c * p.x() - s * p.y(), y + s * p.x() + c * p.y()}; }
+  double c, s, x, y;
+};
+
 /// Exact nearest-neighbour queries over a fixed set of points (it keeps a copy).
 class KdTree2 {
  public:
