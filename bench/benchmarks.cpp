@@ -10,6 +10,11 @@
 #include "laser_loop_closure/core/keyframe_store.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/range_profile.hpp"
+#include "laser_loop_closure/core/carmen_writer.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/scan_sequence.hpp"
+#include "laser_loop_closure/core/sim_drive.hpp"
+#include "laser_loop_closure/core/sim_world.hpp"
 
 namespace {
 
@@ -132,5 +137,46 @@ void BM_ScoreAllKeyframes(benchmark::State& state) {
 BENCHMARK(BM_ScoreAllKeyframes)->Arg(100000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+/// 360-degree scans (722 beams, front and back merged) of a short simulated drive.
+const llc::ScanSequence& simulatedScans() {
+  static const llc::ScanSequence sequence = [] {
+    llc::SimDriveOptions options;
+    options.length_m = 300.0;
+    const llc::SimWorld world(llc::simWorldOptions(options));
+    const std::string path = "/tmp/llc_benchmark_sim.log";
+    llc::writeCarmenLog(llc::simulateDrive(world, options), path);
+    llc::ScanSequence s = llc::loadScanSequence(path);
+    std::remove(path.c_str());
+    return s;
+  }();
+  return sequence;
+}
+
+/// What a keyframe computes once for alignment: points, CRF nodes, k-d tree and normals.
+void BM_PrepareScanForAlignment(benchmark::State& state) {
+  const llc::ScanAligner aligner;
+  const llc::Scan& scan = simulatedScans().scans[100].scan;
+  state.counters["beams"] = double(scan.size());
+  for (auto _ : state) benchmark::DoNotOptimize(aligner.prepare(scan));
+}
+BENCHMARK(BM_PrepareScanForAlignment)->Unit(benchmark::kMillisecond);
+
+/// One candidate pair aligned with no initial guess (CRF-match, ICP from it and its
+/// runners-up, shape validation): scans 1.4 m apart, the second turned by 150 degrees.
+void BM_AlignPair(benchmark::State& state) {
+  const llc::ScanAligner aligner;
+  const auto& scans = simulatedScans().scans;
+  const auto a = aligner.prepare(scans[100].scan);
+  const auto b = aligner.prepare(llc::rotateScan(scans[102].scan, 150.0 * M_PI / 180.0));
+  bool accepted = false;
+  for (auto _ : state) {
+    const llc::ScanAlignmentResult r = aligner.align(*a, *b);
+    accepted = r.accepted;
+    benchmark::DoNotOptimize(r.pose);
+  }
+  state.counters["accepted"] = accepted;
+}
+BENCHMARK(BM_AlignPair)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();
