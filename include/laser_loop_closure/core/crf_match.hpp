@@ -23,8 +23,9 @@ constexpr std::size_t kCrfLocalFeatures = 2 * kCrfScales.size() + 1;
 /// All weights: local ones, then outlier, distance, order.
 constexpr std::size_t kCrfWeights = kCrfLocalFeatures + 3;
 
-/// Weights of the feature functions (energies: lower is more likely). Defaults learnt by
-/// `scripts/llc train-crf` (see README) and rounded; any non-negative values are valid.
+/// Weights of the feature functions (energies: lower is more likely). The defaults are set by
+/// hand (coarse scales and chords weigh most); `llc train-crf` learns weights from aligned
+/// pairs (see README for how the two compare). Any non-negative values are valid.
 struct CrfWeights {
   /// local: chord[s] compares the distances from a node to the contour points s metres before
   /// and after it; angle[s] the angle they make at the node; extent how far the contour
