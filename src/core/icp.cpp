@@ -18,6 +18,7 @@ std::string IcpOptions::validate() const {
   if (!(degeneracy_ratio >= 0.0 && degeneracy_ratio < 1.0)) return "degeneracy_ratio must be in [0, 1)";
   if (normal_neighbours < 2) return "normal_neighbours must be >= 2";
   if (!(normal_radius > 0.0)) return "normal_radius must be > 0";
+  if (!(max_normal_angle > 0.0 && max_normal_angle <= M_PI / 2)) return "max_normal_angle must be in (0, pi/2]";
   return "";
 }
 
@@ -33,7 +34,8 @@ struct Pair {
 };
 }  // namespace
 
-IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options) {
+IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
+                   const Points2* source_normals) {
   const auto start = std::chrono::steady_clock::now();
   IcpResult result;
   result.pose = initial;
@@ -51,6 +53,7 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
   const std::size_t stride = options.max_source_points > 0 ? (source.size() + options.max_source_points - 1) / options.max_source_points : 1;
   std::vector<Pair> pairs;
   pairs.reserve(source.size());
+  const double min_normal_cos = std::cos(options.max_normal_angle);
   Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
   double weighted_sq = 0.0, weight_sum = 0.0;
   for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
@@ -64,6 +67,13 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
       if (!target.tree.nearest(moved, &index, &distance_sq) || distance_sq > gate_sq) continue;
       const Point2& normal = target.normals[index];
       if (normal.isZero()) continue;
+      if (source_normals) {
+        // Normals are unsigned (PCA), so compare |cos| of the angle between them.
+        const Point2& n = (*source_normals)[k];
+        if (!n.isZero() && std::abs(n.x() * (motion.c * normal.x() + motion.s * normal.y()) +
+                                    n.y() * (-motion.s * normal.x() + motion.c * normal.y())) < min_normal_cos)
+          continue;
+      }
       pairs.push_back({moved, normal, normal.dot(moved - target.tree.points()[index]), distance_sq});
     }
     // Trimmed: only the nearest share of the pairs, which drops the parts one scan sees and

@@ -49,7 +49,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   ShapeValidationOptions tight = options_.validation;
   tight.max_distance = options_.selection_distance;
   for (const Pose2& start_pose : starts) {
-    IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options_.icp);
+    IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options_.icp, &b.icp_target.normals);
     if (!icp.converged) {
       if (!any && result.icp.reject_reason.empty()) result.icp = icp;
       continue;

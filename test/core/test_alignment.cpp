@@ -179,6 +179,21 @@ TEST(Icp, ConvergesToTheTruthFromANearbyStartWithACovariance) {
   EXPECT_GT(r.covariance(0, 0), 0.0);
 }
 
+TEST(Icp, NormalGateDropsPairsAcrossACorner) {
+  // Source: the same room; its normals all turned by 90 degrees claim every point lies on a
+  // wall perpendicular to the real one, so with the gate no pair survives.
+  const llc::IcpOptions options;
+  const llc::IcpTarget target(llc::scanPoints(scanAt(room(), Pose2{}), 40.0), options);
+  const Points2 source = llc::scanPoints(scanAt(room(), Pose2{0.1, 0.0, 0.0}), 40.0);
+  Points2 turned = llc::estimateNormals(llc::KdTree2(source), 6, 0.6);
+  const llc::IcpResult plain = llc::alignIcp(source, target, Pose2{}, options, &turned);
+  for (Point2& n : turned) n = Point2(-n.y(), n.x());
+  const llc::IcpResult gated = llc::alignIcp(source, target, Pose2{}, options, &turned);
+  EXPECT_TRUE(plain.converged) << plain.reject_reason;
+  EXPECT_FALSE(gated.converged);
+  EXPECT_EQ(gated.reject_reason, "too few correspondences");
+}
+
 TEST(Icp, RefusesDegenerateAndEmptyInputWithAReason) {
   const llc::IcpOptions options;
   // A straight corridor: the position along it is unconstrained.
@@ -197,6 +212,9 @@ TEST(Icp, RefusesDegenerateAndEmptyInputWithAReason) {
   EXPECT_FALSE(llc::IcpOptions{}.validate().size());
   llc::IcpOptions bad;
   bad.trim_fraction = 0.0;
+  EXPECT_FALSE(bad.validate().empty());
+  bad = {};
+  bad.max_normal_angle = 0.0;
   EXPECT_FALSE(bad.validate().empty());
 }
 

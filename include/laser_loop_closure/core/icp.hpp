@@ -22,6 +22,7 @@ struct IcpOptions {
   int normal_neighbours = 6;               ///< points used for each target normal
   double normal_radius = 0.6;              ///< m; neighbours beyond this do not shape a normal
   std::size_t max_source_points = 400;     ///< source points paired per step, evenly strided (0 = all)
+  double max_normal_angle = 0.5;           ///< rad; pairs whose normals differ more are dropped (when given)
   std::string validate() const;
 };
 
@@ -47,6 +48,10 @@ struct IcpResult {
 
 /// Refines `initial` (source frame in target frame). Never throws on bad geometry: an empty
 /// or degenerate input (e.g. a straight corridor) gives converged = false with the reason.
-IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options);
+/// With source_normals (one per source point, as estimateNormals gives them), a pair whose
+/// normals differ by more than max_normal_angle is not used: a wall does not match a wall
+/// across it.
+IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
+                   const Points2* source_normals = nullptr);
 
 }  // namespace llc
