@@ -42,6 +42,12 @@ struct MethodStats {
 
 const std::vector<std::string> kAlignerFlags = {"max-range", "validation-distance", "validation-share", "crf-weights"};
 
+std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t index) {
+  auto& slot = prepared_[index];
+  if (!slot) slot = aligner_.prepare(sequence_.scans.at(index).scan);
+  return slot;
+}
+
 llc::ScanAlignerOptions alignerOptions(const Args& args) {
   llc::ScanAlignerOptions options;
   options.max_range = args.number("max-range", options.max_range);
@@ -83,12 +89,7 @@ int runAlign(const Args& args) {
   std::map<std::string, std::size_t> reasons;
   std::size_t candidates = 0, negatives_classified = 0, negatives_refused = 0, positives_accepted = 0, positives = 0;
   for (const PairData& item : data) {
-    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
-    auto get = [&](std::size_t i) {
-      auto& slot = prepared[i];
-      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan);
-      return slot;
-    };
+    PreparedScanCache prepared(aligner, item.sequence);
     for (const llc::LabeledPair& p : item.pairs) {
       if (model) {
         const std::vector<double> row =
@@ -97,7 +98,7 @@ int runAlign(const Args& args) {
       }
       ++candidates;
       const llc::Pose2 truth = llc::between(item.sequence.scans[p.a].truth, item.sequence.scans[p.b].truth);
-      const auto a = get(p.a), b = get(p.b);
+      const auto a = prepared.get(p.a), b = prepared.get(p.b);
       const llc::ScanAlignmentResult r = aligner.align(*a, *b);
       const bool aligned = r.icp.converged;
       ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, max_translation, max_rotation);
@@ -154,11 +155,10 @@ int runTrainCrf(const Args& args) {
   std::vector<std::shared_ptr<const llc::PreparedScan>> keep;
   std::vector<llc::CrfTrainingPair> pairs;
   for (const PairData& item : data) {
-    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
+    PreparedScanCache prepared(aligner, item.sequence);
     auto get = [&](std::size_t i) {
-      auto& slot = prepared[i];
-      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan), keep.push_back(slot);
-      return slot.get();
+      keep.push_back(prepared.get(i));  // the training pairs point into them
+      return keep.back().get();
     };
     for (const llc::LabeledPair& p : item.pairs) {
       if (p.label != 1) continue;

@@ -4,8 +4,6 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <map>
-#include <memory>
 #include <sstream>
 
 #include "commands.hpp"
@@ -50,13 +48,9 @@ llc::TrainingSet rotatedTrainingSet(const std::vector<PairData>& data,
 std::vector<char> validateAll(const std::vector<PairData>& data, const llc::ScanAligner& aligner) {
   std::vector<char> accepted;
   for (const PairData& item : data) {
-    std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared;
-    auto get = [&](std::size_t i) {
-      auto& slot = prepared[i];
-      if (!slot) slot = aligner.prepare(item.sequence.scans[i].scan);
-      return slot;
-    };
-    for (const llc::LabeledPair& p : item.pairs) accepted.push_back(aligner.align(*get(p.a), *get(p.b)).accepted);
+    PreparedScanCache prepared(aligner, item.sequence);
+    for (const llc::LabeledPair& p : item.pairs)
+      accepted.push_back(aligner.align(*prepared.get(p.a), *prepared.get(p.b)).accepted);
   }
   return accepted;
 }

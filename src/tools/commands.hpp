@@ -1,6 +1,9 @@
 // The llc subcommands; each returns the process exit code.
 #pragma once
 
+#include <map>
+#include <memory>
+
 #include "laser_loop_closure/core/scan_aligner.hpp"
 #include "tool_common.hpp"
 
@@ -16,4 +19,17 @@ int runTrainCrf(const Args& args);
 /// Alignment options from --max-range, --validation-distance, --validation-share, --crf-weights.
 llc::ScanAlignerOptions alignerOptions(const Args& args);
 extern const std::vector<std::string> kAlignerFlags;
+
+/// The scans of one recording prepared for alignment, each once, on first use.
+class PreparedScanCache {
+ public:
+  PreparedScanCache(const llc::ScanAligner& aligner, const llc::ScanSequence& sequence)
+      : aligner_(aligner), sequence_(sequence) {}
+  std::shared_ptr<const llc::PreparedScan> get(std::size_t index);
+
+ private:
+  const llc::ScanAligner& aligner_;
+  const llc::ScanSequence& sequence_;
+  std::map<std::size_t, std::shared_ptr<const llc::PreparedScan>> prepared_;
+};
 }  // namespace llc_tool
