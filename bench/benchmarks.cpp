@@ -1,9 +1,12 @@
 // Google Benchmark: features of one scan, one pair classified, one query against N keyframes.
 #include <benchmark/benchmark.h>
 
+#include <Eigen/LU>
+
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <memory>
 
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/features.hpp"
@@ -11,6 +14,7 @@
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/range_profile.hpp"
 #include "laser_loop_closure/core/carmen_writer.hpp"
+#include "laser_loop_closure/core/esdf.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
 #include "laser_loop_closure/core/scan_sequence.hpp"
 #include "laser_loop_closure/core/sim_drive.hpp"
@@ -178,5 +182,55 @@ void BM_AlignPair(benchmark::State& state) {
   state.counters["accepted"] = accepted;
 }
 BENCHMARK(BM_AlignPair)->Unit(benchmark::kMillisecond);
+
+/// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a
+/// pose 25..1000 steps back, solved once (the state a long-running robot reaches).
+std::unique_ptr<llc::Esdf> esdfOf(std::size_t n) {
+  llc::Random random(5);
+  auto esdf = std::make_unique<llc::Esdf>();
+  const Eigen::Matrix3d odometry = Eigen::Vector3d(0.01, 0.01, 0.001).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(0.04, 0.04, 0.004).asDiagonal();
+  for (std::size_t k = 1; k < n; ++k) {
+    esdf->augment(llc::Pose2{1.0 + random.normal(0, 0.01), random.normal(0, 0.01), random.normal(0, 0.05)}, odometry);
+    if (k % 50 == 0) {
+      const std::size_t back = std::min<std::size_t>(k, 25 + random.index(975));
+      const std::size_t a = k - back;
+      // Measured as the current estimate says: consistent, so the gate would pass it.
+      esdf->updateWithInformation(llc::PoseEdge{a, k, llc::between(esdf->mean()[a], esdf->mean()[k]), loop.inverse()}, false,
+                                  k + 50 >= n);
+    }
+  }
+  return esdf;
+}
+
+/// One loop-closure update (the mean current afterwards) at 1e4 and 1e5 poses.
+void BM_EsdfLoopUpdate(benchmark::State& state) {
+  const auto esdf = esdfOf(std::size_t(state.range(0)));
+  const std::size_t last = esdf->size() - 1;
+  const Eigen::Matrix3d loop = Eigen::Vector3d(0.04, 0.04, 0.004).asDiagonal();
+  std::size_t back = 100;
+  for (auto _ : state) {
+    const std::size_t a = last - back;
+    back = back % 900 + 37;
+    const llc::EsdfUpdateResult r = esdf->update(a, last, llc::between(esdf->mean()[a], esdf->mean()[last]), loop, false);
+    benchmark::DoNotOptimize(r.applied);
+  }
+}
+BENCHMARK(BM_EsdfLoopUpdate)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond)->Iterations(5);
+
+/// Marginal covariance of the newest pose, and the joint of an old and the newest pose.
+void BM_EsdfMarginal(benchmark::State& state) {
+  const auto esdf = esdfOf(std::size_t(state.range(0)));
+  const std::size_t last = esdf->size() - 1;
+  for (auto _ : state) benchmark::DoNotOptimize(esdf->marginalCovariance(last));
+}
+BENCHMARK(BM_EsdfMarginal)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+void BM_EsdfJointMarginal(benchmark::State& state) {
+  const auto esdf = esdfOf(std::size_t(state.range(0)));
+  const std::size_t last = esdf->size() - 1;
+  for (auto _ : state) benchmark::DoNotOptimize(esdf->jointCovariance(last / 2, last));
+}
+BENCHMARK(BM_EsdfJointMarginal)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -13,7 +13,7 @@ export ROS_MASTER_URI="${ROS_MASTER_URI:-http://127.0.0.1:11311}" ROS_IP="${ROS_
 LLC_PACKAGES=(build-essential cmake ros-base-dev ros-core-python-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev liblaser-geometry-dev
   python3-rostest libgtest-dev rosbash libeigen3-dev libpcl-dev libpcl-conversions-dev
-  libsuitesparse-dev libyaml-cpp-dev libnanoflann-dev libbenchmark-dev zlib1g-dev
+  libsuitesparse-dev libyaml-cpp-dev libnanoflann-dev libbenchmark-dev libceres-dev zlib1g-dev
   pluginlib-dev libnodeletlib-dev libnodeletlib-tools libmessage-filters-dev
   libdiagnostic-updater-dev librosbag-storage-dev librosbag-dev libnav-msgs-dev libtf2-msgs-dev
   python3-rosbag python3-matplotlib python3-numpy)

@@ -39,9 +39,9 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   };
   result.crf = matchCrf(b.crf, a.crf, options_.crf);
   if (!result.crf.ok) return finish("crf: " + result.crf.reject_reason);
-  // ICP from the CRF's transform and from its runners-up; the result that brings the most
-  // points within selection_distance of scan a wins (tighter than validation's d, so that a
-  // result shifted along a corridor loses to the right one).
+  // ICP from the CRF's transform and from its runners-up; the result with the largest share of
+  // points within selection_distance of the other scan wins (tighter than validation's d, so
+  // that a result shifted along a corridor loses to the right one).
   std::vector<Pose2> starts = {result.crf.pose};
   starts.insert(starts.end(), result.crf.alternatives.begin(), result.crf.alternatives.end());
   bool any = false;
@@ -54,7 +54,11 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
       if (!any && result.icp.reject_reason.empty()) result.icp = icp;
       continue;
     }
-    const double fit = validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share;
+    // Both ways: a result shifted along a corridor leaves the ends of the other scan unmatched.
+    const double fit = 0.5 * (validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share +
+                              validateShape(a.points, b.icp_target.tree, inverse(icp.pose), tight).inlier_share);
+    result.icp_poses.push_back(icp.pose);
+    result.icp_shares.push_back(fit);
     if (!any || fit > best_fit) {
       result.icp = std::move(icp);
       best_fit = fit;

@@ -16,6 +16,7 @@ int runEvaluate(const Args& args);
 int runSimulate(const Args& args);
 int runAlign(const Args& args);
 int runTrainCrf(const Args& args);
+int runGraph(const Args& args);
 /// Alignment options from --max-range, --validation-distance, --validation-share, --crf-weights.
 llc::ScanAlignerOptions alignerOptions(const Args& args);
 extern const std::vector<std::string> kAlignerFlags;

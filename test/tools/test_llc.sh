@@ -56,6 +56,15 @@ check "align: corrupt CRF weights" 1 "bad.yaml: not a laser_loop_closure CRF wei
 check "align: bad validation share" 1 "validation: min_inlier_share must be in" -- "$LLC" align --validation-share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
 check "evaluate --validate" 0 "validated_detection_at_1pct_fa=" -- "$LLC" evaluate --validate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev2" --repeats 1 --no-curve --no-ablation --no-rotation
 check "evaluate --validate writes the validated ROC" 0 "false_alarm,detection" -- head -1 "$TMP/sim/ev2/roc_validated.csv"
+# Pose graphs through the ESDF: a small g2o file written here (a square with one loop edge).
+printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 100 0 0 100 0 400\n' > "$TMP/square.g2o"
+check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_out.g2o"
+check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
+check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
+check "graph: both modes" 1 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
+printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
+check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
+check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front
 check "bag: a topic of another type" 1 "does not hold sensor_msgs/LaserScan" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --back-topic /odom
 head -c 100000 "$TMP/sim/sim.bag" > "$TMP/cut.bag"
@@ -64,6 +73,9 @@ check "simulate bad parking time" 1 "parking-mean-s must be" -- "$LLC" simulate 
 
 LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then
+  if [ -f "$DATA/g2o/intel.g2o" ]; then
+    check "graph on intel.g2o reaches the known optimum 45.0" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$DATA/g2o/intel.g2o' --out '$TMP/intel.g2o' | awk -F= '/^chi2=/ {print (\$2 < 45.45 ? \"ok\" : \"chi2 \" \$2)}'"
+  fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
   printf 'a,b,label\n0,99999,1\n' > "$TMP/range.csv"

@@ -11,7 +11,7 @@ namespace llc {
 
 struct IcpOptions {
   int max_iterations = 40;                 ///< Gauss-Newton steps at most
-  double max_correspondence_distance = 1.0;  ///< m; farther nearest neighbours are not paired
+  double max_correspondence_distance = 1.5;  ///< m; farther nearest neighbours are not paired
   double trim_fraction = 0.9;              ///< share of the nearest pairs kept each step (trimmed ICP)
   double huber_delta = 0.05;               ///< m; point-to-line residuals beyond this weigh less
   double translation_tolerance = 1e-3;     ///< m; converged when a step moves less than this ...

@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "laser_loop_closure/core/crf_match.hpp"
 #include "laser_loop_closure/core/icp.hpp"
@@ -13,7 +14,7 @@ namespace llc {
 
 struct ScanAlignerOptions {
   double max_range = 40.0;  ///< m; returns at or beyond this are not aligned (sparse, noisy)
-  double selection_distance = 0.25;  ///< m; of several ICP results, the one with most points this near wins
+  double selection_distance = 0.1;  ///< m; of several ICP results, the one with most points this near (both ways) wins
   CrfMatchOptions crf{};
   IcpOptions icp{};
   ShapeValidationOptions validation{};
@@ -35,6 +36,10 @@ struct ScanAlignmentResult {
   CrfMatchResult crf;
   IcpResult icp;
   ShapeValidationResult validation;
+  /// Every converged ICP result (one per start) and its share of points within
+  /// selection_distance: what the winner was chosen from.
+  std::vector<Pose2> icp_poses;
+  std::vector<double> icp_shares;
   double seconds = 0.0;      ///< all stages
   std::string reject_reason;  ///< "crf: ...", "icp: ..." or "validation: ..."; empty when accepted
 };

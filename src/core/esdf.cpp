@@ -1,0 +1,282 @@
+#include "laser_loop_closure/core/esdf.hpp"
+
+#include <suitesparse/cholmod.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/se2_jacobians.hpp"
+
+namespace llc {
+
+std::string EsdfOptions::validate() const {
+  if (!(relinearize_translation > 0.0) || !(relinearize_rotation > 0.0)) return "relinearize thresholds must be > 0";
+  if (max_relinearizations < 0) return "max_relinearizations must be >= 0";
+  if (!(loop_chi2_threshold > 0.0)) return "loop_chi2_threshold must be > 0";
+  if (!(prior_information > 0.0) || !std::isfinite(prior_information)) return "prior_information must be finite and > 0";
+  return "";
+}
+
+/// The linear system at the linearisation point, in blocks, and CHOLMOD's factor of it.
+/// The information vector is kept in gradient form: b = eta - Lambda * linearisation, so that
+/// the solve gives the step from the linearisation point (angles never leave [-pi, pi)).
+struct Esdf::Impl {
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  std::vector<std::map<std::size_t, Eigen::Matrix3d>> upper;  // upper[i][j], j >= i: block of Lambda
+  Eigen::VectorXd gradient;                                    // b
+  std::size_t blocks = 0, analysed_blocks = 0;
+  bool current = false;                                        // factor and mean match the system
+  Impl() { cholmod_start(&common); }
+  ~Impl() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+  Eigen::Matrix3d& block(std::size_t i, std::size_t j) {
+    auto [it, added] = upper[i].try_emplace(j, Eigen::Matrix3d::Zero());
+    blocks += added;
+    return it->second;
+  }
+  /// Solves Lambda X = B for a dense right-hand side.
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) {
+    cholmod_dense* b = cholmod_allocate_dense(rhs.rows(), rhs.cols(), rhs.rows(), CHOLMOD_REAL, &common);
+    Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(b->x), rhs.rows(), rhs.cols()) = rhs;
+    cholmod_dense* x = cholmod_solve(CHOLMOD_A, factor, b, &common);
+    Eigen::MatrixXd out = Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(x->x), rhs.rows(), rhs.cols());
+    cholmod_free_dense(&b, &common);
+    cholmod_free_dense(&x, &common);
+    return out;
+  }
+};
+
+Esdf::Esdf(const Pose2& first, const EsdfOptions& options) : options_(options), impl_(std::make_unique<Impl>()) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("esdf options: " + error);
+  mean_ = {first};
+  linearization_ = {first};
+  impl_->upper.resize(1);
+  impl_->gradient = Eigen::VectorXd::Zero(3);
+  impl_->block(0, 0) += options_.prior_information * Eigen::Matrix3d::Identity();
+}
+
+Esdf::~Esdf() = default;
+
+namespace {
+/// Error of an edge at poses (g2o's convention) and its Jacobians.
+Eigen::Vector3d linearize(const PoseEdge& e, const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
+  const Pose2 predicted = between(a, b);
+  Eigen::Matrix3d j_outer, j_a, j_b;
+  composeJacobians(inverse(e.measurement), predicted, nullptr, &j_outer);
+  betweenJacobians(a, b, &j_a, &j_b);
+  *ja = j_outer * j_a;
+  *jb = j_outer * j_b;
+  return toVector(between(e.measurement, predicted));
+}
+
+/// g2o's information is that of the error e = (-)Z (+) h, which lives in the frame of the
+/// measured pose Z; a covariance of Z's own (x, y, theta), as odometry and scan matching give
+/// it, is turned into that frame (a rotation by -theta_Z of its x, y part).
+Eigen::Matrix3d errorInformation(const Pose2& z, const Eigen::Matrix3d& covariance) {
+  Eigen::Matrix3d r;
+  composeJacobians(inverse(z), z, nullptr, &r);
+  return (r * covariance * r.transpose()).inverse();
+}
+
+Pose2 plus(const Pose2& p, const double* step) { return {p.x + step[0], p.y + step[1], normalizeAngle(p.theta + step[2])}; }
+}  // namespace
+
+void Esdf::addToSystem(const PoseEdge& e) {
+  Eigen::Matrix3d ja, jb;
+  const Eigen::Vector3d r = linearize(e, linearization_[e.from], linearization_[e.to], &ja, &jb);
+  const Eigen::Matrix3d wa = ja.transpose() * e.information, wb = jb.transpose() * e.information;
+  impl_->block(e.from, e.from) += wa * ja;
+  impl_->block(e.to, e.to) += wb * jb;
+  if (e.from < e.to) impl_->block(e.from, e.to) += wa * jb;
+  else impl_->block(e.to, e.from) += wb * ja;
+  impl_->gradient.segment<3>(3 * long(e.from)) -= wa * r;
+  impl_->gradient.segment<3>(3 * long(e.to)) -= wb * r;
+  impl_->current = false;
+}
+
+void Esdf::rebuildSystem() {
+  for (auto& row : impl_->upper) row.clear();
+  impl_->blocks = 0;
+  impl_->gradient.setZero();
+  impl_->block(0, 0) += options_.prior_information * Eigen::Matrix3d::Identity();
+  // The prior holds pose 0 where it started (mean_ may have moved it by rounding only).
+  for (const PoseEdge& e : edges_) addToSystem(e);
+  // Same blocks as before: the symbolic analysis (ordering, pattern of L) still holds.
+}
+
+void Esdf::factorAndSolve() {
+  Impl& m = *impl_;
+  const std::size_t n = 3 * size();
+  // Column-compressed, upper triangle (stype = 1), built straight from the blocks: column c of
+  // pose-block j holds, for every block (i, j) with i <= j, rows 3i..3i+2 (only up to the
+  // diagonal in the diagonal block). Blocks are kept by row, so gather them per column first.
+  std::vector<std::vector<std::pair<std::size_t, const Eigen::Matrix3d*>>> by_column(size());
+  std::size_t entries = 0;
+  for (std::size_t i = 0; i < m.upper.size(); ++i)
+    for (const auto& [j, b] : m.upper[i]) by_column[j].push_back({i, &b}), entries += 9;
+  cholmod_sparse* a = cholmod_allocate_sparse(n, n, entries, 1, 1, 1, CHOLMOD_REAL, &m.common);
+  auto* cp = static_cast<int*>(a->p);
+  auto* ri = static_cast<int*>(a->i);
+  auto* rx = static_cast<double*>(a->x);
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < size(); ++j)
+    for (int c = 0; c < 3; ++c) {
+      cp[3 * j + std::size_t(c)] = int(k);
+      for (const auto& [i, b] : by_column[j])  // rows ascending: blocks by row index, i <= j
+        for (int r = 0; r < 3; ++r) {
+          if (i == j && r > c) break;
+          ri[k] = int(3 * i) + r, rx[k] = (*b)(r, c), ++k;
+        }
+    }
+  cp[n] = int(k);
+  if (!m.factor || m.analysed_blocks != m.blocks || m.factor->n != n) {
+    if (m.factor) cholmod_free_factor(&m.factor, &m.common);
+    m.factor = cholmod_analyze(a, &m.common);
+    m.analysed_blocks = m.blocks;
+  }
+  cholmod_factorize(a, m.factor, &m.common);
+  cholmod_free_sparse(&a, &m.common);
+  ++factorizations_;
+  if (m.common.status == CHOLMOD_NOT_POSDEF) throw std::runtime_error("esdf: information matrix not positive definite");
+  const Eigen::VectorXd step = m.solve(m.gradient);
+  for (std::size_t p = 0; p < size(); ++p) mean_[p] = plus(linearization_[p], step.data() + 3 * p);
+  m.current = true;
+}
+
+int Esdf::relinearizeUntilSteady() {
+  int count = 0;
+  while (count < options_.max_relinearizations) {
+    bool moved = false;
+    for (std::size_t p = 0; p < size() && !moved; ++p)
+      moved = std::hypot(mean_[p].x - linearization_[p].x, mean_[p].y - linearization_[p].y) > options_.relinearize_translation ||
+              std::abs(normalizeAngle(mean_[p].theta - linearization_[p].theta)) > options_.relinearize_rotation;
+    if (!moved) break;
+    linearization_ = mean_;
+    rebuildSystem();
+    factorAndSolve();
+    ++count;
+    ++relinearizations_;
+  }
+  return count;
+}
+
+std::size_t Esdf::augment(const Pose2& odometry, const Eigen::Matrix3d& covariance) {
+  return augmentFrom(size() - 1, odometry, covariance);
+}
+
+std::size_t Esdf::augmentFrom(std::size_t base, const Pose2& odometry, const Eigen::Matrix3d& covariance) {
+  return augmentWithInformation(PoseEdge{base, size(), odometry, errorInformation(odometry, covariance)});
+}
+
+std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
+  if (e.from >= size() || e.to != size()) throw std::invalid_argument("esdf: augmentation must go from an existing pose to a new one");
+  if (!e.information.allFinite() || !std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta))
+    throw std::invalid_argument("esdf: odometry or its covariance is not finite (or not invertible)");
+  mean_.push_back(compose(mean_[e.from], e.measurement));
+  linearization_.push_back(mean_.back());
+  impl_->upper.emplace_back();
+  impl_->gradient.conservativeResize(3 * long(size()));
+  impl_->gradient.tail<3>().setZero();
+  edges_.push_back(e);
+  addToSystem(e);
+  // Only the new pose is constrained by this edge, and it can satisfy it exactly: every other
+  // mean is unchanged and the new one is the composition (so nothing is solved here).
+  return e.to;
+}
+
+EsdfUpdateResult Esdf::update(std::size_t from, std::size_t to, const Pose2& measurement, const Eigen::Matrix3d& covariance,
+                              bool gate) {
+  PoseEdge e{from, to, measurement, errorInformation(measurement, covariance)};
+  if (!e.information.allFinite()) {
+    EsdfUpdateResult r;
+    r.reject_reason = "measurement covariance is not invertible";
+    return r;
+  }
+  return updateWithInformation(e, gate);
+}
+
+EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool solve) {
+  EsdfUpdateResult result;
+  if (e.from >= size() || e.to >= size() || e.from == e.to) {
+    result.reject_reason = "poses " + std::to_string(e.from) + " and " + std::to_string(e.to) + " are not two poses of the filter";
+    return result;
+  }
+  if (gate) {
+    result.innovation_chi2 = innovationChi2(e);
+    if (!(result.innovation_chi2 <= options_.loop_chi2_threshold)) {
+      result.reject_reason = "innovation chi2 " + std::to_string(result.innovation_chi2) + " above " +
+                             std::to_string(options_.loop_chi2_threshold);
+      return result;
+    }
+  }
+  edges_.push_back(e);
+  addToSystem(e);
+  result.applied = true;
+  if (!solve) return result;
+  factorAndSolve();
+  result.relinearizations = relinearizeUntilSteady();
+  return result;
+}
+
+int Esdf::solveFrom(const std::vector<Pose2>& poses) {
+  if (poses.size() != size()) throw std::invalid_argument("esdf: solveFrom needs one pose per filter pose");
+  mean_ = linearization_ = poses;
+  rebuildSystem();
+  factorAndSolve();
+  return relinearizeUntilSteady();
+}
+
+Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) {
+  if (!impl_->current) factorAndSolve();
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 6);
+  rhs.block<3, 3>(3 * long(a), 0).setIdentity();
+  rhs.block<3, 3>(3 * long(b), 3).setIdentity();
+  const Eigen::MatrixXd x = impl_->solve(rhs);
+  Eigen::Matrix<double, 6, 6> joint;
+  joint.topRows<3>() = x.block<3, 6>(3 * long(a), 0);
+  joint.bottomRows<3>() = x.block<3, 6>(3 * long(b), 0);
+  return 0.5 * (joint + joint.transpose());
+}
+
+Eigen::Matrix3d Esdf::marginalCovariance(std::size_t pose) {
+  if (!impl_->current) factorAndSolve();
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 3);
+  rhs.block<3, 3>(3 * long(pose), 0).setIdentity();
+  const Eigen::Matrix3d m = impl_->solve(rhs).block<3, 3>(3 * long(pose), 0);
+  return 0.5 * (m + m.transpose());
+}
+
+void Esdf::relativePose(std::size_t a, std::size_t b, Pose2* mean, Eigen::Matrix3d* covariance) {
+  const Eigen::Matrix<double, 6, 6> joint = jointCovariance(a, b);
+  Eigen::Matrix3d ja, jb;
+  betweenJacobians(mean_[a], mean_[b], &ja, &jb);
+  Eigen::Matrix<double, 3, 6> j;
+  j << ja, jb;
+  *mean = between(mean_[a], mean_[b]);
+  *covariance = j * joint * j.transpose();
+}
+
+double Esdf::innovationChi2(std::size_t from, std::size_t to, const Pose2& measurement, const Eigen::Matrix3d& covariance) {
+  return innovationChi2(PoseEdge{from, to, measurement, errorInformation(measurement, covariance)});
+}
+
+double Esdf::innovationChi2(const PoseEdge& e) {
+  const Eigen::Matrix<double, 6, 6> joint = jointCovariance(e.from, e.to);
+  Eigen::Matrix3d ja, jb;
+  const Eigen::Vector3d r = linearize(e, mean_[e.from], mean_[e.to], &ja, &jb);
+  Eigen::Matrix<double, 3, 6> j;
+  j << ja, jb;
+  // Innovation covariance: the poses' joint uncertainty seen through the error, plus the
+  // measurement's own (the inverse of its error-space information).
+  const Eigen::Matrix3d s = j * joint * j.transpose() + e.information.inverse();
+  return r.dot(s.ldlt().solve(r));
+}
+
+}  // namespace llc

@@ -1,0 +1,82 @@
+// llc graph: a 2D g2o pose graph through the ESDF, incrementally (in file order: the mean kept
+// current after every loop edge) or in batch (all edges, then Gauss-Newton from the file's
+// initial poses, or the odometry chain when it has none).
+#include <chrono>
+#include <iomanip>
+#include <iostream>
+
+#include "commands.hpp"
+#include "laser_loop_closure/core/esdf.hpp"
+#include "laser_loop_closure/core/g2o_io.hpp"
+
+namespace llc_tool {
+
+int runGraph(const Args& args) {
+  const std::string in_path = args.required("g2o"), out_path = args.required("out");
+  if (args.has("incremental") && args.has("batch")) throw ToolError("--incremental and --batch exclude each other");
+  const bool batch = args.has("batch");
+  llc::EsdfOptions options;
+  options.relinearize_translation = args.number("relinearize-translation", options.relinearize_translation);
+  options.relinearize_rotation = args.number("relinearize-rotation", options.relinearize_rotation);
+  options.max_relinearizations = int(args.integer("max-relinearizations", options.max_relinearizations));
+  options.loop_chi2_threshold = args.number("loop-chi2", options.loop_chi2_threshold);
+  const std::string invalid = options.validate();
+  if (!invalid.empty()) throw ToolError(invalid);
+  const bool gate = args.has("gate");
+  llc::PoseGraph2 graph;
+  try {
+    graph = llc::readG2o(in_path);
+  } catch (const llc::G2oError& e) {
+    throw ToolError(e.what());
+  }
+  const auto start = std::chrono::steady_clock::now();
+  llc::Esdf filter(graph.poses.front(), options);
+  std::size_t loops = 0, refused = 0;
+  // Edges in file order: a new pose is augmented by the first edge that reaches it from an
+  // existing one; any other edge is applied as soon as both of its poses exist.
+  std::vector<const llc::PoseEdge*> waiting;
+  auto apply = [&](const llc::PoseEdge& e) {
+    ++loops;
+    // Batch: every edge in first, one solve at the end from the file's initial poses.
+    const llc::EsdfUpdateResult r = filter.updateWithInformation(e, gate && !batch, !batch);
+    if (!r.applied) {
+      ++refused;
+      std::cerr << "refused edge " << e.from << " -> " << e.to << ": " << r.reject_reason << "\n";
+    }
+  };
+  for (const llc::PoseEdge& e : graph.edges) {
+    if (e.from < filter.size() && e.to == filter.size()) {
+      filter.augmentWithInformation(e);
+      // Edges that waited for this pose.
+      for (auto it = waiting.begin(); it != waiting.end();) {
+        if ((*it)->from < filter.size() && (*it)->to < filter.size()) apply(**it), it = waiting.erase(it);
+        else ++it;
+      }
+    } else if (e.from < filter.size() && e.to < filter.size()) {
+      apply(e);
+    } else {
+      waiting.push_back(&e);
+    }
+  }
+  if (!waiting.empty() || filter.size() != graph.poses.size())
+    throw ToolError(in_path + ": " + std::to_string(graph.poses.size() - filter.size()) +
+                    " poses cannot be reached from pose 0 along the edges");
+  if (batch) filter.solveFrom(graph.poses);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  llc::PoseGraph2 out = graph;
+  out.poses = filter.mean();
+  try {
+    llc::writeG2o(out, out_path);
+  } catch (const llc::G2oError& e) {
+    throw ToolError(e.what());
+  }
+  std::cout << "poses=" << out.poses.size() << " edges=" << graph.edges.size() << " loop_edges=" << loops
+            << " refused=" << refused << " factorizations=" << filter.factorizations()
+            << " relinearizations=" << filter.relinearizations() << " initial_chi2=" << std::setprecision(10)
+            << llc::chiSquared(graph.edges, graph.poses) << " -> " << out_path << "\n";
+  std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
+  std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";
+  return 0;
+}
+
+}  // namespace llc_tool

@@ -1,0 +1,264 @@
+// SE(2) Jacobians, g2o files, and the ESDF on CHOLMOD against a dense Eigen reference.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "laser_loop_closure/core/esdf.hpp"
+#include "laser_loop_closure/core/g2o_io.hpp"
+#include "laser_loop_closure/core/random.hpp"
+#include "laser_loop_closure/core/se2_jacobians.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+using llc::Pose2;
+
+Pose2 randomPose(llc::Random& random, double extent = 3.0) {
+  return {random.uniform(-extent, extent), random.uniform(-extent, extent), random.uniform(-M_PI, M_PI)};
+}
+
+/// Central differences of f at p, angles wrapped in the difference.
+template <class F>
+Eigen::Matrix3d numericJacobian(F f, const Pose2& p) {
+  Eigen::Matrix3d j;
+  const double h = 1e-6;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d[k] = h;
+    const Eigen::Vector3d plus = llc::toVector(f(llc::toPose(llc::toVector(p) + d)));
+    const Eigen::Vector3d minus = llc::toVector(f(llc::toPose(llc::toVector(p) - d)));
+    Eigen::Vector3d diff = plus - minus;
+    diff.z() = llc::normalizeAngle(diff.z());
+    j.col(k) = diff / (2 * h);
+  }
+  return j;
+}
+
+TEST(Se2Jacobians, MatchFiniteDifferences) {
+  llc::Random random(1);
+  for (int t = 0; t < 50; ++t) {
+    const Pose2 a = randomPose(random), b = randomPose(random);
+    Eigen::Matrix3d ja, jb;
+    llc::composeJacobians(a, b, &ja, &jb);
+    EXPECT_LT((ja - numericJacobian([&](const Pose2& x) { return llc::compose(x, b); }, a)).norm(), 1e-7);
+    EXPECT_LT((jb - numericJacobian([&](const Pose2& x) { return llc::compose(a, x); }, b)).norm(), 1e-7);
+    EXPECT_LT((llc::inverseJacobian(a) - numericJacobian([](const Pose2& x) { return llc::inverse(x); }, a)).norm(), 1e-7);
+    llc::betweenJacobians(a, b, &ja, &jb);
+    EXPECT_LT((ja - numericJacobian([&](const Pose2& x) { return llc::between(x, b); }, a)).norm(), 1e-7);
+    EXPECT_LT((jb - numericJacobian([&](const Pose2& x) { return llc::between(a, x); }, b)).norm(), 1e-7);
+  }
+}
+
+/// A random graph: a noisy odometry chain of n poses and some loop edges, true poses known.
+llc::PoseGraph2 randomGraph(std::uint64_t seed, std::size_t n, std::size_t loops, std::vector<Pose2>* truth) {
+  llc::Random random(seed);
+  truth->assign(1, Pose2{});
+  for (std::size_t k = 1; k < n; ++k)
+    truth->push_back(llc::compose(truth->back(), Pose2{random.uniform(0.5, 1.5), random.uniform(-0.2, 0.2), random.uniform(-0.6, 0.6)}));
+  llc::PoseGraph2 g;
+  const Eigen::Matrix3d information = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  auto noisy = [&](const Pose2& z) {
+    return Pose2{z.x + random.normal(0, 0.1), z.y + random.normal(0, 0.1), llc::normalizeAngle(z.theta + random.normal(0, 0.05))};
+  };
+  for (std::size_t k = 1; k < n; ++k) g.edges.push_back({k - 1, k, noisy(llc::between((*truth)[k - 1], (*truth)[k])), information});
+  for (std::size_t l = 0; l < loops; ++l) {
+    const std::size_t a = random.index(n), b = random.index(n);
+    if (a + 2 > b) continue;
+    g.edges.push_back({a, b, noisy(llc::between((*truth)[a], (*truth)[b])), information});
+  }
+  g.poses.assign(1, Pose2{});
+  for (std::size_t k = 1; k < n; ++k) g.poses.push_back(llc::compose(g.poses.back(), g.edges[k - 1].measurement));
+  return g;
+}
+
+/// The reference: dense Gauss-Newton on the same problem (pose 0 held by the same stiff prior
+/// without a residual), iterated to convergence; Lambda inverted densely for covariances.
+struct DenseReference {
+  std::vector<Pose2> poses;
+  Eigen::MatrixXd covariance;
+  DenseReference(const llc::PoseGraph2& g, double prior) : poses(g.poses) {
+    const long n = 3 * long(poses.size());
+    Eigen::MatrixXd h;
+    for (int iteration = 0; iteration < 100; ++iteration) {
+      h = Eigen::MatrixXd::Zero(n, n);
+      Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
+      h.block<3, 3>(0, 0) += prior * Eigen::Matrix3d::Identity();
+      for (const llc::PoseEdge& e : g.edges) {
+        // Error and Jacobians written out from the formulas, not from the filter's code.
+        const Pose2 predicted = llc::between(poses[e.from], poses[e.to]);
+        const Eigen::Vector3d r = llc::toVector(llc::between(e.measurement, predicted));
+        Eigen::Matrix<double, 3, 6> j;
+        const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
+        Eigen::Matrix3d rz;
+        rz << cz, sz, 0, -sz, cz, 0, 0, 0, 1;  // rotation by -theta_z: d(Z^-1 (+) h)/dh
+        llc::betweenJacobians(poses[e.from], poses[e.to], nullptr, nullptr);
+        const Pose2& a = poses[e.from];
+        const Pose2& c = poses[e.to];
+        const double ca = std::cos(a.theta), sa = std::sin(a.theta), dx = c.x - a.x, dy = c.y - a.y;
+        Eigen::Matrix3d ja, jb;
+        ja << -ca, -sa, -sa * dx + ca * dy, sa, -ca, -ca * dx - sa * dy, 0, 0, -1;
+        jb << ca, sa, 0, -sa, ca, 0, 0, 0, 1;
+        j << rz * ja, rz * jb;
+        const Eigen::Matrix<double, 6, 3> w = j.transpose() * e.information;
+        const long ia = 3 * long(e.from), ib = 3 * long(e.to);
+        const Eigen::Matrix<double, 6, 6> hh = w * j;
+        h.block<3, 3>(ia, ia) += hh.block<3, 3>(0, 0);
+        h.block<3, 3>(ia, ib) += hh.block<3, 3>(0, 3);
+        h.block<3, 3>(ib, ia) += hh.block<3, 3>(3, 0);
+        h.block<3, 3>(ib, ib) += hh.block<3, 3>(3, 3);
+        const Eigen::Matrix<double, 6, 1> gr = w * r;
+        b.segment<3>(ia) -= gr.head<3>();
+        b.segment<3>(ib) -= gr.tail<3>();
+      }
+      const Eigen::VectorXd step = h.ldlt().solve(b);
+      for (std::size_t p = 0; p < poses.size(); ++p)
+        poses[p] = {poses[p].x + step[3 * long(p)], poses[p].y + step[3 * long(p) + 1],
+                    llc::normalizeAngle(poses[p].theta + step[3 * long(p) + 2])};
+      if (step.lpNorm<Eigen::Infinity>() < 1e-13) break;
+    }
+    covariance = h.inverse();
+  }
+};
+
+TEST(Esdf, MatchesADenseReferenceOnRandomGraphs) {
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    std::vector<Pose2> truth;
+    const llc::PoseGraph2 g = randomGraph(seed, 25, 12, &truth);
+    llc::EsdfOptions options;
+    options.relinearize_translation = 1e-12;  // iterate to convergence, as the reference does
+    options.relinearize_rotation = 1e-12;
+    options.max_relinearizations = 100;
+    llc::Esdf filter(Pose2{}, options);
+    for (const llc::PoseEdge& e : g.edges) {
+      if (e.to == filter.size()) filter.augmentWithInformation(e);
+      else ASSERT_TRUE(filter.updateWithInformation(e, false).applied);
+    }
+    const DenseReference reference(g, options.prior_information);
+    ASSERT_EQ(filter.size(), reference.poses.size());
+    for (std::size_t p = 0; p < filter.size(); ++p) {
+      EXPECT_NEAR(filter.mean()[p].x, reference.poses[p].x, 1e-9) << "seed " << seed << " pose " << p;
+      EXPECT_NEAR(filter.mean()[p].y, reference.poses[p].y, 1e-9);
+      EXPECT_NEAR(llc::normalizeAngle(filter.mean()[p].theta - reference.poses[p].theta), 0.0, 1e-9);
+    }
+    for (std::size_t p : {std::size_t(0), std::size_t(7), filter.size() - 1}) {
+      const Eigen::Matrix3d c = filter.marginalCovariance(p);
+      EXPECT_LT((c - reference.covariance.block<3, 3>(3 * long(p), 3 * long(p))).cwiseAbs().maxCoeff(), 1e-9) << p;
+    }
+    const Eigen::Matrix<double, 6, 6> joint = filter.jointCovariance(3, 20);
+    EXPECT_LT((joint.block<3, 3>(0, 3) - reference.covariance.block<3, 3>(9, 60)).cwiseAbs().maxCoeff(), 1e-9);
+    // The optimum is no worse than the truth.
+    EXPECT_LE(llc::chiSquared(g.edges, filter.mean()), llc::chiSquared(g.edges, truth) + 1e-6);
+  }
+}
+
+TEST(Esdf, ChiSquareGateRefusesAPlantedWrongLoopAndAcceptsTheRightOnes) {
+  std::vector<Pose2> truth;
+  const llc::PoseGraph2 g = randomGraph(9, 40, 0, &truth);
+  llc::Esdf filter;
+  for (const llc::PoseEdge& e : g.edges) filter.augmentWithInformation(e);
+  const Eigen::Matrix3d covariance = Eigen::Vector3d(0.01, 0.01, 0.0025).asDiagonal();
+  // Right loops (true relative poses): accepted and applied.
+  for (auto [a, b] : {std::pair<std::size_t, std::size_t>{2, 30}, {10, 39}, {0, 20}}) {
+    const llc::EsdfUpdateResult r = filter.update(a, b, llc::between(truth[a], truth[b]), covariance, true);
+    EXPECT_TRUE(r.applied) << r.reject_reason;
+    EXPECT_LE(r.innovation_chi2, 16.27);
+  }
+  const std::vector<Pose2> before = filter.mean();
+  const std::size_t constraints = filter.constraints().size();
+  // A wrong loop: the true relative pose moved by 3 m. Refused, nothing changes.
+  Pose2 wrong = llc::between(truth[5], truth[35]);
+  wrong.x += 3.0;
+  const llc::EsdfUpdateResult r = filter.update(5, 35, wrong, covariance, true);
+  EXPECT_FALSE(r.applied);
+  EXPECT_GT(r.innovation_chi2, 16.27);
+  EXPECT_NE(r.reject_reason.find("chi2"), std::string::npos);
+  EXPECT_EQ(filter.constraints().size(), constraints);
+  for (std::size_t p = 0; p < before.size(); ++p) EXPECT_EQ(filter.mean()[p].x, before[p].x);
+  // Bad updates are refused with a reason, never applied.
+  EXPECT_FALSE(filter.update(3, 3, wrong, covariance, false).applied);
+  EXPECT_FALSE(filter.update(3, 400, wrong, covariance, false).applied);
+  EXPECT_FALSE(filter.update(1, 3, wrong, Eigen::Matrix3d::Zero(), false).applied);
+  EXPECT_THROW(filter.augment(wrong, Eigen::Matrix3d::Zero()), std::invalid_argument);
+  EXPECT_THROW(filter.augmentFrom(999, wrong, covariance), std::invalid_argument);
+}
+
+TEST(Esdf, AugmentationIsTheCompositionAndLeavesOtherPosesAlone) {
+  llc::Esdf filter(Pose2{1.0, 2.0, 0.5});
+  const Eigen::Matrix3d covariance = Eigen::Vector3d(0.01, 0.02, 0.001).asDiagonal();
+  filter.augment(Pose2{1.0, 0.0, M_PI / 2}, covariance);
+  filter.augment(Pose2{2.0, 0.5, -0.3}, covariance);
+  const Pose2 expected = llc::compose(llc::compose(Pose2{1.0, 2.0, 0.5}, Pose2{1.0, 0.0, M_PI / 2}), Pose2{2.0, 0.5, -0.3});
+  EXPECT_NEAR(filter.mean()[2].x, expected.x, 1e-12);
+  EXPECT_NEAR(filter.mean()[2].y, expected.y, 1e-12);
+  EXPECT_NEAR(filter.mean()[2].theta, expected.theta, 1e-12);
+  // Uncertainty grows along the chain; the relative pose of 1 and 2 has the odometry's covariance.
+  EXPECT_GT(filter.marginalCovariance(2).trace(), filter.marginalCovariance(1).trace());
+  Pose2 relative;
+  Eigen::Matrix3d relative_covariance;
+  filter.relativePose(1, 2, &relative, &relative_covariance);
+  EXPECT_NEAR(relative.x, 2.0, 1e-12);
+  EXPECT_LT((relative_covariance - covariance).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(G2o, RoundTripAndOdometryChainStart) {
+  llc_test::TempDir dir;
+  std::vector<Pose2> truth;
+  llc::PoseGraph2 g = randomGraph(3, 10, 5, &truth);
+  g.edges[3].information(0, 1) = g.edges[3].information(1, 0) = 2.5;
+  llc::writeG2o(g, dir.file("g.g2o"));
+  const llc::PoseGraph2 back = llc::readG2o(dir.file("g.g2o"));
+  ASSERT_EQ(back.poses.size(), g.poses.size());
+  ASSERT_EQ(back.edges.size(), g.edges.size());
+  EXPECT_TRUE(back.had_vertices);
+  for (std::size_t p = 0; p < g.poses.size(); ++p) EXPECT_EQ(back.poses[p].x, g.poses[p].x);
+  for (std::size_t k = 0; k < g.edges.size(); ++k) {
+    EXPECT_EQ(back.edges[k].from, g.edges[k].from);
+    EXPECT_EQ(back.edges[k].measurement.theta, g.edges[k].measurement.theta);
+    EXPECT_EQ(back.edges[k].information, g.edges[k].information);
+  }
+  EXPECT_DOUBLE_EQ(llc::chiSquared(back.edges, back.poses), llc::chiSquared(g.edges, g.poses));
+  // Without vertices: the odometry chain from the origin.
+  llc_test::writeText(dir.file("chain.g2o"),
+                      "# comment\nEDGE_SE2 0 1 1 0 1.5707963267948966 1 0 0 1 0 1\n"
+                      "EDGE_SE2 1 2 2 0 0 1 0 0 1 0 1\nEDGE_SE2 2 0 0 3 0 1 0 0 1 0 1\n");
+  const llc::PoseGraph2 chain = llc::readG2o(dir.file("chain.g2o"));
+  EXPECT_FALSE(chain.had_vertices);
+  ASSERT_EQ(chain.poses.size(), 3u);
+  EXPECT_NEAR(chain.poses[2].x, 1.0, 1e-12);
+  EXPECT_NEAR(chain.poses[2].y, 2.0, 1e-12);
+}
+
+TEST(G2o, MalformedLinesAreRefusedWithTheLineNumber) {
+  llc_test::TempDir dir;
+  auto refused = [&](const std::string& text, const std::string& expected) {
+    llc_test::writeText(dir.file("bad.g2o"), text);
+    try {
+      llc::readG2o(dir.file("bad.g2o"));
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const llc::G2oError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  refused("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 zero 0\n", "bad.g2o:2: VERTEX_SE2");
+  refused("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0\n", "bad.g2o:2: EDGE_SE2 needs");
+  refused("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 -1\n", "bad.g2o:1: EDGE_SE2 information matrix is not positive definite");
+  refused("EDGE_SE2 0 0 1 0 0 1 0 0 1 0 1\n", "two different ids");
+  refused("EDGE_SE2 0 1 nan 0 0 1 0 0 1 0 1\n", "bad.g2o:1:");
+  refused("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 1 1\n", "vertex 0 twice");
+  refused("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 2 0 0 0\n", "without gaps");
+  refused("EDGE_SE2 0 2 1 0 0 1 0 0 1 0 1\n", "no odometry edge 0 -> 1");
+  refused("# nothing\n", "no VERTEX_SE2 or EDGE_SE2");
+  EXPECT_THROW(llc::readG2o(dir.file("missing.g2o")), llc::G2oError);
+}
+
+TEST(G2o, RealBenchmarkReadsWhenPresent) {
+  const std::string path = std::string(LLC_SOURCE_DIR) + "/../shared/data/g2o/intel.g2o";
+  if (!std::ifstream(path)) GTEST_SKIP() << path << " absent (../shared/data not here)";
+  const llc::PoseGraph2 g = llc::readG2o(path);
+  EXPECT_EQ(g.poses.size(), 1728u);
+  EXPECT_EQ(g.edges.size(), 2512u);
+}
+
+}  // namespace
