@@ -177,8 +177,9 @@ std::size_t Esdf::augmentFrom(std::size_t base, const Pose2& odometry, const Eig
 
 std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
   if (e.from >= size() || e.to != size()) throw std::invalid_argument("esdf: augmentation must go from an existing pose to a new one");
-  if (!e.information.allFinite() || !std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta))
-    throw std::invalid_argument("esdf: odometry or its covariance is not finite (or not invertible)");
+  if (!e.information.allFinite() || !std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) ||
+      e.information.llt().info() != Eigen::Success)
+    throw std::invalid_argument("esdf: odometry not finite, or its covariance not positive definite");
   mean_.push_back(compose(mean_[e.from], e.measurement));
   linearization_.push_back(mean_.back());
   impl_->upper.emplace_back();
@@ -206,6 +207,12 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   EsdfUpdateResult result;
   if (e.from >= size() || e.to >= size() || e.from == e.to) {
     result.reject_reason = "poses " + std::to_string(e.from) + " and " + std::to_string(e.to) + " are not two poses of the filter";
+    return result;
+  }
+  // A NaN here would poison every mean at the next solve: refuse it instead.
+  if (!std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) || !e.information.allFinite() ||
+      e.information.llt().info() != Eigen::Success) {
+    result.reject_reason = "measurement not finite or information not positive definite";
     return result;
   }
   if (gate) {

@@ -180,7 +180,13 @@ TEST(Esdf, ChiSquareGateRefusesAPlantedWrongLoopAndAcceptsTheRightOnes) {
   EXPECT_FALSE(filter.update(3, 3, wrong, covariance, false).applied);
   EXPECT_FALSE(filter.update(3, 400, wrong, covariance, false).applied);
   EXPECT_FALSE(filter.update(1, 3, wrong, Eigen::Matrix3d::Zero(), false).applied);
+  EXPECT_FALSE(filter.update(1, 3, Pose2{std::nan(""), 0.0, 0.0}, covariance, false).applied);
+  EXPECT_FALSE(filter.update(1, 3, wrong, -covariance, false).applied);
+  EXPECT_FALSE(filter.updateWithInformation(llc::PoseEdge{1, 3, wrong, -Eigen::Matrix3d::Identity()}, false).applied);
+  for (std::size_t p = 0; p < before.size(); ++p) EXPECT_TRUE(std::isfinite(filter.mean()[p].x));
   EXPECT_THROW(filter.augment(wrong, Eigen::Matrix3d::Zero()), std::invalid_argument);
+  EXPECT_THROW(filter.augment(Pose2{0.0, std::nan(""), 0.0}, covariance), std::invalid_argument);
+  EXPECT_THROW(filter.augment(wrong, -covariance), std::invalid_argument);
   EXPECT_THROW(filter.augmentFrom(999, wrong, covariance), std::invalid_argument);
 }
 
