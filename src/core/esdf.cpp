@@ -4,6 +4,8 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -29,8 +31,13 @@ struct Esdf::Impl {
   std::vector<std::map<std::size_t, Eigen::Matrix3d>> upper;  // upper[i][j], j >= i: block of Lambda
   Eigen::VectorXd gradient;                                    // b
   std::size_t blocks = 0, analysed_blocks = 0;
-  bool current = false;                                        // factor and mean match the system
-  Impl() { cholmod_start(&common); }
+  bool current = false;      // factor and mean match the system
+  bool factor_valid = false;  // the factor is that of the system at the current linearisation
+  std::vector<int> inverse_permutation;  // original variable -> row of the factor
+  Impl() {
+    cholmod_start(&common);
+    common.supernodal = CHOLMOD_SIMPLICIAL;  // LDL', which cholmod_updown works on
+  }
   ~Impl() {
     if (factor) cholmod_free_factor(&factor, &common);
     cholmod_finish(&common);
@@ -102,6 +109,7 @@ void Esdf::addToSystem(const PoseEdge& e) {
 }
 
 void Esdf::rebuildSystem() {
+  impl_->factor_valid = false;
   for (auto& row : impl_->upper) row.clear();
   impl_->blocks = 0;
   impl_->gradient.setZero();
@@ -140,14 +148,60 @@ void Esdf::factorAndSolve() {
     if (m.factor) cholmod_free_factor(&m.factor, &m.common);
     m.factor = cholmod_analyze(a, &m.common);
     m.analysed_blocks = m.blocks;
+    const int* perm = static_cast<const int*>(m.factor->Perm);
+    m.inverse_permutation.assign(n, 0);
+    for (std::size_t k = 0; k < n; ++k) m.inverse_permutation[std::size_t(perm[k])] = int(k);
   }
   cholmod_factorize(a, m.factor, &m.common);
   cholmod_free_sparse(&a, &m.common);
   ++factorizations_;
   if (m.common.status == CHOLMOD_NOT_POSDEF) throw std::runtime_error("esdf: information matrix not positive definite");
-  const Eigen::VectorXd step = m.solve(m.gradient);
+  m.factor_valid = true;
+  solveMean();
+}
+
+void Esdf::solveMean() {
+  const Eigen::VectorXd step = impl_->solve(impl_->gradient);
   for (std::size_t p = 0; p < size(); ++p) mean_[p] = plus(linearization_[p], step.data() + 3 * p);
-  m.current = true;
+  impl_->current = true;
+}
+
+bool Esdf::rankUpdate(const PoseEdge& e) {
+  Impl& m = *impl_;
+  const std::size_t n = 3 * size();
+  if (!m.factor_valid || !m.factor || m.factor->n != n) return false;
+  // The constraint adds J^T Omega J = C C^T with C = J^T W, Omega = W W^T (Cholesky): a rank-3
+  // update of the factor, its rows in the factor's (permuted) order.
+  Eigen::Matrix3d ja, jb;
+  linearize(e, linearization_[e.from], linearization_[e.to], &ja, &jb);
+  const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix3d w = llt.matrixL();
+  const Eigen::Matrix3d ca = ja.transpose() * w, cb = jb.transpose() * w;
+  cholmod_sparse* c = cholmod_allocate_sparse(n, 3, 18, 1, 1, 0, CHOLMOD_REAL, &m.common);
+  auto* cp = static_cast<int*>(c->p);
+  auto* ci = static_cast<int*>(c->i);
+  auto* cx = static_cast<double*>(c->x);
+  std::array<std::pair<int, double>, 6> column;
+  for (int col = 0; col < 3; ++col) {
+    for (int r = 0; r < 3; ++r) {
+      column[std::size_t(r)] = {m.inverse_permutation[3 * e.from + std::size_t(r)], ca(r, col)};
+      column[std::size_t(3 + r)] = {m.inverse_permutation[3 * e.to + std::size_t(r)], cb(r, col)};
+    }
+    std::sort(column.begin(), column.end());
+    cp[col] = 6 * col;
+    for (int k = 0; k < 6; ++k) ci[6 * col + k] = column[std::size_t(k)].first, cx[6 * col + k] = column[std::size_t(k)].second;
+  }
+  cp[3] = 18;
+  const int ok = cholmod_updown(1, c, m.factor, &m.common);
+  cholmod_free_sparse(&c, &m.common);
+  if (!ok || m.common.status != CHOLMOD_OK) {
+    m.factor_valid = false;
+    return false;
+  }
+  ++rank_updates_;
+  m.analysed_blocks = 0;  // the update may have changed L's pattern: analyse afresh next time
+  return true;
 }
 
 int Esdf::relinearizeUntilSteady() {
@@ -224,10 +278,16 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
     }
   }
   edges_.push_back(e);
+  const bool factor_was_valid = impl_->factor_valid;
   addToSystem(e);
+  impl_->factor_valid = false;
   result.applied = true;
   if (!solve) return result;
-  factorAndSolve();
+  // The factor is updated in place when it covers every pose (no pose added since it was
+  // made); otherwise, or if the update fails, it is made again.
+  impl_->factor_valid = factor_was_valid;
+  if (rankUpdate(e)) solveMean();
+  else factorAndSolve();
   result.relinearizations = relinearizeUntilSteady();
   return result;
 }

@@ -72,6 +72,7 @@ int runGraph(const Args& args) {
   }
   std::cout << "poses=" << out.poses.size() << " edges=" << graph.edges.size() << " loop_edges=" << loops
             << " refused=" << refused << " factorizations=" << filter.factorizations()
+            << " rank_updates=" << filter.rankUpdates()
             << " relinearizations=" << filter.relinearizations() << " initial_chi2=" << std::setprecision(10)
             << llc::chiSquared(graph.edges, graph.poses) << " -> " << out_path << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";

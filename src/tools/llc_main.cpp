@@ -67,7 +67,7 @@ const std::vector<Command>& commands() {
        {"g2o", "out", "relinearize-translation", "relinearize-rotation", "max-relinearizations", "loop-chi2"},
        {"incremental", "batch", "gate"},
        "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--loop-chi2 16.27]\n"
-       "      [--relinearize-translation 0.01] [--relinearize-rotation 0.005] [--max-relinearizations 20]"},
+       "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--max-relinearizations 20]"},
       {"train-crf", llc_tool::runTrainCrf,
        with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
        "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},

@@ -17,8 +17,8 @@ namespace llc {
 struct EsdfOptions {
   /// Relinearise (rebuild the information at the current mean and refactor) when a pose's
   /// mean has moved more than this from where its constraints were linearised ...
-  double relinearize_translation = 0.01;  ///< m
-  double relinearize_rotation = 0.005;    ///< rad
+  double relinearize_translation = 0.05;  ///< m
+  double relinearize_rotation = 0.02;     ///< rad
   int max_relinearizations = 20;          ///< ... at most this many times per update
   /// 3-DoF chi-square threshold of a loop closure's innovation (99.9%: 16.27); larger is refused.
   double loop_chi2_threshold = 16.27;
@@ -77,6 +77,7 @@ class Esdf {
   /// Every constraint applied so far (odometry and loops), in order, with its information.
   const std::vector<PoseEdge>& constraints() const { return edges_; }
   int factorizations() const { return factorizations_; }
+  int rankUpdates() const { return rank_updates_; }
   int relinearizations() const { return relinearizations_; }
 
  private:
@@ -84,11 +85,13 @@ class Esdf {
   void addToSystem(const PoseEdge& edge);
   void rebuildSystem();
   void factorAndSolve();
+  void solveMean();
+  bool rankUpdate(const PoseEdge& edge);
   int relinearizeUntilSteady();
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
   std::vector<PoseEdge> edges_;
-  int factorizations_ = 0, relinearizations_ = 0;
+  int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 
