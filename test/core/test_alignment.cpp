@@ -287,6 +287,28 @@ TEST(Aligner, RefusesBadOptions) {
   options = {};
   options.crf.weights.distance = -1.0;
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.reverse_below = 2.0;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+}
+
+TEST(Aligner, ReverseMatchingAddsStartsAndAgreesWithTheForwardOne) {
+  // Always matching both ways (reverse_below = 1) must find the same transform on a clean
+  // pair, with more ICP candidates considered.
+  const Pose2 a{0.2, -0.4, 0.1}, b{1.1, 0.3, 2.0};
+  llc::ScanAlignerOptions both;
+  both.reverse_below = 1.0;
+  llc::ScanAlignerOptions forward_only;
+  forward_only.reverse_below = 0.0;
+  const llc::ScanAligner aligner_both(both), aligner_forward(forward_only);
+  const auto pa = aligner_both.prepare(scanAt(room(), a, 720, 0.005, 3));
+  const auto pb = aligner_both.prepare(scanAt(room(), b, 720, 0.005, 4));
+  const llc::ScanAlignmentResult r_both = aligner_both.align(*pa, *pb);
+  const llc::ScanAlignmentResult r_forward = aligner_forward.align(*pa, *pb);
+  ASSERT_TRUE(r_both.accepted && r_forward.accepted);
+  EXPECT_GT(r_both.icp_poses.size(), r_forward.icp_poses.size());
+  expectPoseNear(r_both.pose, llc::between(a, b), 0.02, 0.005);
+  expectPoseNear(r_forward.pose, llc::between(a, b), 0.02, 0.005);
 }
 
 /// Energy of an association under the weights: what max-product minimises.
