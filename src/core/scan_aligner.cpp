@@ -18,8 +18,8 @@ std::string ScanAlignerOptions::validate() const {
   return "";
 }
 
-PreparedScan::PreparedScan(Points2 points_in, const ScanAlignerOptions& options)
-    : points(std::move(points_in)), crf(describeForCrf(points, options.crf)), icp_target(points, options.icp) {}
+PreparedScan::PreparedScan(Points2 points_in, const ScanAlignerOptions& options, const FieldOfView& view_in)
+    : points(std::move(points_in)), view(view_in), crf(describeForCrf(points, options.crf)), icp_target(points, options.icp) {}
 
 ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) {
   const std::string error = options_.validate();
@@ -27,7 +27,8 @@ ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) 
 }
 
 std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const {
-  return std::make_shared<const PreparedScan>(scanPoints(scan, options_.max_range), options_);
+  return std::make_shared<const PreparedScan>(scanPoints(scan, options_.max_range), options_,
+                                              fieldOfView(scan, options_.max_range));
 }
 
 ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
@@ -84,7 +85,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   if (!any) return finish("icp: " + result.icp.reject_reason);
   result.pose = result.icp.pose;
   result.covariance = result.icp.covariance;
-  result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation);
+  result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation, &a.view);
   if (!result.validation.accepted) return finish("validation: " + result.validation.reject_reason);
   result.accepted = true;
   return finish("");

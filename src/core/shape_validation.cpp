@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/shape_validation.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace llc {
@@ -10,23 +12,52 @@ std::string ShapeValidationOptions::validate() const {
   return "";
 }
 
+bool FieldOfView::contains(const Point2& p) const {
+  if (!(p.squaredNorm() < max_range * max_range)) return false;
+  if (full_circle) return true;
+  const double bearing = std::atan2(p.y(), p.x());
+  return bearing >= bearing_min && bearing <= bearing_max;
+}
+
+FieldOfView fieldOfView(const Scan& scan, double max_range) {
+  FieldOfView view;
+  view.max_range = max_range;
+  view.full_circle = scan.full_circle;
+  if (view.full_circle) return view;
+  double lo = M_PI, hi = -M_PI;
+  for (double b : scan.bearings)
+    if (std::isfinite(b)) lo = std::min(lo, normalizeAngle(b)), hi = std::max(hi, normalizeAngle(b));
+  if (lo > hi) lo = hi = 0.0;  // no usable bearing: sees nothing but straight ahead
+  view.bearing_min = lo;
+  view.bearing_max = hi;
+  return view;
+}
+
 ShapeValidationResult validateShape(const Points2& source, const KdTree2& target, const Pose2& pose,
-                                    const ShapeValidationOptions& options) {
+                                    const ShapeValidationOptions& options, const FieldOfView* target_view) {
   ShapeValidationResult result;
-  result.points = source.size();
   if (source.empty() || target.size() == 0) {
     result.reject_reason = "no points to compare";
     return result;
   }
   const double limit_sq = options.max_distance * options.max_distance;
-  std::size_t inliers = 0;
+  std::size_t inliers = 0, tested = 0;
   const RigidMotion2 motion(pose);
+  const bool filter = options.only_in_view && target_view;
   for (const Point2& p : source) {
+    const Point2 moved = motion(p);
+    if (filter && !target_view->contains(moved)) continue;
+    ++tested;
     std::size_t index;
     double distance_sq;
-    if (target.nearest(motion(p), &index, &distance_sq) && distance_sq <= limit_sq) ++inliers;
+    if (target.nearest(moved, &index, &distance_sq) && distance_sq <= limit_sq) ++inliers;
   }
-  result.inlier_share = double(inliers) / double(source.size());
+  result.points = tested;
+  if (tested == 0) {
+    result.reject_reason = "no point in the other scan's view";
+    return result;
+  }
+  result.inlier_share = double(inliers) / double(tested);
   result.accepted = result.inlier_share >= options.min_inlier_share;
   if (!result.accepted) {
     char text[96];

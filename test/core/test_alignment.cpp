@@ -162,6 +162,45 @@ TEST(ShapeValidation, CountsNearestNeighbourPairsWithinD) {
   EXPECT_FALSE(r.accepted);
 }
 
+TEST(ShapeValidation, CountsOnlyPointsTheOtherScannerCouldSee) {
+  // Target: a wall 2 m ahead seen by a forward 180-degree scanner. Source: the same wall plus
+  // four points behind the target scanner, which it could never have seen.
+  Points2 target, source;
+  for (int i = -10; i <= 10; ++i) target.emplace_back(2.0, 0.2 * i), source.emplace_back(2.0, 0.2 * i + 0.1);
+  for (int i = 0; i < 4; ++i) source.emplace_back(-3.0, double(i));
+  const llc::KdTree2 tree(target);
+  llc::FieldOfView view;
+  view.full_circle = false;
+  view.bearing_min = -M_PI / 2;
+  view.bearing_max = M_PI / 2;
+  view.max_range = 40.0;
+  llc::ShapeValidationOptions options;
+  llc::ShapeValidationResult r = llc::validateShape(source, tree, Pose2{}, options, &view);
+  EXPECT_EQ(r.points, 21u);
+  EXPECT_DOUBLE_EQ(r.inlier_share, 1.0);
+  options.only_in_view = false;  // the paper's way: every point counts
+  r = llc::validateShape(source, tree, Pose2{}, options, &view);
+  EXPECT_EQ(r.points, 25u);
+  EXPECT_DOUBLE_EQ(r.inlier_share, 21.0 / 25.0);
+  EXPECT_FALSE(r.accepted);
+  // Nothing in view: refused with a reason.
+  options.only_in_view = true;
+  r = llc::validateShape(source, tree, Pose2{-10.0, 0.0, M_PI}, options, &view);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_EQ(r.reject_reason, "no point in the other scan's view");
+  // The view of a scan: its bearing span, or everything for a full circle.
+  const llc::FieldOfView half = llc::fieldOfView(llc_test::ringScan(std::vector<double>(8, 1.0)), 30.0);
+  EXPECT_TRUE(half.full_circle);
+  EXPECT_TRUE(half.contains(Point2(-5, 0)));
+  EXPECT_FALSE(half.contains(Point2(31, 0)));
+  llc::Scan front;
+  for (int i = 0; i <= 180; ++i) front.bearings.push_back((i - 90) * M_PI / 180), front.ranges.push_back(1.0);
+  const llc::FieldOfView f = llc::fieldOfView(front, 30.0);
+  EXPECT_FALSE(f.full_circle);
+  EXPECT_TRUE(f.contains(Point2(1, 0.5)));
+  EXPECT_FALSE(f.contains(Point2(-1, 0.5)));
+}
+
 TEST(Icp, ConvergesToTheTruthFromANearbyStartWithACovariance) {
   const Pose2 a{0.3, -0.2, 0.1}, b{1.4, 0.6, 0.5};
   const Pose2 truth = llc::between(a, b);

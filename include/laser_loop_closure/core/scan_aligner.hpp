@@ -24,8 +24,9 @@ struct ScanAlignerOptions {
 
 /// Everything the aligner needs of one scan, computed once (a keyframe keeps it).
 struct PreparedScan {
-  PreparedScan(Points2 points, const ScanAlignerOptions& options);
+  PreparedScan(Points2 points, const ScanAlignerOptions& options, const FieldOfView& view = {});
   Points2 points;
+  FieldOfView view;  ///< what its scanner could see (for shape validation)
   CrfScan crf;
   IcpTarget icp_target;  ///< its k-d tree also serves shape validation
 };
