@@ -301,6 +301,7 @@ int Esdf::solveFrom(const std::vector<Pose2>& poses) {
 }
 
 Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) {
+  if (a >= size() || b >= size()) throw std::out_of_range("esdf: no pose " + std::to_string(std::max(a, b)));
   if (!impl_->current) factorAndSolve();
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 6);
   rhs.block<3, 3>(3 * long(a), 0).setIdentity();
@@ -313,6 +314,7 @@ Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) 
 }
 
 Eigen::Matrix3d Esdf::marginalCovariance(std::size_t pose) {
+  if (pose >= size()) throw std::out_of_range("esdf: no pose " + std::to_string(pose));
   if (!impl_->current) factorAndSolve();
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 3);
   rhs.block<3, 3>(3 * long(pose), 0).setIdentity();

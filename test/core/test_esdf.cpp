@@ -208,6 +208,10 @@ TEST(Esdf, AugmentationIsTheCompositionAndLeavesOtherPosesAlone) {
   filter.relativePose(1, 2, &relative, &relative_covariance);
   EXPECT_NEAR(relative.x, 2.0, 1e-12);
   EXPECT_LT((relative_covariance - covariance).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_THROW(filter.marginalCovariance(3), std::out_of_range);
+  EXPECT_THROW(filter.jointCovariance(0, 7), std::out_of_range);
+  EXPECT_THROW(filter.relativePose(9, 0, &relative, &relative_covariance), std::out_of_range);
+  EXPECT_THROW(filter.innovationChi2(0, 5, relative, covariance), std::out_of_range);
 }
 
 TEST(G2o, RoundTripAndOdometryChainStart) {

@@ -64,7 +64,8 @@ class Esdf {
 
   const std::vector<Pose2>& mean() const { return mean_; }
   /// Marginal covariance of one pose, and the joint covariance of two (6x6, from then to),
-  /// by sparse solves with the Cholesky factor (Lambda is never inverted).
+  /// by sparse solves with the Cholesky factor (Lambda is never inverted). These and the two
+  /// below throw std::out_of_range for a pose the filter does not have.
   Eigen::Matrix3d marginalCovariance(std::size_t pose);
   Eigen::Matrix<double, 6, 6> jointCovariance(std::size_t a, std::size_t b);
   /// Predicted pose of b in a's frame and its covariance (from the joint marginal).
