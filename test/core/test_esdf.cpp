@@ -93,7 +93,6 @@ struct DenseReference {
         const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
         Eigen::Matrix3d rz;
         rz << cz, sz, 0, -sz, cz, 0, 0, 0, 1;  // rotation by -theta_z: d(Z^-1 (+) h)/dh
-        llc::betweenJacobians(poses[e.from], poses[e.to], nullptr, nullptr);
         const Pose2& a = poses[e.from];
         const Pose2& c = poses[e.to];
         const double ca = std::cos(a.theta), sa = std::sin(a.theta), dx = c.x - a.x, dy = c.y - a.y;
