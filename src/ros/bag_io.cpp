@@ -135,6 +135,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     r.truth_from_odometry = truth.samples.empty();
 
     llc::ScanSequence sequence;
+    sequence.has_odometry = !odometry.samples.empty();
     sequence.source = path;
     double last_stamp = -std::numeric_limits<double>::infinity();
     auto skip = [&](const std::string& why) {

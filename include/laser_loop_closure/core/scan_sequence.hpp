@@ -22,6 +22,7 @@ struct ScanSequence {
   std::string source;  ///< the file it came from
   std::vector<LoggedScan> scans;
   std::size_t merged_count = 0;  ///< how many scans got a rear scan merged in
+  bool has_odometry = true;  ///< false: the input had no odometry (the odometry poses are all zero)
 };
 
 struct ScanSequenceOptions {

@@ -1,0 +1,93 @@
+// Loop detection for one new keyframe: the classifier against every stored keyframe older than
+// min_keyframe_gap (no pose prior), then the best candidates aligned with no initial guess
+// (CRF-match, ICP) and shape-validated. One class for the nodelet and `llc slam`.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/keyframe_store.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
+
+namespace llc {
+
+struct LoopDetectorOptions {
+  std::size_t min_keyframe_gap = 30;  ///< keyframes; the most recent ones are never loop candidates
+  std::size_t max_candidates = 3;     ///< candidates (score >= threshold) aligned per keyframe, best first
+  double score_threshold = 0.0;       ///< on the normalised score; 0 = the model's K
+  bool stop_at_first_accepted = true;  ///< align no further candidate once one is accepted
+  std::size_t threads = 1;            ///< threads of the classifier query
+  /// Floors added to ICP's covariance of a loop (which only knows the residuals, and is
+  /// optimistic): standard deviations, as the back end's chi-square gate sees them.
+  double translation_sigma = 0.05;  ///< m
+  double rotation_sigma = 0.01;     ///< rad
+  std::string validate() const;
+};
+
+/// One aligned candidate pair and its verdict.
+struct LoopClosure {
+  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
+  double score = 0.0;            ///< classifier, normalised
+  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
+  double inlier_share = 0.0;     ///< shape validation
+  bool accepted = false;         ///< aligned and shape-validated
+  std::string reject_reason;     ///< "crf: ...", "icp: ..." or "validation: ..." (empty when accepted)
+  double seconds = 0.0;
+};
+
+struct LoopDetectionResult {
+  std::size_t keyframe = 0;
+  std::size_t compared = 0;    ///< stored keyframes the classifier saw
+  std::size_t candidates = 0;  ///< of those, at or above the threshold (at most max_candidates kept)
+  std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
+  double classify_seconds = 0.0, seconds = 0.0;
+};
+
+class LoopDetector {
+ public:
+  /// Throws std::invalid_argument on bad options or a model whose features differ from
+  /// what the extractor can compute.
+  LoopDetector(const ClassifierModel& model, const ScanAlignerOptions& aligner,
+               const LoopDetectorOptions& options = {});
+
+  const LoopDetectorOptions& options() const { return options_; }
+  const ScanAligner& aligner() const { return aligner_; }
+  const ClassifierModel& model() const { return model_; }
+  std::size_t size() const { return prepared_.size(); }
+
+  /// Stores a keyframe: its features and its scan prepared for alignment (prepared by
+  /// aligner(), or nullptr to prepare it here). Returns its index.
+  std::size_t add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared = nullptr);
+  /// Stores a keyframe whose features are already known (a loaded session).
+  std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared);
+  /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
+  /// the best candidates. Throws std::out_of_range for an unknown keyframe.
+  LoopDetectionResult detect(std::size_t index) const;
+  /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
+  LoopClosure verify(std::size_t from, std::size_t to, double score) const;
+
+  std::vector<double> features(std::size_t index) const { return store_.features(index); }
+  const PreparedScan& prepared(std::size_t index) const { return *prepared_.at(index); }
+  /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
+  void setModel(const ClassifierModel& model);
+
+ private:
+  ClassifierModel model_;
+  StrongClassifier classifier_;  ///< the model's, with score_threshold applied
+  LoopDetectorOptions options_;
+  ScanAligner aligner_;
+  FeatureExtractor extractor_;
+  KeyframeStore store_;
+  std::vector<std::shared_ptr<const PreparedScan>> prepared_;
+};
+
+/// A covariance of a small motion applied in the target frame (ICP's) as the covariance of
+/// the pose's own x, y, theta: J C J^T with J the Jacobian of exp(delta) * pose.
+Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance);
+
+}  // namespace llc

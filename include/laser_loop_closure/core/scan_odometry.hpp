@@ -1,0 +1,64 @@
+// Keyframe selection and scan-matching odometry: a scan becomes a keyframe once the robot has
+// moved keyframe_distance or turned keyframe_angle since the last one, and its motion from the
+// last keyframe is refined by ICP, seeded by wheel odometry when there is any.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "laser_loop_closure/core/icp.hpp"
+#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/se2.hpp"
+
+namespace llc {
+
+struct ScanOdometryOptions {
+  double keyframe_distance = 1.0;  ///< m moved since the last keyframe that makes a scan a keyframe
+  double keyframe_angle = 0.35;    ///< rad turned since the last keyframe that does it too
+  bool scan_matching = true;       ///< refine each step by ICP (false: wheel odometry alone)
+  double max_correction_translation = 1.0;  ///< m; an ICP result farther from the wheel guess is not trusted
+  double max_correction_rotation = 0.6;     ///< rad; likewise for its heading
+  double min_overlap_share = 0.5;  ///< share of the new scan's points within overlap_distance of the old one, or ICP is not trusted
+  double overlap_distance = 0.3;   ///< m
+  /// Standard deviations of a matched step: a floor, plus a share of the distance moved and,
+  /// for the heading, of the angle turned (they go into the back end's odometry constraints).
+  double translation_sigma = 0.02;            ///< m
+  double translation_sigma_per_metre = 0.01;  ///< m per m moved
+  double rotation_sigma = 0.002;              ///< rad
+  double rotation_sigma_per_metre = 0.002;    ///< rad per m moved
+  double rotation_sigma_per_radian = 0.01;    ///< rad per rad turned
+  double wheel_sigma_scale = 5.0;  ///< a step from wheel odometry alone is this many times less certain
+  IcpOptions icp{};                ///< ICP of consecutive keyframes
+  std::string validate() const;
+};
+
+/// The motion from one keyframe to the next and how it was measured.
+struct OdometryStep {
+  Pose2 motion;                    ///< the new keyframe in the frame of the previous one
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of motion's x, y, theta
+  bool matched = false;            ///< ICP was used; else the guess (wheel odometry)
+  double overlap_share = 0.0;      ///< after ICP
+  double seconds = 0.0;
+  std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
+};
+
+class ScanOdometry {
+ public:
+  /// Throws std::invalid_argument when options.validate() finds a problem.
+  explicit ScanOdometry(const ScanOdometryOptions& options = {});
+  const ScanOdometryOptions& options() const { return options_; }
+
+  /// Has a motion this large (from the last keyframe) earned a new keyframe?
+  bool movedEnough(const Pose2& motion) const;
+  /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
+  /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
+  OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+                     bool guess_from_wheels) const;
+  /// The covariance the noise model gives a step of this motion.
+  Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
+
+ private:
+  ScanOdometryOptions options_;
+};
+
+}  // namespace llc

@@ -1,0 +1,110 @@
+#include "laser_loop_closure/core/loop_detector.hpp"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace llc {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+StrongClassifier withThreshold(const StrongClassifier& classifier, double threshold) {
+  StrongClassifier copy = classifier;
+  if (threshold > 0.0) copy.setThresholdK(threshold);
+  return copy;
+}
+
+}  // namespace
+
+std::string LoopDetectorOptions::validate() const {
+  if (max_candidates == 0) return "max_candidates must be >= 1";
+  if (!(score_threshold >= 0.0 && score_threshold <= 1.0)) return "score_threshold must be in [0, 1] (0: the model's K)";
+  if (threads == 0) return "threads must be >= 1";
+  if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
+  return "";
+}
+
+Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance) {
+  // exp(d) * pose to first order: (x - d_theta y + d_x, y + d_theta x + d_y, theta + d_theta).
+  Eigen::Matrix3d jacobian;
+  jacobian << 1.0, 0.0, -pose.y, 0.0, 1.0, pose.x, 0.0, 0.0, 1.0;
+  return jacobian * target_frame_covariance * jacobian.transpose();
+}
+
+LoopDetector::LoopDetector(const ClassifierModel& model, const ScanAlignerOptions& aligner,
+                           const LoopDetectorOptions& options)
+    : model_(model),
+      classifier_(withThreshold(model.classifier, options.score_threshold)),
+      options_(options),
+      aligner_(aligner),
+      extractor_(model.features),
+      store_(model.features.feature_set) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("loop detector options: " + error);
+}
+
+void LoopDetector::setModel(const ClassifierModel& model) {
+  if (!(model.features == model_.features))
+    throw std::invalid_argument("the new model was made with other feature parameters than the stored keyframes");
+  model_ = model;
+  classifier_ = withThreshold(model.classifier, options_.score_threshold);
+}
+
+std::size_t LoopDetector::add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared) {
+  if (!prepared) prepared = aligner_.prepare(scan);
+  return addWithFeatures(extractor_.extract(scan), std::move(prepared));
+}
+
+std::size_t LoopDetector::addWithFeatures(const std::vector<double>& features,
+                                          std::shared_ptr<const PreparedScan> prepared) {
+  if (features.size() != store_.featureCount())
+    throw std::invalid_argument("keyframe features: expected " + std::to_string(store_.featureCount()) + " values, got " +
+                                std::to_string(features.size()));
+  if (!prepared) throw std::invalid_argument("keyframe without a prepared scan");
+  store_.add(features.data());
+  prepared_.push_back(std::move(prepared));
+  return prepared_.size() - 1;
+}
+
+LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score) const {
+  const ScanAlignmentResult alignment = aligner_.align(*prepared_.at(from), *prepared_.at(to));
+  LoopClosure loop;
+  loop.from = from;
+  loop.to = to;
+  loop.score = score;
+  loop.pose = alignment.pose;
+  loop.inlier_share = alignment.validation.inlier_share;
+  loop.accepted = alignment.accepted;
+  loop.reject_reason = alignment.reject_reason;
+  loop.seconds = alignment.seconds;
+  const Eigen::Vector3d floor(options_.translation_sigma * options_.translation_sigma,
+                              options_.translation_sigma * options_.translation_sigma,
+                              options_.rotation_sigma * options_.rotation_sigma);
+  loop.covariance = poseParameterCovariance(alignment.pose, alignment.covariance) + Eigen::Matrix3d(floor.asDiagonal());
+  return loop;
+}
+
+LoopDetectionResult LoopDetector::detect(std::size_t index) const {
+  const auto start = std::chrono::steady_clock::now();
+  if (index >= prepared_.size()) throw std::out_of_range("detect: no keyframe " + std::to_string(index));
+  LoopDetectionResult result;
+  result.keyframe = index;
+  result.compared = index > options_.min_keyframe_gap ? index - options_.min_keyframe_gap : 0;
+  if (result.compared > 0) {
+    const std::vector<double> query = store_.features(index);
+    const std::vector<LoopCandidate> candidates =
+        store_.query(classifier_, query.data(), result.compared, options_.max_candidates, options_.threads);
+    result.candidates = candidates.size();
+    result.classify_seconds = secondsSince(start);
+    for (const LoopCandidate& candidate : candidates) {
+      result.aligned.push_back(verify(candidate.keyframe, index, candidate.score));
+      if (result.aligned.back().accepted && options_.stop_at_first_accepted) break;
+    }
+  }
+  result.seconds = secondsSince(start);
+  return result;
+}
+
+}  // namespace llc

@@ -1,0 +1,74 @@
+#include "laser_loop_closure/core/scan_odometry.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/shape_validation.hpp"
+
+namespace llc {
+
+std::string ScanOdometryOptions::validate() const {
+  if (!(keyframe_distance > 0.0)) return "keyframe_distance must be > 0";
+  if (!(keyframe_angle > 0.0)) return "keyframe_angle must be > 0";
+  if (!(max_correction_translation > 0.0)) return "max_correction_translation must be > 0";
+  if (!(max_correction_rotation > 0.0)) return "max_correction_rotation must be > 0";
+  if (!(min_overlap_share >= 0.0 && min_overlap_share <= 1.0)) return "min_overlap_share must be in [0, 1]";
+  if (!(overlap_distance > 0.0)) return "overlap_distance must be > 0";
+  if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
+  if (!(translation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_radian >= 0.0))
+    return "the per-metre and per-radian sigmas must be >= 0";
+  if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
+  const std::string error = icp.validate();
+  return error.empty() ? "" : "icp: " + error;
+}
+
+ScanOdometry::ScanOdometry(const ScanOdometryOptions& options) : options_(options) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("odometry options: " + error);
+}
+
+bool ScanOdometry::movedEnough(const Pose2& motion) const {
+  return std::hypot(motion.x, motion.y) >= options_.keyframe_distance ||
+         std::abs(motion.theta) >= options_.keyframe_angle;
+}
+
+Eigen::Matrix3d ScanOdometry::stepCovariance(const Pose2& motion, bool matched) const {
+  const double distance = std::hypot(motion.x, motion.y);
+  const double scale = matched ? 1.0 : options_.wheel_sigma_scale;
+  const double translation = scale * (options_.translation_sigma + options_.translation_sigma_per_metre * distance);
+  const double rotation = scale * (options_.rotation_sigma + options_.rotation_sigma_per_metre * distance +
+                                    options_.rotation_sigma_per_radian * std::abs(motion.theta));
+  return Eigen::Vector3d(translation * translation, translation * translation, rotation * rotation).asDiagonal();
+}
+
+OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+                                 bool guess_from_wheels) const {
+  const auto start = std::chrono::steady_clock::now();
+  OdometryStep step;
+  step.motion = guess;
+  auto finish = [&](std::string reason) {
+    step.reject_reason = std::move(reason);
+    step.covariance = stepCovariance(step.motion, step.matched);
+    step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return step;
+  };
+  if (!options_.scan_matching) return finish("");
+  const IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
+  if (!icp.converged) return finish("icp: " + icp.reject_reason);
+  const Pose2 correction = between(guess, icp.pose);
+  if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
+                            std::abs(correction.theta) > options_.max_correction_rotation))
+    return finish("icp moved too far from wheel odometry");
+  ShapeValidationOptions overlap;
+  overlap.max_distance = options_.overlap_distance;
+  overlap.min_inlier_share = options_.min_overlap_share;
+  const ShapeValidationResult check = validateShape(current.points, previous.icp_target.tree, icp.pose, overlap, &previous.view);
+  step.overlap_share = check.inlier_share;
+  if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share");
+  step.motion = icp.pose;
+  step.matched = true;
+  return finish("");
+}
+
+}  // namespace llc

@@ -1,0 +1,350 @@
+// The SLAM pipeline and what it writes: trajectory error, occupancy grid and its files, the
+// parameter list and the shipped config, bad input to the pipeline, and a short simulated drive.
+#include <gtest/gtest.h>
+#include <Eigen/LU>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+#include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/map_picture.hpp"
+#include "laser_loop_closure/core/occupancy_grid.hpp"
+#include "laser_loop_closure/core/sim_drive.hpp"
+#include "laser_loop_closure/core/slam_parameters.hpp"
+#include "laser_loop_closure/core/slam_pipeline.hpp"
+#include "laser_loop_closure/core/trajectory_error.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+const double kInf = std::numeric_limits<double>::infinity();
+
+llc::ClassifierModel defaultModel() { return llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml"); }
+
+/// The 360-degree scan of one simulated frame, as the bag reader merges it.
+llc::Scan frameScan(const llc::SimDrive& drive, const llc::SimFrame& frame) {
+  auto one = [&](const llc::SimScannerOptions& scanner, const std::vector<double>& ranges) {
+    llc::ScannerGeometry g;
+    g.angle_min = llc::simBeamAngle(scanner, 0);
+    g.angle_increment = llc::simBeamAngle(scanner, 1) - g.angle_min;
+    g.range_max = scanner.max_range;
+    return llc::scanFromRanges(ranges, g, scanner.mount, frame.stamp);
+  };
+  llc::Scan scan = llc::mergeScans(one(drive.front, frame.front), one(drive.back, frame.back));
+  scan.stamp = frame.stamp;
+  return scan;
+}
+
+TEST(TrajectoryError, RigidlyMovedCopyHasNoErrorAndTheMotionIsFound) {
+  const std::vector<llc::Pose2> truth = {{0, 0, 0}, {1, 0, 0.1}, {2, 1, 0.5}, {1, 3, 2.0}};
+  const llc::Pose2 motion{3.0, -2.0, 0.7};
+  std::vector<llc::Pose2> estimate;
+  for (const llc::Pose2& p : truth) estimate.push_back(llc::compose(motion, p));
+  llc::Pose2 alignment;
+  EXPECT_NEAR(llc::alignedRmsError(estimate, truth, &alignment), 0.0, 1e-12);
+  const llc::Pose2 back = llc::compose(alignment, motion);  // the identity
+  EXPECT_NEAR(back.x, 0.0, 1e-12);
+  EXPECT_NEAR(back.y, 0.0, 1e-12);
+  EXPECT_NEAR(back.theta, 0.0, 1e-12);
+}
+
+TEST(TrajectoryError, HandWorkedValue) {
+  // Truth (-1,0),(1,0); estimate (-1,0),(1,2): centred, the estimate is (-1,-1),(1,1) against
+  // (-1,0),(1,0): rotated onto the x axis it is (-sqrt2,0),(sqrt2,0): error sqrt2 - 1 each.
+  const double rms = llc::alignedRmsError({{-1, 0, 0}, {1, 2, 0}}, {{-1, 0, 0}, {1, 0, 0}});
+  EXPECT_NEAR(rms, std::sqrt(2.0) - 1.0, 1e-12);
+  EXPECT_THROW(llc::alignedRmsError({{0, 0, 0}}, {}), std::invalid_argument);
+  EXPECT_EQ(llc::alignedRmsError({}, {}), 0.0);
+}
+
+TEST(OccupancyGrid, OneScanHandWorked) {
+  // Four beams of 1 m along the axes, robot at the origin, 0.1 m cells.
+  llc::Scan scan = llc_test::ringScan({1.0, 1.0, 1.0, 1.0});  // bearings -pi, -pi/2, 0, pi/2
+  llc::OccupancyGridOptions options;
+  options.margin = 0.5;
+  const llc::OccupancyGrid grid = llc::buildOccupancyGrid({&scan}, {llc::Pose2{}}, options);
+  auto cell = [&](double x, double y) {
+    return int(grid.at(int(std::floor((x - grid.origin_x) / grid.resolution)), int(std::floor((y - grid.origin_y) / grid.resolution))));
+  };
+  const int hit = int(std::lround(100.0 / (1.0 + std::exp(-0.85))));  // 70
+  const int miss = int(std::lround(100.0 / (1.0 + std::exp(0.4))));   // 40
+  EXPECT_EQ(hit, 70);
+  EXPECT_EQ(miss, 40);
+  EXPECT_EQ(cell(1.05, 0.05), hit);   // the end of the beam at bearing 0
+  EXPECT_EQ(cell(0.05, 1.05), hit);   // bearing pi/2
+  EXPECT_EQ(cell(0.55, 0.05), miss);  // crossed
+  EXPECT_EQ(cell(0.55, 0.55), -1);    // between beams: never seen
+  EXPECT_EQ(cell(-1.3, 0.05), -1);    // beyond the wall
+  EXPECT_NEAR(grid.origin_x, -1.5 - 0.1, 0.1 + 1e-9);
+}
+
+TEST(OccupancyGrid, NoReturnsAndBadValues) {
+  llc::Scan scan = llc_test::ringScan({kInf, std::nan(""), -1.0, 0.0});
+  scan.ranges.push_back(2.0);
+  scan.bearings.push_back(std::nan(""));  // a beam without a direction
+  llc::OccupancyGridOptions options;
+  llc::OccupancyGrid grid = llc::buildOccupancyGrid({&scan}, {llc::Pose2{}}, options);
+  for (std::int8_t v : grid.cells) EXPECT_EQ(v, -1);  // nothing said anything
+  options.no_return_free_range = 2.0;
+  grid = llc::buildOccupancyGrid({&scan}, {llc::Pose2{}}, options);
+  std::size_t free = 0;
+  for (std::int8_t v : grid.cells) free += v == 40;
+  EXPECT_EQ(free, 20u);  // the +inf beam at -pi: 2 m of 0.1 m cells
+  options.resolution = 0.0;
+  EXPECT_THROW(llc::buildOccupancyGrid({&scan}, {llc::Pose2{}}, options), std::invalid_argument);
+  EXPECT_THROW(llc::buildOccupancyGrid({&scan}, {}, llc::OccupancyGridOptions{}), std::invalid_argument);
+  options = {};
+  options.max_cells = 10;
+  llc::Scan far = llc_test::ringScan({5.0, 5.0, 5.0, 5.0});
+  EXPECT_THROW(llc::buildOccupancyGrid({&far}, {llc::Pose2{}}, options), std::invalid_argument);
+}
+
+TEST(OccupancyGrid, MapFilesRoundTripAndRefusals) {
+  llc_test::TempDir dir;
+  // Several scans from the same spot make the crossed cells free and the ends occupied.
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360, 3.0));
+  const std::vector<const llc::Scan*> scans(5, &scan);
+  const llc::OccupancyGrid grid = llc::buildOccupancyGrid(scans, std::vector<llc::Pose2>(5, llc::Pose2{1, 2, 0}));
+  llc::saveMapFiles(grid, dir.file("map"));
+  const llc::OccupancyGrid loaded = llc::loadMapFiles(dir.file("map.yaml"));
+  ASSERT_EQ(loaded.width, grid.width);
+  ASSERT_EQ(loaded.height, grid.height);
+  EXPECT_DOUBLE_EQ(loaded.resolution, grid.resolution);
+  EXPECT_DOUBLE_EQ(loaded.origin_x, grid.origin_x);
+  EXPECT_DOUBLE_EQ(loaded.origin_y, grid.origin_y);
+  std::size_t occupied = 0, free = 0;
+  for (std::size_t i = 0; i < grid.cells.size(); ++i) {
+    const int expected = grid.cells[i] < 0 ? -1 : grid.cells[i] >= 65 ? 100 : grid.cells[i] <= 19 ? 0 : -1;
+    ASSERT_EQ(loaded.cells[i], expected) << "cell " << i;
+    occupied += expected == 100, free += expected == 0;
+  }
+  EXPECT_GT(occupied, 100u);
+  EXPECT_GT(free, 1000u);
+  // Refusals: truncated pixels, wrong magic, missing image, not YAML.
+  std::ifstream in(dir.file("map.pgm"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  llc_test::writeText(dir.file("map.pgm"), bytes.substr(0, bytes.size() / 2));
+  EXPECT_THROW(llc::loadMapFiles(dir.file("map.yaml")), std::runtime_error);
+  llc_test::writeText(dir.file("map.pgm"), "P2\n1 1\n255\n0\n");
+  EXPECT_THROW(llc::loadMapFiles(dir.file("map.yaml")), std::runtime_error);
+  llc_test::writeText(dir.file("other.yaml"), "image: missing.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n");
+  EXPECT_THROW(llc::loadMapFiles(dir.file("other.yaml")), std::runtime_error);
+  llc_test::writeText(dir.file("bad.yaml"), "image: [unclosed\n");
+  EXPECT_THROW(llc::loadMapFiles(dir.file("bad.yaml")), std::runtime_error);
+}
+
+TEST(MapPicture, DrawsWithinBoundsAtAnySize) {
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(90, 4.0));
+  const llc::OccupancyGrid grid = llc::buildOccupancyGrid({&scan, &scan}, {llc::Pose2{}, llc::Pose2{1, 0, 0}});
+  const std::vector<llc::Pose2> trajectory = {{0, 0, 0}, {1, 0, 0}};
+  const llc::RgbImage small = llc::renderMapPicture(grid, trajectory, {{0, 1, true}, {0, 7, false}}, 20);
+  EXPECT_LE(std::max(small.width(), small.height()), 20);
+  const llc::RgbImage full = llc::renderMapPicture(grid, trajectory, {}, 5000);
+  EXPECT_EQ(full.width(), grid.width);
+  EXPECT_EQ(full.height(), grid.height);
+}
+
+TEST(SlamParameters, NamesAreUniqueAndTheShippedConfigGivesEveryOneAtItsDefault) {
+  const std::vector<std::string> names = llc::systemParameterNames();
+  EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), names.size());
+  const std::string path = std::string(LLC_SOURCE_DIR) + "/config/slam.yaml";
+  // Every parameter is in the file (and nothing else: loading refuses unknown keys).
+  const YAML::Node root = YAML::LoadFile(path);
+  for (const std::string& name : names) {
+    YAML::Node node = YAML::Clone(root);
+    std::size_t start = 0;
+    for (std::size_t slash; (slash = name.find('/', start)) != std::string::npos; start = slash + 1)
+      node = node[name.substr(start, slash - start)];
+    EXPECT_TRUE(node[name.substr(start)].IsDefined()) << name << " is not in config/slam.yaml";
+  }
+  // ... and every value there is the built-in default, so the file documents the code.
+  llc::SystemOptions loaded;
+  llc::loadSystemOptionsYaml(path, &loaded);
+  llc::SystemOptions defaults;
+  std::vector<std::string> loaded_values, default_values;
+  auto collect = [](std::vector<std::string>* out) {
+    return [out](const std::string& name, auto& field) {
+      std::ostringstream text;
+      text << name << "=" << field;
+      out->push_back(text.str());
+    };
+  };
+  llc::visitParameters(loaded, collect(&loaded_values));
+  llc::visitParameters(defaults, collect(&default_values));
+  EXPECT_EQ(loaded_values, default_values);
+}
+
+TEST(SlamParameters, PartialFilesOverrideAndBadFilesAreRefused) {
+  llc_test::TempDir dir;
+  llc::SystemOptions options;
+  llc_test::writeText(dir.file("a.yaml"), "odometry:\n  keyframe_distance: 2.5\nloops:\n  max_candidates: 7\n");
+  llc::loadSystemOptionsYaml(dir.file("a.yaml"), &options);
+  EXPECT_EQ(options.slam.odometry.keyframe_distance, 2.5);
+  EXPECT_EQ(options.slam.loops.max_candidates, 7u);
+  EXPECT_EQ(options.slam.odometry.keyframe_angle, llc::ScanOdometryOptions{}.keyframe_angle);
+  auto refused = [&](const std::string& text, const std::string& needle) {
+    llc_test::writeText(dir.file("b.yaml"), text);
+    llc::SystemOptions o;
+    try {
+      llc::loadSystemOptionsYaml(dir.file("b.yaml"), &o);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  refused("odometry:\n  keyframe_distanse: 1.0\n", "unknown parameter 'odometry/keyframe_distanse'");
+  refused("odometry:\n  keyframe_distance: far\n", "odometry/keyframe_distance");
+  refused("loops:\n  max_candidates: -3\n", "loops/max_candidates");
+  refused("odometry:\n  keyframe_distance: -1.0\n", "keyframe_distance must be > 0");
+  refused("[1, 2, 3]\n", "must be a map");
+  refused("odometry: {keyframe_distance: [1\n", "cannot read as YAML");
+  EXPECT_THROW(llc::loadSystemOptionsYaml(dir.file("none.yaml"), &options), std::runtime_error);
+}
+
+TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {
+  llc::SlamPipeline slam(defaultModel());
+  llc::Scan good = llc_test::ringScan(std::vector<double>(360, 4.0));
+  good.stamp = 10.0;
+  const llc::Pose2 origin{};
+  EXPECT_TRUE(slam.addScan(good, 0, &origin).keyframe);
+  llc::Scan scan = good;
+  scan.stamp = std::nan("");
+  EXPECT_EQ(slam.addScan(scan, 1, &origin).skip_reason, "stamp is not finite");
+  scan = good;
+  scan.bearings.pop_back();
+  EXPECT_EQ(slam.addScan(scan, 2, &origin).skip_reason, "ranges and bearings differ in count");
+  scan = good;
+  scan.stamp = 9.0;
+  EXPECT_EQ(slam.addScan(scan, 3, &origin).skip_reason, "time went backwards");
+  const llc::Pose2 bad_odometry{std::nan(""), 0, 0};
+  scan.stamp = 11.0;
+  EXPECT_EQ(slam.addScan(scan, 4, &bad_odometry).skip_reason, "wheel odometry is not finite");
+  EXPECT_EQ(slam.counters().skipped_scans, 4u);
+  // Scans of garbage and of nothing still become keyframes when the wheels say so.
+  const std::vector<std::vector<double>> garbage = {
+      {}, std::vector<double>(360, std::nan("")), std::vector<double>(360, kInf), std::vector<double>(360, -2.0), {1.0, 2.0}};
+  double x = 0.0;
+  for (const std::vector<double>& ranges : garbage) {
+    llc::Scan bad = ranges.empty() ? llc::Scan{} : llc_test::ringScan(ranges);
+    bad.stamp = scan.stamp += 1.0;
+    const llc::Pose2 moved{x += 2.0, 0.0, 0.0};
+    const llc::SlamStepResult step = slam.addScan(bad, 5, &moved);
+    EXPECT_TRUE(step.skip_reason.empty());
+    EXPECT_TRUE(step.keyframe);
+    EXPECT_FALSE(step.odometry.matched);  // nothing to match: the wheels are used
+  }
+  for (const llc::Pose2& pose : slam.poses()) EXPECT_TRUE(std::isfinite(pose.x) && std::isfinite(pose.theta));
+  EXPECT_NEAR(slam.poses().back().x, x, 1e-6);
+}
+
+TEST(SlamPipeline, OptionsAreValidatedOnce) {
+  llc::SlamOptions options;
+  options.odometry.keyframe_distance = 0.0;
+  EXPECT_THROW(llc::SlamPipeline(defaultModel(), options), std::invalid_argument);
+  options = {};
+  options.loops.max_candidates = 0;
+  EXPECT_THROW(llc::SlamPipeline(defaultModel(), options), std::invalid_argument);
+}
+
+TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
+  llc::SimDriveOptions drive_options;
+  drive_options.length_m = 80.0;
+  const llc::SimWorld world(llc::simWorldOptions(drive_options));
+  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  llc::LoopDetectorOptions options;
+  options.min_keyframe_gap = 5;
+  options.stop_at_first_accepted = false;
+  options.max_candidates = 3;
+  llc::LoopDetector detector(defaultModel(), llc::ScanAlignerOptions{}, options);
+  for (std::size_t i = 0; i < drive.frames.size(); i += 3) detector.add(frameScan(drive, drive.frames[i]));
+  EXPECT_THROW(detector.detect(detector.size()), std::out_of_range);
+  // Back at the first place, turned by 2 rad: the features of a closed ring do not change.
+  const std::size_t query = detector.add(llc::rotateScan(frameScan(drive, drive.frames[0]), 2.0));
+  const llc::LoopDetectionResult result = detector.detect(query);
+  EXPECT_EQ(result.compared, query - options.min_keyframe_gap);
+  ASSERT_FALSE(result.aligned.empty());
+  // The best candidates score alike (neighbours of the first place look the same): every
+  // accepted one must agree with the truth, and the first place must be among them.
+  const llc::Pose2 query_truth = llc::compose(drive.frames[0].truth, llc::Pose2{0.0, 0.0, 2.0});
+  bool found_first = false;
+  for (const llc::LoopClosure& candidate : result.aligned) {
+    EXPECT_EQ(candidate.to, query);
+    if (!candidate.accepted) continue;
+    const llc::Pose2 truth = llc::between(drive.frames[3 * candidate.from].truth, query_truth);
+    const llc::Pose2 error = llc::between(truth, candidate.pose);
+    EXPECT_LT(std::hypot(error.x, error.y), 0.1) << "keyframe " << candidate.from;
+    EXPECT_LT(std::abs(error.theta), 0.01) << "keyframe " << candidate.from;
+    EXPECT_GT(candidate.inlier_share, 0.9);
+    found_first |= candidate.from == 0;
+  }
+  EXPECT_TRUE(found_first);
+  const llc::LoopClosure& loop = result.aligned.front();
+  // Its covariance is at least the floor, and positive definite.
+  EXPECT_GE(loop.covariance(0, 0), options.translation_sigma * options.translation_sigma);
+  EXPECT_GT(loop.covariance.determinant(), 0.0);
+  // A model made with other feature parameters cannot be swapped in.
+  llc::ClassifierModel other = defaultModel();
+  other.features.r_max = 20.0;
+  EXPECT_THROW(detector.setModel(other), std::invalid_argument);
+}
+
+TEST(LoopDetector, ParameterCovarianceOfALeftPerturbation) {
+  // A pure rotation d_theta about the target origin moves a pose at (2, 0) by (0, 2 d_theta).
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  c(2, 2) = 0.01;
+  const Eigen::Matrix3d p = llc::poseParameterCovariance({2.0, 0.0, 0.3}, c);
+  EXPECT_NEAR(p(1, 1), 0.04, 1e-15);
+  EXPECT_NEAR(p(1, 2), 0.02, 1e-15);
+  EXPECT_NEAR(p(0, 0), 0.0, 1e-15);
+  EXPECT_NEAR(p(2, 2), 0.01, 1e-15);
+}
+
+/// A short simulated drive through the pipeline, wheels or no wheels: keyframes about every
+/// keyframe_distance, scan matching far better than the drifting wheel odometry.
+class SlamOnShortDrive : public ::testing::TestWithParam<bool> {};
+
+TEST_P(SlamOnShortDrive, ScanMatchingBeatsDeadReckoning) {
+  const bool wheels = GetParam();
+  llc::SimDriveOptions drive_options;
+  drive_options.length_m = 150.0;
+  drive_options.odometry_scale_bias = 0.03;  // drift that shows within 150 m
+  drive_options.odometry_turn_bias = 0.003;
+  const llc::SimWorld world(llc::simWorldOptions(drive_options));
+  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  llc::SlamPipeline slam(defaultModel());
+  std::vector<llc::Pose2> truth, odometry;
+  for (std::size_t i = 0; i < drive.frames.size(); ++i) {
+    const llc::SimFrame& frame = drive.frames[i];
+    const llc::SlamStepResult step = slam.addScan(frameScan(drive, frame), i, wheels ? &frame.odometry : nullptr);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    if (step.keyframe) truth.push_back(frame.truth), odometry.push_back(frame.odometry);
+  }
+  const std::size_t keyframes = slam.keyframes().size();
+  // 0.7 m between scans on straights: a keyframe every second scan (1.4 m), more in turns.
+  EXPECT_GT(keyframes, 90u);
+  EXPECT_LT(keyframes, 150u);
+  EXPECT_EQ(slam.counters().matched_steps, keyframes - 1);
+  const double slam_error = llc::alignedRmsError(slam.poses(), truth);
+  const double odometry_error = llc::alignedRmsError(odometry, truth);
+  EXPECT_LT(slam_error, 0.1);
+  std::cout << "keyframes " << keyframes << ", rms error " << slam_error << " m, odometry " << odometry_error << " m\n";
+  if (wheels) {
+    EXPECT_GT(odometry_error, 5.0 * slam_error);
+  }
+  // map -> odom carries the newest keyframe's odometry pose onto its estimate.
+  const llc::Pose2 on_map = llc::compose(slam.mapToOdom(), slam.keyframes().back().wheel_odometry);
+  if (wheels) {
+    EXPECT_NEAR(on_map.x, slam.poses().back().x, 1e-9);
+    EXPECT_NEAR(on_map.y, slam.poses().back().y, 1e-9);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(WheelsOrNot, SlamOnShortDrive, ::testing::Bool());
+
+}  // namespace
