@@ -17,6 +17,7 @@ int runSimulate(const Args& args);
 int runAlign(const Args& args);
 int runTrainCrf(const Args& args);
 int runGraph(const Args& args);
+int runSlam(const Args& args);
 /// Alignment options from --max-range, --validation-distance, --validation-share, --crf-weights.
 llc::ScanAlignerOptions alignerOptions(const Args& args);
 extern const std::vector<std::string> kAlignerFlags;

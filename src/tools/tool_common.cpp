@@ -180,13 +180,15 @@ llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::Feature
   return set;
 }
 
-std::string defaultModelPath() {
+std::string configFilePath(const std::string& name) {
   for (const char* dir : {LLC_SOURCE_CONFIG_DIR, LLC_INSTALL_CONFIG_DIR}) {
-    const std::string path = std::string(dir) + "/classifier.yaml";
+    const std::string path = std::string(dir) + "/" + name;
     if (std::ifstream(path)) return path;
   }
-  return std::string(LLC_SOURCE_CONFIG_DIR) + "/classifier.yaml";
+  return std::string(LLC_SOURCE_CONFIG_DIR) + "/" + name;
 }
+
+std::string defaultModelPath() { return configFilePath("classifier.yaml"); }
 
 void ensureDirectory(const std::string& path) {
   std::string partial;

@@ -65,6 +65,8 @@ llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::Feature
 
 /// config/classifier.yaml of the source tree, or of the installed share folder.
 std::string defaultModelPath();
+/// config/NAME of the source tree, or of the installed share folder.
+std::string configFilePath(const std::string& name);
 
 void ensureDirectory(const std::string& path);
 

@@ -37,6 +37,21 @@ check "simulate negative length" 1 "length-m must be a positive" -- "$LLC" simul
 check "simulate unknown scanner" 1 "scanners must be" -- "$LLC" simulate --out "$TMP/sim" --scanners left
 check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
 check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 600 --seed 1
+# The whole pipeline on the short drive: files, their headers, and what it must achieve.
+check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet
+check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
+check "slam loops header" 0 "^a,b,accepted,score,inlier_share$" -- head -1 "$TMP/slam/loops.csv"
+check "slam map files" 0 "^image: map.pgm$" -- bash -c "test -s '$TMP/slam/map.pgm' && test -s '$TMP/slam/map.png' && cat '$TMP/slam/map.yaml'"
+check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" -- awk -F= '
+  {v[$1] = $2}
+  END {ok = v["rms_error_m"] < 0.5 && v["rms_error_odometry_m"] > 2 && v["true_loop_keyframes"] > 20 &&
+            v["true_loop_keyframes_closed"] >= 0.8 * v["true_loop_keyframes"]
+       print (ok ? "ok" : "not ok: rms " v["rms_error_m"] " closed " v["true_loop_keyframes_closed"] "/" v["true_loop_keyframes"])}' "$TMP/slam/report.txt"
+check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
+check "slam: both inputs" 1 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
+printf 'odometry:\n  keyframe_distanse: 2\n' > "$TMP/bad_slam.yaml"
+check "slam: unknown parameter" 1 "unknown parameter 'odometry/keyframe_distanse'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_slam.yaml"
+check "slam: corrupt model" 1 "bad.yaml" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --model "$TMP/bad.yaml"
 check "pairs on sim.log (360 degrees)" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.log" --out "$TMP/sim/pairs.csv"
 head -c 8 "$TMP/sim/world.png" | od -c | grep -q "P   N   G" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: world.png is no PNG"; }
 # Every log-taking subcommand also takes the bag, with topic flags.
@@ -75,6 +90,10 @@ LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then
   if [ -f "$DATA/g2o/intel.g2o" ]; then
     check "graph on intel.g2o reaches the known optimum 45.0" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$DATA/g2o/intel.g2o' --out '$TMP/intel.g2o' | awk -F= '/^chi2=/ {print (\$2 < 45.45 ? \"ok\" : \"chi2 \" \$2)}'"
+  fi
+  RAW="$DATA/carmen/intel-raw-odometry.log.gz"
+  if [ -f "$RAW" ]; then
+    check "slam on the raw Intel log (real wheel odometry)" 0 "^keyframes=[0-9]{3}" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_intel" --quiet
   fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }

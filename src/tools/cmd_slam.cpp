@@ -1,0 +1,249 @@
+// llc slam: the whole pipeline (the nodelets' classes) on a log or bag at full speed, without
+// a master; writes the trajectory, the loops, the map and a report.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include <Eigen/Cholesky>
+
+#include "commands.hpp"
+#include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/map_picture.hpp"
+#include "laser_loop_closure/core/slam_parameters.hpp"
+#include "laser_loop_closure/core/trajectory_error.hpp"
+
+namespace llc_tool {
+namespace {
+
+/// A progress bar on a terminal; a line per tenth otherwise (logs stay short).
+class Progress {
+ public:
+  explicit Progress(std::size_t total, bool enabled) : total_(total), enabled_(enabled), tty_(isatty(2)) {}
+  void update(std::size_t done, std::size_t keyframes, std::size_t loops) {
+    if (!enabled_ || total_ == 0) return;
+    const int percent = int(100 * done / total_);
+    if (tty_ ? percent == last_ && done != total_ : percent / 10 == last_ / 10) return;
+    last_ = percent;
+    std::ostringstream line;
+    const int filled = percent * 30 / 100;
+    line << "[" << std::string(std::size_t(filled), '#') << std::string(std::size_t(30 - filled), ' ') << "] " << std::setw(3)
+         << percent << "% " << done << "/" << total_ << " scans, " << keyframes << " keyframes, " << loops << " loops";
+    std::cerr << (tty_ ? "\r" : "") << line.str() << (tty_ && done != total_ ? "" : "\n") << std::flush;
+  }
+
+ private:
+  std::size_t total_;
+  bool enabled_, tty_;
+  int last_ = -1;
+};
+
+struct TruthCheck {
+  bool available = false;
+  double slam_rms = 0.0, odometry_rms = 0.0, path_length = 0.0;
+  std::size_t true_loop_keyframes = 0, closed = 0, wrong_loops = 0;
+  /// Odometry steps and applied loops against the truth: RMS errors, and the mean of
+  /// e^T C^-1 e with the covariance C the back end was given (3 when C is honest).
+  double step_rms_m = 0.0, step_rms_rad = 0.0, step_nees = 0.0, loop_nees = 0.0;
+};
+
+/// e = truth^-1 * measured, as x, y, theta.
+Eigen::Vector3d relativeError(const llc::Pose2& truth, const llc::Pose2& measured) {
+  const llc::Pose2 e = llc::between(truth, measured);
+  return {e.x, e.y, e.theta};
+}
+
+/// Keyframes with a true revisit (an older keyframe, min_gap keyframes back at least, within
+/// positive_distance and, for partial scans, positive_heading), how many of them the pipeline
+/// closed, and applied loops that are wrong (off the truth by more than 1 m or 0.1 rad).
+TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSequence& sequence,
+                             const std::vector<llc::OdometryStep>& steps, double positive_distance,
+                             double positive_heading, bool force) {
+  TruthCheck check;
+  bool differs = force;
+  for (const llc::LoggedScan& s : sequence.scans)
+    differs |= s.truth.x != s.odometry.x || s.truth.y != s.odometry.y || s.truth.theta != s.odometry.theta;
+  if (!differs || slam.keyframes().empty()) return check;
+  check.available = true;
+  const auto& keyframes = slam.keyframes();
+  std::vector<llc::Pose2> truth, odometry;
+  for (const llc::Keyframe& k : keyframes) {
+    truth.push_back(sequence.scans[k.scan_index].truth);
+    odometry.push_back(sequence.scans[k.scan_index].odometry);
+  }
+  check.slam_rms = llc::alignedRmsError(slam.poses(), truth);
+  check.odometry_rms = llc::alignedRmsError(odometry, truth);
+  for (std::size_t i = 1; i < truth.size(); ++i)
+    check.path_length += std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y);
+  std::size_t applied = 0;
+  for (std::size_t k = 1; k < truth.size() && k < steps.size(); ++k) {
+    const Eigen::Vector3d e = relativeError(llc::between(truth[k - 1], truth[k]), steps[k].motion);
+    check.step_rms_m += e.head<2>().squaredNorm();
+    check.step_rms_rad += e(2) * e(2);
+    check.step_nees += e.dot(steps[k].covariance.ldlt().solve(e));
+  }
+  if (truth.size() > 1) {
+    const double n = double(truth.size() - 1);
+    check.step_rms_m = std::sqrt(check.step_rms_m / n), check.step_rms_rad = std::sqrt(check.step_rms_rad / n);
+    check.step_nees /= n;
+  }
+  std::vector<bool> closed(keyframes.size(), false);
+  for (const llc::LoopRecord& record : slam.loops()) {
+    if (!record.applied) continue;
+    const llc::Pose2 error = llc::between(llc::between(truth[record.loop.from], truth[record.loop.to]), record.loop.pose);
+    const Eigen::Vector3d e(error.x, error.y, error.theta);
+    check.loop_nees += e.dot(record.loop.covariance.ldlt().solve(e));
+    ++applied;
+    if (std::hypot(error.x, error.y) > 1.0 || std::abs(error.theta) > 0.1) ++check.wrong_loops;
+    else closed[record.loop.to] = true;
+  }
+  if (applied > 0) check.loop_nees /= double(applied);
+  const std::size_t gap = slam.options().loops.min_keyframe_gap;
+  for (std::size_t k = gap; k < keyframes.size(); ++k) {
+    const bool full = keyframes[k].scan.full_circle;
+    bool revisit = false;
+    for (std::size_t j = 0; j + gap <= k && !revisit; ++j) {
+      const llc::Pose2 d = llc::between(truth[j], truth[k]);
+      revisit = std::hypot(d.x, d.y) < positive_distance && (full || std::abs(d.theta) < positive_heading);
+    }
+    check.true_loop_keyframes += revisit;
+    check.closed += revisit && closed[k];
+  }
+  return check;
+}
+
+void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions& map_options, const std::string& dir) {
+  const auto& keyframes = slam.keyframes();
+  const auto& poses = slam.poses();
+  std::ofstream trajectory(dir + "/trajectory.csv");
+  trajectory << "index,stamp,x,y,theta\n" << std::setprecision(10);
+  for (std::size_t k = 0; k < keyframes.size(); ++k)
+    trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
+               << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
+  std::ofstream loops(dir + "/loops.csv");
+  loops << "a,b,accepted,score,inlier_share\n";
+  std::vector<llc::PictureLoop> picture_loops;
+  for (const llc::LoopRecord& record : slam.loops()) {
+    loops << keyframes[record.loop.from].scan_index << "," << keyframes[record.loop.to].scan_index << ","
+          << (record.applied ? 1 : 0) << "," << std::setprecision(4) << record.loop.score << "," << record.loop.inlier_share
+          << "\n";
+    // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
+    if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
+  }
+  if (!trajectory || !loops) throw ToolError("cannot write the CSV files in " + dir);
+  std::vector<const llc::Scan*> scans;
+  for (const llc::Keyframe& k : keyframes) scans.push_back(&k.scan);
+  llc::OccupancyGrid grid;
+  try {
+    grid = llc::buildOccupancyGrid(scans, poses, map_options);
+    llc::saveMapFiles(grid, dir + "/map", map_options);
+    llc::renderMapPicture(grid, poses, picture_loops).savePng(dir + "/map.png");
+  } catch (const std::exception& e) {
+    throw ToolError(std::string("map: ") + e.what());
+  }
+}
+
+}  // namespace
+
+int runSlam(const Args& args) {
+  if (args.has("bag") == args.has("log")) throw ToolError("give exactly one of --bag BAG and --log LOG");
+  const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");
+  const std::string dir = args.required("out");
+  llc::SystemOptions options;
+  const std::string config = args.get("config", configFilePath("slam.yaml"));
+  if (args.has("config") || std::ifstream(config)) {
+    try {
+      llc::loadSystemOptionsYaml(config, &options);
+    } catch (const std::exception& e) {
+      throw ToolError(e.what());
+    }
+  }
+  const std::string model_path = args.get("model", defaultModelPath());
+  llc::ClassifierModel model;
+  try {
+    model = llc::loadClassifierModel(model_path);
+  } catch (const llc::ModelError& e) {
+    throw ToolError(e.what());
+  }
+  const llc::ScanSequence sequence = loadSequence(input, args);
+  ensureDirectory(dir);
+  const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
+
+  const auto start = std::chrono::steady_clock::now();
+  llc::SlamPipeline slam(model, options.slam);
+  Progress progress(sequence.scans.size(), !args.has("quiet"));
+  std::size_t first_skip_reported = 0;
+  std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
+  std::vector<llc::OdometryStep> steps;  // per keyframe (the first one's is empty)
+  // Reasons without their numbers, so that alike ones are counted together.
+  auto general = [](std::string reason) {
+    const std::size_t digit = reason.find_first_of("0123456789");
+    return digit == std::string::npos ? reason : reason.substr(0, digit) + "...";
+  };
+  for (std::size_t i = 0; i < sequence.scans.size(); ++i) {
+    const llc::LoggedScan& logged = sequence.scans[i];
+    const llc::SlamStepResult step = slam.addScan(logged.scan, i, wheels ? &logged.odometry : nullptr);
+    if (!step.skip_reason.empty() && first_skip_reported++ == 0)
+      std::cerr << "warning: scan " << i << " skipped: " << step.skip_reason << " (later skips are only counted)\n";
+    if (step.keyframe) steps.push_back(step.odometry);
+    if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
+    for (const llc::LoopRecord& record : step.records)
+      if (!record.applied) ++loop_reasons[general(record.reject_reason)];
+    progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  writeOutputs(slam, options.map, dir);
+
+  const llc::SlamCounters& c = slam.counters();
+  const double duration = sequence.scans.back().stamp - sequence.scans.front().stamp;
+  const TruthCheck truth = checkAgainstTruth(slam, sequence, steps, args.number("positive-distance", 1.5),
+                                             args.number("positive-heading-deg", 45.0) * M_PI / 180.0,
+                                             args.has("evaluate"));
+  std::ostringstream report;
+  report << std::setprecision(4);
+  report << "input=" << input << "\n"
+         << "scans=" << c.scans << "\n"
+         << "skipped_scans=" << c.skipped_scans << "\n"
+         << "keyframes=" << c.keyframes << "\n"
+         << "odometry_steps_matched=" << c.matched_steps << "\n"
+         << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
+         << "pairs_tested=" << c.pairs_classified << "\n"
+         << "candidates=" << c.candidates << "\n"
+         << "aligned=" << c.aligned << "\n"
+         << "loops_accepted=" << c.loops_accepted << "\n"
+         << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
+         << "loops_refused_by_gate=" << c.refused_by_gate << "\n"
+         << "seconds_odometry=" << c.seconds_odometry << "\n"
+         << "seconds_classify=" << c.seconds_classify << "\n"
+         << "seconds_align=" << c.seconds_align << "\n"
+         << "seconds_backend=" << c.seconds_backend << "\n"
+         << "input_seconds=" << duration << "\n"
+         << "faster_than_real_time=" << (seconds > 0 ? duration / seconds : 0.0) << "\n";
+  if (truth.available) {
+    report << "path_length_m=" << truth.path_length << "\n"
+           << "rms_error_m=" << truth.slam_rms << "\n"
+           << "rms_error_odometry_m=" << truth.odometry_rms << "\n"
+           << "true_loop_keyframes=" << truth.true_loop_keyframes << "\n"
+           << "true_loop_keyframes_closed=" << truth.closed << "\n"
+           << "wrong_loops_accepted=" << truth.wrong_loops << "\n"
+           << "odometry_step_error_rms_m=" << truth.step_rms_m << "\n"
+           << "odometry_step_error_rms_rad=" << truth.step_rms_rad << "\n"
+           << "odometry_step_nees=" << truth.step_nees << "  (3 when the step covariance is honest)\n"
+           << "loop_nees=" << truth.loop_nees << "  (3 when the loop covariance is honest)\n";
+  } else {
+    report << "ground_truth=none (the input's true poses equal its odometry; --evaluate compares anyway)\n";
+  }
+  for (const auto& reason : odometry_reasons) report << "odometry_not_matched: " << reason.first << " = " << reason.second << "\n";
+  for (const auto& reason : loop_reasons) report << "loop_refused: " << reason.first << " = " << reason.second << "\n";
+  report << "seconds=" << seconds << "\n";
+  std::ofstream(dir + "/report.txt") << report.str();
+  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt}\n";
+  return 0;
+}
+
+}  // namespace llc_tool
