@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/classifier_model.hpp"
 
+#include "laser_loop_closure/core/file_util.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -81,17 +83,13 @@ void saveClassifierModel(const ClassifierModel& model, const std::string& path) 
   out << YAML::Key << "end" << YAML::Value << "laser_loop_closure/classifier";
   out << YAML::EndMap;
 
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary);
-    if (!file) throw ModelError("classifier model " + path + ": cannot write " + temporary);
-    file << "# laser_loop_closure classifier model; see README 'Model file'.\n"
-         << out.c_str() << "\n";
-    file.flush();
-    if (!file) throw ModelError("classifier model " + path + ": write to " + temporary + " failed");
+  std::ostringstream text;
+  text << "# laser_loop_closure classifier model; see README 'Model file'.\n" << out.c_str() << "\n";
+  try {
+    writeFileAtomically(path, text.str());
+  } catch (const std::runtime_error& e) {
+    throw ModelError("classifier model " + path + ": " + e.what());
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0)
-    throw ModelError("classifier model " + path + ": cannot rename " + temporary + " to it");
 }
 
 ClassifierModel loadClassifierModel(const std::string& path, const FeatureOptions* expected) {

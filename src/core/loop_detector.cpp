@@ -1,14 +1,12 @@
 #include "laser_loop_closure/core/loop_detector.hpp"
 
+#include "laser_loop_closure/core/file_util.hpp"
+
 #include <chrono>
 #include <stdexcept>
 
 namespace llc {
 namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 StrongClassifier withThreshold(const StrongClassifier& classifier, double threshold) {
   StrongClassifier copy = classifier;

@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/occupancy_grid.hpp"
 
+#include "laser_loop_closure/core/file_util.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -25,16 +27,6 @@ void traverse(int x0, int y0, int x1, int y1, Visit&& visit) {
     if (twice >= dy) error += dy, x0 += sx;
     if (twice <= dx) error += dx, y0 += sy;
   }
-}
-
-void writeAtomically(const std::string& path, const std::string& bytes) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + temporary + " to " + path);
 }
 
 std::string baseName(const std::string& path) {
@@ -148,7 +140,7 @@ void saveMapFiles(const OccupancyGrid& grid, const std::string& stem, const Occu
       else if (value <= options.free_threshold * 100.0) pixel = char(254);
     }
   pgm << pixels;
-  writeAtomically(stem + ".pgm", pgm.str());
+  writeFileAtomically(stem + ".pgm", pgm.str());
   std::ostringstream yaml;
   yaml.precision(17);
   yaml << "image: " << baseName(stem) << ".pgm\n"
@@ -157,7 +149,7 @@ void saveMapFiles(const OccupancyGrid& grid, const std::string& stem, const Occu
        << "negate: 0\n"
        << "occupied_thresh: " << options.occupied_threshold << "\n"
        << "free_thresh: " << options.free_threshold << "\n";
-  writeAtomically(stem + ".yaml", yaml.str());
+  writeFileAtomically(stem + ".yaml", yaml.str());
 }
 
 OccupancyGrid loadMapFiles(const std::string& yaml_path) {

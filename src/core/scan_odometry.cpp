@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/shape_validation.hpp"
 
 namespace llc {
@@ -50,7 +51,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   auto finish = [&](std::string reason) {
     step.reject_reason = std::move(reason);
     step.covariance = stepCovariance(step.motion, step.matched);
-    step.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    step.seconds = secondsSince(start);
     return step;
   };
   if (!options_.scan_matching) return finish("");

@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/slam_pipeline.hpp"
 
+#include "laser_loop_closure/core/file_util.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -8,10 +10,6 @@ namespace llc {
 namespace {
 
 bool finitePose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 const SlamOptions& checked(const SlamOptions& options) {
   const std::string error = options.validate();
