@@ -1,15 +1,9 @@
 #include "laser_loop_closure/core/slam_pipeline.hpp"
 
-#include "laser_loop_closure/core/file_util.hpp"
-
-#include <chrono>
-#include <cmath>
 #include <stdexcept>
 
 namespace llc {
 namespace {
-
-bool finitePose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
 
 const SlamOptions& checked(const SlamOptions& options) {
   const std::string error = options.validate();
@@ -32,54 +26,33 @@ std::string SlamOptions::validate() const {
 }
 
 SlamPipeline::SlamPipeline(const ClassifierModel& model, const SlamOptions& options)
-    : options_(checked(options)), odometry_(options.odometry), detector_(model, options.aligner, options.loops) {}
+    : options_(checked(options)),
+      front_(model, options.odometry, options.aligner, options.loops),
+      back_(options.esdf, options.gate_loops) {}
 
-const std::vector<Pose2>& SlamPipeline::poses() const {
-  static const std::vector<Pose2> none;
-  return esdf_ ? esdf_->mean() : none;
-}
-
-Pose2 SlamPipeline::mapToOdom() const {
-  if (keyframes_.empty() || !keyframes_.back().has_wheel_odometry) return Pose2{};
-  return compose(esdf_->mean().back(), inverse(keyframes_.back().wheel_odometry));
+SlamCounters SlamPipeline::counters() const {
+  const FrontEndCounters& f = front_.counters();
+  const BackEndCounters& b = back_.counters();
+  SlamCounters c;
+  c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
+  c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps;
+  c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
+  c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
+  c.refused_by_gate = b.refused_by_gate;
+  c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
+  c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
+  return c;
 }
 
 SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
+  FrontEndStep front = front_.addScan(scan, wheel_odometry);
   SlamStepResult step;
-  ++counters_.scans;
-  auto skip = [&](std::string reason) {
-    ++counters_.skipped_scans;
-    step.skip_reason = std::move(reason);
-    return step;
-  };
-  if (!std::isfinite(scan.stamp)) return skip("stamp is not finite");
-  if (scan.ranges.size() != scan.bearings.size()) return skip("ranges and bearings differ in count");
-  if (wheel_odometry && !finitePose(*wheel_odometry)) return skip("wheel odometry is not finite");
-  if (!keyframes_.empty() && scan.stamp < keyframes_.back().stamp) return skip("time went backwards");
-
-  const auto start = std::chrono::steady_clock::now();
-  std::shared_ptr<const PreparedScan> prepared;
-  if (!keyframes_.empty()) {
-    const Keyframe& last = keyframes_.back();
-    const bool wheels = wheel_odometry && last.has_wheel_odometry;
-    if (wheels) {
-      const Pose2 guess = between(last.wheel_odometry, *wheel_odometry);
-      if (!odometry_.movedEnough(guess)) return step;  // not a keyframe: nothing more to do
-      prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(keyframes_.size() - 1), *prepared, guess, true);
-    } else {
-      // No wheels: every scan is matched to the newest keyframe to know when it moved enough.
-      prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(keyframes_.size() - 1), *prepared, tracked_motion_, false);
-      tracked_motion_ = step.odometry.motion;
-      if (!odometry_.movedEnough(tracked_motion_)) {
-        counters_.seconds_odometry += secondsSince(start);
-        return step;
-      }
-    }
-    ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
-  }
-  counters_.seconds_odometry += secondsSince(start);
+  step.skip_reason = std::move(front.skip_reason);
+  if (!front.keyframe) return step;
+  step.keyframe = true;
+  step.keyframe_index = front.keyframe_index;
+  step.odometry = front.odometry;
+  step.loops = std::move(front.loops);
 
   Keyframe keyframe;
   keyframe.scan_index = scan_index;
@@ -87,53 +60,22 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   keyframe.scan = scan;
   keyframe.has_wheel_odometry = wheel_odometry != nullptr;
   if (wheel_odometry) keyframe.wheel_odometry = *wheel_odometry;
-  const auto backend_start = std::chrono::steady_clock::now();
-  if (!esdf_) {
-    esdf_ = std::make_unique<Esdf>(wheel_odometry ? *wheel_odometry : Pose2{}, options_.esdf);
-  } else {
-    esdf_->augment(step.odometry.motion, step.odometry.covariance);
-  }
-  counters_.seconds_backend += secondsSince(backend_start);
-  keyframes_.push_back(std::move(keyframe));
-  tracked_motion_ = Pose2{};
-  step.keyframe = true;
-  step.keyframe_index = detector_.add(scan, prepared);
-  ++counters_.keyframes;
+  // The front end has checked what the back end would refuse, so the indices stay together.
+  const std::string refused = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
+  if (!refused.empty()) throw std::logic_error("slam pipeline: the back end refused a keyframe: " + refused);
 
-  step.loops = detector_.detect(step.keyframe_index);
-  counters_.pairs_classified += step.loops.compared;
-  counters_.candidates += step.loops.candidates;
-  counters_.aligned += step.loops.aligned.size();
-  counters_.seconds_classify += step.loops.classify_seconds;
-  counters_.seconds_align += step.loops.seconds - step.loops.classify_seconds;
   for (const LoopClosure& loop : step.loops.aligned) {
     LoopRecord record;
-    record.loop = loop;
-    if (!loop.accepted) {
-      record.reject_reason = loop.reject_reason;
-      ++counters_.refused_by_alignment;
+    if (loop.accepted) {
+      record = back_.addLoop(loop);
     } else {
-      applyLoop(&record);
+      record.loop = loop;
+      record.reject_reason = loop.reject_reason;
     }
     step.records.push_back(record);
     loops_.push_back(std::move(record));
   }
   return step;
-}
-
-void SlamPipeline::applyLoop(LoopRecord* record) {
-  const LoopClosure& loop = record->loop;
-  const auto start = std::chrono::steady_clock::now();
-  const EsdfUpdateResult update = esdf_->update(loop.from, loop.to, loop.pose, loop.covariance, options_.gate_loops);
-  record->innovation_chi2 = update.innovation_chi2;
-  record->applied = update.applied;
-  if (update.applied) {
-    ++counters_.loops_accepted;
-  } else {
-    record->reject_reason = "backend: " + update.reject_reason;
-    ++counters_.refused_by_gate;
-  }
-  counters_.seconds_backend += secondsSince(start);
 }
 
 }  // namespace llc

@@ -15,6 +15,7 @@
 #include "commands.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/map_picture.hpp"
+#include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 #include "laser_loop_closure/core/trajectory_error.hpp"
 
@@ -80,7 +81,6 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
   check.odometry_rms = llc::alignedRmsError(odometry, truth);
   for (std::size_t i = 1; i < truth.size(); ++i)
     check.path_length += std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y);
-  std::size_t applied = 0;
   for (std::size_t k = 1; k < truth.size() && k < steps.size(); ++k) {
     const Eigen::Vector3d e = relativeError(llc::between(truth[k - 1], truth[k]), steps[k].motion);
     check.step_rms_m += e.head<2>().squaredNorm();
@@ -92,28 +92,17 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
     check.step_rms_m = std::sqrt(check.step_rms_m / n), check.step_rms_rad = std::sqrt(check.step_rms_rad / n);
     check.step_nees /= n;
   }
-  std::vector<bool> closed(keyframes.size(), false);
-  for (const llc::LoopRecord& record : slam.loops()) {
-    if (!record.applied) continue;
-    const llc::Pose2 error = llc::between(llc::between(truth[record.loop.from], truth[record.loop.to]), record.loop.pose);
-    const Eigen::Vector3d e(error.x, error.y, error.theta);
-    check.loop_nees += e.dot(record.loop.covariance.ldlt().solve(e));
-    ++applied;
-    if (std::hypot(error.x, error.y) > 1.0 || std::abs(error.theta) > 0.1) ++check.wrong_loops;
-    else closed[record.loop.to] = true;
-  }
-  if (applied > 0) check.loop_nees /= double(applied);
-  const std::size_t gap = slam.options().loops.min_keyframe_gap;
-  for (std::size_t k = gap; k < keyframes.size(); ++k) {
-    const bool full = keyframes[k].scan.full_circle;
-    bool revisit = false;
-    for (std::size_t j = 0; j + gap <= k && !revisit; ++j) {
-      const llc::Pose2 d = llc::between(truth[j], truth[k]);
-      revisit = std::hypot(d.x, d.y) < positive_distance && (full || std::abs(d.theta) < positive_heading);
-    }
-    check.true_loop_keyframes += revisit;
-    check.closed += revisit && closed[k];
-  }
+  llc::LoopTruthOptions truth_options;
+  truth_options.min_keyframe_gap = slam.options().loops.min_keyframe_gap;
+  truth_options.positive_distance = positive_distance;
+  truth_options.positive_heading = positive_heading;
+  std::vector<bool> full_circle;
+  for (const llc::Keyframe& k : keyframes) full_circle.push_back(k.scan.full_circle);
+  const llc::LoopTruthCheck loops = llc::checkLoopsAgainstTruth(truth, full_circle, slam.loops(), truth_options);
+  check.true_loop_keyframes = loops.true_loop_keyframes;
+  check.closed = loops.closed;
+  check.wrong_loops = loops.wrong_loops;
+  check.loop_nees = loops.loop_nees;
   return check;
 }
 

@@ -1,6 +1,6 @@
-// The whole data path of ../shared/ARCHITECTURE.md for one robot: scans in, keyframes with
-// scan-matching odometry, loop detection with no pose prior, and the ESDF back end. The
-// nodelets and `llc slam` both drive this class; nothing here knows about ROS.
+// The whole data path of ../shared/ARCHITECTURE.md for one robot: the front end (keyframes with
+// scan-matching odometry, loop detection with no pose prior) joined directly to the ESDF back
+// end. `llc slam` drives it; the nodelets run the two halves apart, joined by messages.
 #pragma once
 
 #include <cstddef>
@@ -8,9 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "laser_loop_closure/core/esdf.hpp"
-#include "laser_loop_closure/core/loop_detector.hpp"
-#include "laser_loop_closure/core/scan_odometry.hpp"
+#include "laser_loop_closure/core/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam_front_end.hpp"
 
 namespace llc {
 
@@ -21,23 +20,6 @@ struct SlamOptions {
   EsdfOptions esdf{};
   bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
   std::string validate() const;  ///< names the stage whose option is wrong
-};
-
-/// A keyframe as the map and the session keep it.
-struct Keyframe {
-  std::size_t scan_index = 0;  ///< the caller's index of the scan it was made from
-  double stamp = 0.0;          ///< s
-  Scan scan;                   ///< in the base frame
-  Pose2 wheel_odometry;        ///< in the odometry frame (when has_wheel_odometry)
-  bool has_wheel_odometry = false;
-};
-
-/// One loop as the back end met it.
-struct LoopRecord {
-  LoopClosure loop;
-  bool applied = false;          ///< accepted by alignment and by the back end's gate
-  double innovation_chi2 = 0.0;  ///< when it reached the back end
-  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
 };
 
 /// Counts of every decision since the start.
@@ -72,27 +54,22 @@ class SlamPipeline {
   SlamStepResult addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry);
 
   const SlamOptions& options() const { return options_; }
-  const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  const std::vector<Keyframe>& keyframes() const { return back_.keyframes(); }
   /// Optimised keyframe poses in the map frame (the first keyframe sits at its wheel-odometry pose).
-  const std::vector<Pose2>& poses() const;
+  const std::vector<Pose2>& poses() const { return back_.poses(); }
+  /// Every aligned candidate: refused by alignment, refused by the gate, or applied.
   const std::vector<LoopRecord>& loops() const { return loops_; }
-  const SlamCounters& counters() const { return counters_; }
+  SlamCounters counters() const;
   /// The map -> odom transform (REP-105) implied by the newest keyframe; identity without odometry.
-  Pose2 mapToOdom() const;
-  Esdf& backend() { return *esdf_; }
-  LoopDetector& detector() { return detector_; }
+  Pose2 mapToOdom() const { return back_.mapToOdom(); }
+  SlamBackEnd& backEnd() { return back_; }
+  LoopDetector& detector() { return front_.detector(); }
 
  private:
   SlamOptions options_;
-  ScanOdometry odometry_;
-  LoopDetector detector_;
-  std::unique_ptr<Esdf> esdf_;
-  std::vector<Keyframe> keyframes_;
+  SlamFrontEnd front_;
+  SlamBackEnd back_;
   std::vector<LoopRecord> loops_;
-  SlamCounters counters_;
-  /// Applies a loop the aligner accepted (through the gate); fills the record.
-  void applyLoop(LoopRecord* record);
-  Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
 };
 
 }  // namespace llc

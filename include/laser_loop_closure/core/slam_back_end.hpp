@@ -1,0 +1,80 @@
+// The back end of ../shared/ARCHITECTURE.md: keyframes with their odometry constraints and the
+// loop closures a front end found go into the ESDF (chi-square gate on each loop); it knows
+// the optimised keyframe poses and map -> odom. The esdf_backend nodelet runs it alone;
+// SlamPipeline joins it to the front end directly.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/esdf.hpp"
+#include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/scan.hpp"
+
+namespace llc {
+
+/// A keyframe as the map and the session keep it.
+struct Keyframe {
+  std::size_t scan_index = 0;  ///< the caller's index of the scan it was made from
+  double stamp = 0.0;          ///< s
+  Scan scan;                   ///< in the base frame
+  Pose2 wheel_odometry;        ///< in the odometry frame (when has_wheel_odometry)
+  bool has_wheel_odometry = false;
+};
+
+/// One loop as the back end met it.
+struct LoopRecord {
+  LoopClosure loop;
+  bool applied = false;          ///< accepted by alignment and by the back end's gate
+  double innovation_chi2 = 0.0;  ///< when it reached the back end
+  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
+};
+
+struct BackEndCounters {
+  std::size_t keyframes = 0;
+  std::size_t refused_keyframes = 0;  ///< not the next index, or a bad odometry constraint
+  std::size_t loops_accepted = 0;     ///< applied
+  std::size_t refused_by_gate = 0;    ///< the chi-square test said no
+  std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
+  double seconds = 0.0;
+};
+
+class SlamBackEnd {
+ public:
+  /// Throws std::invalid_argument on bad options.
+  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true);
+
+  /// Appends keyframe number keyframes().size() with its motion from the previous keyframe
+  /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Returns an
+  /// empty string, or why it was refused (non-finite motion, covariance not positive definite).
+  std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
+  /// A loop between two stored keyframes (from older than to), through the gate when
+  /// gate_loops. The record says whether it was applied and why not; never throws on data.
+  LoopRecord addLoop(const LoopClosure& loop);
+
+  const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  /// Optimised keyframe poses in the map frame.
+  const std::vector<Pose2>& poses() const;
+  /// Every loop that reached the back end, in order.
+  const std::vector<LoopRecord>& loops() const { return loops_; }
+  const BackEndCounters& counters() const { return counters_; }
+  /// map -> odom (REP-105) implied by the newest keyframe; identity without wheel odometry.
+  Pose2 mapToOdom() const;
+  /// Marginal covariance of the newest keyframe's pose (zero when there is none).
+  Eigen::Matrix3d latestCovariance();
+  bool gateLoops() const { return gate_loops_; }
+  Esdf* esdf() { return esdf_.get(); }
+
+ private:
+  EsdfOptions options_;
+  bool gate_loops_;
+  std::unique_ptr<Esdf> esdf_;
+  std::vector<Keyframe> keyframes_;
+  std::vector<LoopRecord> loops_;
+  BackEndCounters counters_;
+};
+
+}  // namespace llc

@@ -1,0 +1,32 @@
+// Loops against ground truth: which keyframes truly revisit a place, how many of them a run
+// closed, and which applied loops are wrong. `llc slam --evaluate` and the bag rostest share it.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "laser_loop_closure/core/slam_back_end.hpp"
+
+namespace llc {
+
+struct LoopTruthOptions {
+  std::size_t min_keyframe_gap = 30;  ///< keyframes; nearer ones are not a revisit (as the detector's)
+  double positive_distance = 1.5;     ///< m; a revisit is this near an older keyframe ...
+  double positive_heading = 0.785398163397448;  ///< rad; ... and turned less than this (partial scans only)
+  double wrong_translation = 1.0;     ///< m; an applied loop farther off the truth is wrong
+  double wrong_rotation = 0.1;        ///< rad; likewise for its heading
+};
+
+struct LoopTruthCheck {
+  std::size_t true_loop_keyframes = 0;  ///< keyframes with a true revisit
+  std::size_t closed = 0;               ///< of those, closed by a right applied loop
+  std::size_t applied = 0, wrong_loops = 0;
+  double loop_nees = 0.0;  ///< mean e^T C^-1 e of the applied loops (3 when C is honest)
+};
+
+/// truth[k] and full_circle[k] belong to keyframe k; loops as the back end met them (only
+/// applied ones count). Loops naming keyframes beyond truth are ignored.
+LoopTruthCheck checkLoopsAgainstTruth(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
+                                      const std::vector<LoopRecord>& loops, const LoopTruthOptions& options = {});
+
+}  // namespace llc

@@ -1,0 +1,60 @@
+// The front end of ../shared/ARCHITECTURE.md: scans in; keyframes with scan-matching odometry
+// and loop closures (classifier with no pose prior, then CRF-match/ICP/shape validation) out.
+// The loop_closure nodelet runs it alone; SlamPipeline joins it to the back end directly.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/scan_odometry.hpp"
+
+namespace llc {
+
+/// Counts of the front end's decisions since the start.
+struct FrontEndCounters {
+  std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
+  std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
+  std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
+  std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
+  std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
+  double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0;
+};
+
+/// What one scan did in the front end.
+struct FrontEndStep {
+  bool keyframe = false;
+  std::size_t keyframe_index = 0;
+  OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
+  LoopDetectionResult loops;  ///< when keyframe: every aligned candidate, accepted or not
+  std::string skip_reason;    ///< non-empty: the scan was not used (and why)
+};
+
+class SlamFrontEnd {
+ public:
+  /// Throws std::invalid_argument on bad options or a model the extractor cannot serve.
+  SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
+               const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops);
+
+  /// Feeds one scan (base frame) with the wheel-odometry pose at its stamp when there is one.
+  /// A scan older than the last keyframe, with a non-finite stamp or odometry, or with ranges
+  /// and bearings of different lengths, is skipped (skip_reason says why); never throws on data.
+  FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
+
+  std::size_t keyframeCount() const { return detector_.size(); }
+  const FrontEndCounters& counters() const { return counters_; }
+  LoopDetector& detector() { return detector_; }
+  const LoopDetector& detector() const { return detector_; }
+
+ private:
+  ScanOdometry odometry_;
+  LoopDetector detector_;
+  FrontEndCounters counters_;
+  bool has_keyframe_ = false;
+  double last_keyframe_stamp_ = 0.0;
+  bool last_keyframe_has_wheels_ = false;
+  Pose2 last_keyframe_wheels_;
+  Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
+};
+
+}  // namespace llc

@@ -1,0 +1,98 @@
+#include "laser_loop_closure/core/slam_back_end.hpp"
+
+#include <Eigen/Cholesky>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/file_util.hpp"
+
+namespace llc {
+namespace {
+
+bool finitePose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
+
+/// Finite, symmetric within rounding and positive definite.
+bool usableCovariance(const Eigen::Matrix3d& c) {
+  if (!c.allFinite() || !c.isApprox(c.transpose(), 1e-9)) return false;
+  Eigen::LLT<Eigen::Matrix3d> llt(c);
+  return llt.info() == Eigen::Success;
+}
+
+const EsdfOptions& checked(const EsdfOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("esdf options: " + error);
+  return options;
+}
+
+}  // namespace
+
+SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops)
+    : options_(checked(options)), gate_loops_(gate_loops) {}
+
+const std::vector<Pose2>& SlamBackEnd::poses() const {
+  static const std::vector<Pose2> none;
+  return esdf_ ? esdf_->mean() : none;
+}
+
+Pose2 SlamBackEnd::mapToOdom() const {
+  if (keyframes_.empty() || !keyframes_.back().has_wheel_odometry) return Pose2{};
+  return compose(esdf_->mean().back(), inverse(keyframes_.back().wheel_odometry));
+}
+
+Eigen::Matrix3d SlamBackEnd::latestCovariance() {
+  if (!esdf_) return Eigen::Matrix3d::Zero();
+  return esdf_->marginalCovariance(esdf_->size() - 1);
+}
+
+std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance) {
+  auto refuse = [&](const std::string& why) {
+    ++counters_.refused_keyframes;
+    return why;
+  };
+  if (keyframe.has_wheel_odometry && !finitePose(keyframe.wheel_odometry))
+    return refuse("wheel odometry is not finite");
+  if (esdf_ && (!finitePose(motion) || !usableCovariance(covariance)))
+    return refuse("odometry motion not finite, or its covariance not positive definite");
+  const auto start = std::chrono::steady_clock::now();
+  if (!esdf_) {
+    esdf_ = std::make_unique<Esdf>(keyframe.has_wheel_odometry ? keyframe.wheel_odometry : Pose2{}, options_);
+  } else {
+    esdf_->augment(motion, covariance);
+  }
+  keyframes_.push_back(std::move(keyframe));
+  ++counters_.keyframes;
+  counters_.seconds += secondsSince(start);
+  return "";
+}
+
+LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
+  LoopRecord record;
+  record.loop = loop;
+  auto refuse = [&](const std::string& why) {
+    ++counters_.refused_loops;
+    record.reject_reason = "backend: " + why;
+    loops_.push_back(record);
+    return record;
+  };
+  if (loop.from >= keyframes_.size() || loop.to >= keyframes_.size())
+    return refuse("keyframe " + std::to_string(std::max(loop.from, loop.to)) + " is unknown");
+  if (loop.from == loop.to) return refuse("a loop from a keyframe to itself");
+  if (!finitePose(loop.pose) || !usableCovariance(loop.covariance))
+    return refuse("pose not finite, or covariance not positive definite");
+  const auto start = std::chrono::steady_clock::now();
+  const EsdfUpdateResult update = esdf_->update(loop.from, loop.to, loop.pose, loop.covariance, gate_loops_);
+  record.innovation_chi2 = update.innovation_chi2;
+  record.applied = update.applied;
+  if (update.applied) {
+    ++counters_.loops_accepted;
+  } else {
+    record.reject_reason = "backend: " + update.reject_reason;
+    ++counters_.refused_by_gate;
+  }
+  counters_.seconds += secondsSince(start);
+  loops_.push_back(record);
+  return record;
+}
+
+}  // namespace llc
