@@ -4,7 +4,9 @@
 set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-WS="$REPO/build/ws"
+# A dot name: roslaunch and rostest search the package folder for files and skip dot folders,
+# so they do not follow src/laser_loop_closure back into the package again and again.
+WS="$REPO/build/.ws"
 DATA="${LLC_DATA_DIR:-$REPO/../shared/data}"
 # Debian's ROS lives in /usr; a pyenv python3 first on PATH lacks its modules.
 export PATH="/usr/bin:/bin:/usr/sbin:/sbin:$PATH"

@@ -55,15 +55,10 @@ class Mountings {
     }
   }
 
-  struct Mount {
-    llc::Pose2 pose;
-    bool upside_down = false;
-  };
-
-  const Mount& of(const std::string& base, const std::string& frame) {
+  const ScannerMount& of(const std::string& base, const std::string& frame) {
     const auto found = cache_.find(frame);
     if (found != cache_.end()) return found->second;
-    Mount mount;
+    ScannerMount mount;
     if (frame != base) {
       geometry_msgs::TransformStamped t;
       try {
@@ -82,12 +77,8 @@ class Mountings {
  private:
   std::string path_;
   tf2::BufferCore buffer_;
-  std::map<std::string, Mount> cache_;
+  std::map<std::string, ScannerMount> cache_;
 };
-
-bool toBaseScan(const sensor_msgs::LaserScan& msg, const Mountings::Mount& mount, llc::Scan* scan, std::string* error) {
-  return toScan(mount.upside_down ? mirrored(msg) : msg, mount.pose, scan, error);
-}
 
 }  // namespace
 

@@ -134,4 +134,121 @@ sensor_msgs::LaserScan mirrored(const sensor_msgs::LaserScan& msg) {
   return out;
 }
 
+bool toBaseScan(const sensor_msgs::LaserScan& msg, const ScannerMount& mount, llc::Scan* scan, std::string* error) {
+  return toScan(mount.upside_down ? mirrored(msg) : msg, mount.pose, scan, error);
+}
+
+sensor_msgs::LaserScan toLaserScan(const llc::Scan& resampled, const std_msgs::Header& header, float range_min,
+                                   float range_max) {
+  sensor_msgs::LaserScan msg;
+  msg.header = header;
+  const std::size_t n = resampled.size();
+  if (n == 0) return msg;
+  const double step = 2.0 * M_PI / double(n);
+  msg.angle_min = float(resampled.bearings.front());
+  msg.angle_increment = float(step);
+  msg.angle_max = float(resampled.bearings.front() + double(n - 1) * step);
+  msg.range_min = range_min;
+  msg.range_max = range_max;
+  msg.ranges.resize(n);
+  const float inf = std::numeric_limits<float>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = resampled.ranges[i];
+    msg.ranges[i] = std::isfinite(r) && r >= 0.0 ? float(r) : inf;
+  }
+  return msg;
+}
+
+geometry_msgs::Pose2D toPose2D(const llc::Pose2& pose) {
+  geometry_msgs::Pose2D msg;
+  msg.x = pose.x, msg.y = pose.y, msg.theta = pose.theta;
+  return msg;
+}
+
+llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose) { return {pose.x, pose.y, pose.theta}; }
+
+namespace {
+template <class Array>
+void toArray(const Eigen::Matrix3d& m, Array* out) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) (*out)[std::size_t(3 * r + c)] = m(r, c);
+}
+template <class Array>
+Eigen::Matrix3d fromArray(const Array& a) {
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = a[std::size_t(3 * r + c)];
+  return m;
+}
+bool finite(const geometry_msgs::Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
+}  // namespace
+
+laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
+                                           const std::string& base_frame) {
+  laser_loop_closure::Keyframe msg;
+  msg.header.stamp.fromSec(keyframe.stamp);
+  msg.header.frame_id = base_frame;
+  msg.index = std::uint32_t(index);
+  msg.scan_index = std::uint32_t(keyframe.scan_index);
+  msg.scan = toScan360(keyframe.scan, msg.header);
+  msg.has_wheel_odometry = keyframe.has_wheel_odometry;
+  msg.wheel_odometry = toPose2D(keyframe.wheel_odometry);
+  msg.motion = toPose2D(step.motion);
+  toArray(step.covariance, &msg.motion_covariance);
+  msg.scan_matched = step.matched;
+  return msg;
+}
+
+bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
+                     Eigen::Matrix3d* covariance, std::string* error) {
+  if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
+  if (!finite(msg.motion) || (msg.has_wheel_odometry && !finite(msg.wheel_odometry))) {
+    *error = "motion or wheel odometry is not finite";
+    return false;
+  }
+  keyframe->scan_index = msg.scan_index;
+  keyframe->stamp = msg.header.stamp.toSec();
+  keyframe->scan.stamp = keyframe->stamp;
+  keyframe->has_wheel_odometry = msg.has_wheel_odometry;
+  keyframe->wheel_odometry = fromPose2D(msg.wheel_odometry);
+  *motion = fromPose2D(msg.motion);
+  *covariance = fromArray(msg.motion_covariance);
+  return true;
+}
+
+laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, const std_msgs::Header& header) {
+  laser_loop_closure::LoopClosure msg;
+  msg.header = header;
+  msg.from_keyframe = std::uint32_t(loop.from);
+  msg.to_keyframe = std::uint32_t(loop.to);
+  msg.score = loop.score;
+  msg.pose = toPose2D(loop.pose);
+  toArray(loop.covariance, &msg.covariance);
+  msg.inlier_share = loop.inlier_share;
+  msg.accepted = loop.accepted;
+  msg.reject_reason = loop.reject_reason;
+  return msg;
+}
+
+laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopRecord& record, const std_msgs::Header& header) {
+  laser_loop_closure::LoopClosure msg = toLoopClosureMsg(record.loop, header);
+  msg.accepted = record.applied;
+  msg.reject_reason = record.reject_reason;
+  msg.innovation_chi2 = record.innovation_chi2;
+  return msg;
+}
+
+llc::LoopClosure fromLoopClosureMsg(const laser_loop_closure::LoopClosure& msg) {
+  llc::LoopClosure loop;
+  loop.from = msg.from_keyframe;
+  loop.to = msg.to_keyframe;
+  loop.score = msg.score;
+  loop.pose = fromPose2D(msg.pose);
+  loop.covariance = fromArray(msg.covariance);
+  loop.inlier_share = msg.inlier_share;
+  loop.accepted = msg.accepted;
+  loop.reject_reason = msg.reject_reason;
+  return loop;
+}
+
 }  // namespace llc_ros

@@ -3,7 +3,7 @@
 # pairs -> features -> train -> score -> evaluate round on a real log when ../shared/data is there.
 set -uo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-LLC="$REPO/build/ws/devel/lib/laser_loop_closure/llc"
+LLC="$REPO/build/.ws/devel/lib/laser_loop_closure/llc"
 DATA="${LLC_DATA_DIR:-$REPO/../shared/data}"
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT

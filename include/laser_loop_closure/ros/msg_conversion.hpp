@@ -2,14 +2,17 @@
 #pragma once
 
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Pose2D.h>
 #include <geometry_msgs/Transform.h>
 #include <sensor_msgs/LaserScan.h>
 
 #include <string>
 
+#include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/Scan360.h"
-#include "laser_loop_closure/core/scan.hpp"
-#include "laser_loop_closure/core/se2.hpp"
+#include "laser_loop_closure/core/slam_back_end.hpp"
+#include "laser_loop_closure/core/scan_odometry.hpp"
 
 namespace llc_ros {
 
@@ -20,9 +23,36 @@ namespace llc_ros {
 bool toScan(const sensor_msgs::LaserScan& msg, const llc::Pose2& mount, llc::Scan* scan,
             std::string* error);
 
+struct ScannerMount {
+  llc::Pose2 pose;           ///< scanner frame in the base frame
+  bool upside_down = false;  ///< rolled by pi: its beams sweep clockwise seen from above
+};
+
+/// toScan for a scanner with this mounting (an upside-down one is mirrored first).
+bool toBaseScan(const sensor_msgs::LaserScan& msg, const ScannerMount& mount, llc::Scan* scan, std::string* error);
+
+/// A scan resampled by llc::mergeScans with output_beams > 0 (equal cells over 360 degrees,
+/// +inf where nothing returned) as a LaserScan of constant size, in the header's frame.
+sensor_msgs::LaserScan toLaserScan(const llc::Scan& resampled, const std_msgs::Header& header, float range_min,
+                                   float range_max);
+
 laser_loop_closure::Scan360 toScan360(const llc::Scan& scan, const std_msgs::Header& header);
 /// False with a reason when ranges and bearings differ in length.
 bool fromScan360(const laser_loop_closure::Scan360& msg, llc::Scan* scan, std::string* error);
+
+geometry_msgs::Pose2D toPose2D(const llc::Pose2& pose);
+llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose);
+
+/// A keyframe and its odometry step as the front end sends it to the back end, and back
+/// (false with a reason for a malformed message: non-finite numbers, bad scan).
+laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
+                                           const std::string& base_frame);
+bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
+                     Eigen::Matrix3d* covariance, std::string* error);
+laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, const std_msgs::Header& header);
+/// A loop as the back end met it: accepted = applied, with its chi2 and reason.
+laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopRecord& record, const std_msgs::Header& header);
+llc::LoopClosure fromLoopClosureMsg(const laser_loop_closure::LoopClosure& msg);
 
 /// The planar pose of a 3D pose or transform (x, y, yaw); z, roll and pitch are dropped.
 llc::Pose2 toPose2(const geometry_msgs::Pose& pose);

@@ -1,0 +1,91 @@
+// The esdf_backend nodelet's object: Keyframe and LoopClosure messages from a front end go into
+// the shared back end (llc::SlamBackEnd: ESDF on CHOLMOD, chi-square gate on loops); it
+// publishes the path, the newest pose with its covariance, map -> odom on /tf (REP-105), a
+// latched occupancy grid, a point-cloud map, the graph as markers, and its health.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/SaveMap.h"
+#include "laser_loop_closure/core/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam_parameters.hpp"
+
+namespace llc_ros {
+
+struct EsdfBackendNodeOptions {
+  std::string map_frame = "map";       ///< frame of the path, the map and the markers
+  std::string odom_frame = "odom";     ///< child of map_frame in the published transform
+  bool publish_tf = true;              ///< publish map -> odom (needs keyframes with wheel odometry)
+  double transform_tolerance = 0.1;    ///< s the published transform is dated into the future
+  double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
+  double map_publish_period = 2.0;     ///< s between rebuilds of /map, the cloud and the markers (when changed)
+  double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
+  std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
+  int max_pending_loops = 1000;        ///< loops held until their keyframes arrive
+  int queue_size = 1000;               ///< keyframes and loops kept while the back end is busy
+  std::string validate() const;
+};
+
+template <class Visit>
+void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
+  visit("map_frame", o.map_frame);
+  visit("odom_frame", o.odom_frame);
+  visit("publish_tf", o.publish_tf);
+  visit("transform_tolerance", o.transform_tolerance);
+  visit("tf_publish_period", o.tf_publish_period);
+  visit("map_publish_period", o.map_publish_period);
+  visit("cloud_voxel_size", o.cloud_voxel_size);
+  visit("map_path", o.map_path);
+  visit("max_pending_loops", o.max_pending_loops);
+  visit("queue_size", o.queue_size);
+}
+
+class EsdfBackendRos {
+ public:
+  /// Subscribes keyframes and loop_closures; publishes path, pose, map (latched), map_cloud,
+  /// graph_markers and ~loop_records; serves ~save_map. Throws std::runtime_error on bad parameters.
+  EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ private:
+  void onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg);
+  void onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
+  /// Applies one loop whose keyframes exist; publishes its record.
+  void applyLoop(const laser_loop_closure::LoopClosure& msg);
+  void publishPoses();
+  void publishMap();
+  void publishTransform();
+  bool saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  std_msgs::Header mapHeader() const;
+
+  EsdfBackendNodeOptions options_;
+  llc::SystemOptions system_;
+  std::unique_ptr<llc::SlamBackEnd> back_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ros::Subscriber keyframe_sub_, loop_sub_;
+  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_;
+  ros::ServiceServer save_map_srv_;
+  ros::Timer tf_timer_, map_timer_, diagnostics_timer_;
+  diagnostic_updater::Updater diagnostics_;
+
+  std::mutex mutex_;
+  std::deque<laser_loop_closure::LoopClosure> pending_loops_;
+  std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
+  bool map_dirty_ = false;
+  ros::Time last_tf_time_;
+  std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;
+  double last_map_seconds_ = 0.0;
+  std::string last_problem_;
+};
+
+}  // namespace llc_ros

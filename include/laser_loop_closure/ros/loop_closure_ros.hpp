@@ -1,0 +1,65 @@
+// The loop_closure nodelet's object: merged scans in; the shared front end (llc::SlamFrontEnd:
+// keyframes, ICP odometry seeded by wheel odometry from tf, the classifier against every older
+// keyframe with no pose prior, CRF-match/ICP/shape validation) out as Keyframe and
+// LoopClosure messages for a back end.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "laser_loop_closure/Scan360.h"
+#include "laser_loop_closure/core/slam_front_end.hpp"
+#include "laser_loop_closure/core/slam_parameters.hpp"
+
+namespace llc_ros {
+
+struct LoopClosureNodeOptions {
+  std::string model_path;            ///< classifier model (YAML); empty: the package's config/classifier.yaml
+  std::string odom_frame = "odom";   ///< wheel odometry frame (tf odom_frame -> scan's base frame)
+  bool use_wheel_odometry = true;    ///< seed scan matching by tf; a scan without it is skipped
+  double tf_timeout = 0.1;           ///< s to wait for the odometry transform at a scan's stamp
+  int queue_size = 200;              ///< merged scans kept while loop detection runs
+  std::string validate() const;
+};
+
+template <class Visit>
+void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
+  visit("model_path", o.model_path);
+  visit("odom_frame", o.odom_frame);
+  visit("use_wheel_odometry", o.use_wheel_odometry);
+  visit("tf_timeout", o.tf_timeout);
+  visit("queue_size", o.queue_size);
+}
+
+class LoopClosureRos {
+ public:
+  /// Subscribes scan360; publishes keyframes and loop_closures (names relative to nh).
+  /// Throws std::runtime_error on bad parameters or an unreadable model.
+  LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ private:
+  void onScan(const laser_loop_closure::Scan360::ConstPtr& msg);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  LoopClosureNodeOptions options_;
+  llc::SystemOptions system_;
+  std::unique_ptr<llc::SlamFrontEnd> front_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber scan_sub_;
+  ros::Publisher keyframe_pub_, loop_pub_;
+  diagnostic_updater::Updater diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  std::mutex mutex_;
+  std::size_t scans_received_ = 0, no_odometry_ = 0, malformed_ = 0;
+  std::string last_problem_;
+};
+
+}  // namespace llc_ros

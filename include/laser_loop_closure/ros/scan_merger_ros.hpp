@@ -1,0 +1,76 @@
+// The scan_merger nodelet's object: a front and a back LaserScan paired by message_filters
+// ApproximateTime, each moved into the base frame by its tf2 mounting, merged into one
+// 360-degree scan (llc::mergeScans, as `llc slam --bag` does). The front scanner alone also
+// works: when no back scan has come within back_timeout of a front one, the front goes alone.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "laser_loop_closure/ros/tf_bridge.hpp"
+
+namespace llc_ros {
+
+struct ScanMergerOptions {
+  std::string base_frame = "base_link";  ///< frame of the merged scan
+  double max_pair_gap = 0.05;   ///< s; a front and a back scan further apart in time are not paired
+  double back_timeout = 0.5;    ///< s; no back scan this near a front one: publish the front alone
+  int output_beams = 720;       ///< beams of the published LaserScan over 360 degrees (constant size)
+  int queue_size = 20;          ///< messages kept per subscription and synchroniser
+  std::string validate() const;
+};
+
+template <class Visit>
+void visitScanMergerParameters(ScanMergerOptions& o, Visit&& visit) {
+  visit("base_frame", o.base_frame);
+  visit("max_pair_gap", o.max_pair_gap);
+  visit("back_timeout", o.back_timeout);
+  visit("output_beams", o.output_beams);
+  visit("queue_size", o.queue_size);
+}
+
+class ScanMergerRos {
+ public:
+  /// Subscribes scan_front and scan_back, publishes scan360 and scan_merged (names relative
+  /// to nh, remappable). Throws std::invalid_argument on bad parameters.
+  ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+ private:
+  using Policy = message_filters::sync_policies::ApproximateTime<sensor_msgs::LaserScan, sensor_msgs::LaserScan>;
+  void onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back);
+  void onFront(const sensor_msgs::LaserScan::ConstPtr& front);
+  void onBack(const sensor_msgs::LaserScan::ConstPtr& back);
+  /// Converts one scanner's message into the base frame; false (warned, throttled) when it cannot.
+  bool toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan);
+  void publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ScanMergerOptions options_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  MountCache mounts_;
+  message_filters::Subscriber<sensor_msgs::LaserScan> front_filter_, back_filter_;
+  std::unique_ptr<message_filters::Synchronizer<Policy>> sync_;
+  ros::Subscriber front_alone_sub_, back_watch_sub_;
+  ros::Publisher scan360_pub_, laser_pub_;
+  diagnostic_updater::Updater diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  std::mutex mutex_;
+  ros::Time last_back_stamp_;
+  float range_max_ = 0.0f, range_min_ = 0.0f;  ///< of the published LaserScan: the scanners' widest
+  std::size_t merged_ = 0, front_only_ = 0, rejected_ = 0;
+  std::string last_problem_;
+};
+
+}  // namespace llc_ros

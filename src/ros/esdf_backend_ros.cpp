@@ -1,0 +1,221 @@
+#include "laser_loop_closure/ros/esdf_backend_ros.hpp"
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+
+#include <chrono>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/file_util.hpp"
+#include "laser_loop_closure/ros/map_publishing.hpp"
+#include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "laser_loop_closure/ros/parameters.hpp"
+
+namespace llc_ros {
+
+std::string EsdfBackendNodeOptions::validate() const {
+  if (map_frame.empty() || odom_frame.empty()) return "map_frame and odom_frame must not be empty";
+  if (map_frame == odom_frame) return "map_frame and odom_frame must differ";
+  if (!(transform_tolerance >= 0.0)) return "transform_tolerance must not be negative";
+  if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
+  if (!(cloud_voxel_size >= 0.0)) return "cloud_voxel_size must not be negative";
+  if (max_pending_loops < 0 || queue_size < 1) return "max_pending_loops >= 0 and queue_size >= 1";
+  return "";
+}
+
+EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) : diagnostics_(nh, private_nh) {
+  std::string error;
+  std::vector<std::string> names;
+  if (!readParameters(private_nh, &options_,
+                      [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &names,
+                      &error) ||
+      !readSystemOptions(private_nh, &system_, &names, &error))
+    throw std::runtime_error("esdf_backend: " + error);
+  for (const std::string& unknown : unknownParameters(private_nh, names))
+    ROS_WARN("esdf_backend: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
+
+  path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
+  pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+  map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
+  marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
+  record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
+  keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
+  loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
+  save_map_srv_ = private_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
+  if (options_.publish_tf)
+    tf_timer_ = nh.createTimer(ros::Duration(options_.tf_publish_period), [this](const ros::TimerEvent&) { publishTransform(); });
+  map_timer_ = nh.createTimer(ros::Duration(options_.map_publish_period), [this](const ros::TimerEvent&) { publishMap(); });
+  diagnostics_.setHardwareID("none");
+  diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
+  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+}
+
+std_msgs::Header EsdfBackendRos::mapHeader() const {
+  std_msgs::Header header;
+  header.frame_id = options_.map_frame;
+  header.stamp = back_->keyframes().empty() ? ros::Time::now() : ros::Time().fromSec(back_->keyframes().back().stamp);
+  return header;
+}
+
+void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t expected = back_->keyframes().size();
+  std::string error;
+  llc::Keyframe keyframe;
+  llc::Pose2 motion;
+  Eigen::Matrix3d covariance;
+  if (msg->index != expected) {
+    error = "keyframe " + std::to_string(msg->index) + " arrived, " + std::to_string(expected) + " expected";
+  } else if (fromKeyframeMsg(*msg, &keyframe, &motion, &covariance, &error)) {
+    error = back_->addKeyframe(std::move(keyframe), motion, covariance);
+  }
+  if (!error.empty()) {
+    ++refused_keyframes_;
+    last_problem_ = error;
+    ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe refused: %s", error.c_str());
+    return;
+  }
+  // Loops that waited for this keyframe.
+  const std::size_t size = back_->keyframes().size();
+  for (auto it = pending_loops_.begin(); it != pending_loops_.end();) {
+    if (it->from_keyframe < size && it->to_keyframe < size) {
+      applyLoop(*it);
+      it = pending_loops_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  map_dirty_ = true;
+  publishPoses();
+}
+
+void EsdfBackendRos::onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!msg->accepted) {
+    llc::LoopRecord record;
+    record.loop = fromLoopClosureMsg(*msg);
+    record.reject_reason = msg->reject_reason;
+    refused_by_alignment_.push_back(record);
+    return;
+  }
+  const std::size_t size = back_->keyframes().size();
+  if (msg->from_keyframe < size && msg->to_keyframe < size) {
+    applyLoop(*msg);
+    publishPoses();
+    return;
+  }
+  if (pending_loops_.size() >= std::size_t(options_.max_pending_loops)) {
+    ++dropped_loops_;
+    last_problem_ = "a loop waited for keyframes that never came";
+    ROS_WARN_THROTTLE(5.0, "esdf_backend: too many loops wait for their keyframes; the oldest is dropped");
+    pending_loops_.pop_front();
+  }
+  pending_loops_.push_back(*msg);
+}
+
+void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
+  const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg));
+  if (!record.applied) ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
+  record_pub_.publish(toLoopClosureMsg(record, msg.header));
+  map_dirty_ = true;
+}
+
+void EsdfBackendRos::publishPoses() {
+  if (back_->keyframes().empty()) return;
+  const std_msgs::Header header = mapHeader();
+  path_pub_.publish(toPathMsg(back_->keyframes(), back_->poses(), header));
+  geometry_msgs::PoseWithCovarianceStamped pose;
+  pose.header = header;
+  pose.pose.pose = toPoseMsg(back_->poses().back());
+  const Eigen::Matrix3d c = back_->latestCovariance();
+  const int index[3] = {0, 1, 5};  // x, y, yaw in the 6x6 (x, y, z, roll, pitch, yaw)
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col) pose.pose.covariance[std::size_t(6 * index[r] + index[col])] = c(r, col);
+  pose_pub_.publish(pose);
+}
+
+void EsdfBackendRos::publishMap() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!map_dirty_ || back_->keyframes().empty()) return;
+  map_dirty_ = false;
+  const auto start = std::chrono::steady_clock::now();
+  const std_msgs::Header header = mapHeader();
+  std::vector<llc::LoopRecord> loops = refused_by_alignment_;
+  loops.insert(loops.end(), back_->loops().begin(), back_->loops().end());
+  marker_pub_.publish(graphMarkers(back_->poses(), loops, header));
+  std::vector<const llc::Scan*> scans;
+  for (const llc::Keyframe& k : back_->keyframes()) scans.push_back(&k.scan);
+  try {
+    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, back_->poses(), system_.map), header));
+  } catch (const std::exception& e) {
+    last_problem_ = std::string("map: ") + e.what();
+    ROS_WARN_THROTTLE(30.0, "esdf_backend: map not rebuilt: %s", e.what());
+  }
+  if (cloud_pub_.getNumSubscribers() > 0 || cloud_pub_.isLatched())
+    cloud_pub_.publish(toCloudMsg(back_->keyframes(), back_->poses(), system_.map.max_range, options_.cloud_voxel_size, header));
+  last_map_seconds_ = llc::secondsSince(start);
+}
+
+void EsdfBackendRos::publishTransform() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (back_->keyframes().empty() || !back_->keyframes().back().has_wheel_odometry) return;
+  const ros::Time now = ros::Time::now();
+  // Simulated time has not started, or has not moved since the last broadcast (tf would
+  // warn about a repeated stamp).
+  if (now.isZero() || now == last_tf_time_) return;
+  last_tf_time_ = now;
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = options_.map_frame;
+  t.child_frame_id = options_.odom_frame;
+  t.header.stamp = now + ros::Duration(options_.transform_tolerance);
+  t.transform = toTransformMsg(back_->mapToOdom());
+  tf_broadcaster_.sendTransform(t);
+}
+
+bool EsdfBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string stem = request.path.empty() ? options_.map_path : request.path;
+  if (back_->keyframes().empty()) {
+    response.success = false;
+    response.message = "no keyframe yet: nothing to save";
+    return true;
+  }
+  std::vector<const llc::Scan*> scans;
+  for (const llc::Keyframe& k : back_->keyframes()) scans.push_back(&k.scan);
+  try {
+    llc::saveMapFiles(llc::buildOccupancyGrid(scans, back_->poses(), system_.map), stem, system_.map);
+    response.success = true;
+    response.message = "wrote " + stem + ".pgm and " + stem + ".yaml";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  ROS_INFO("esdf_backend: save_map: %s", response.message.c_str());
+  return true;
+}
+
+void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const llc::BackEndCounters& c = back_->counters();
+  if (c.keyframes == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet");
+  else if (refused_keyframes_ > 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "keyframes refused, the graph stopped: " + last_problem_);
+  else
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "mapping");
+  status.add("keyframes", c.keyframes);
+  status.add("refused keyframes", refused_keyframes_);
+  status.add("loops applied", c.loops_accepted);
+  status.add("loops refused by the gate", c.refused_by_gate);
+  status.add("malformed loops", c.refused_loops);
+  status.add("candidates refused by alignment", refused_by_alignment_.size());
+  status.add("loops waiting for keyframes", pending_loops_.size());
+  status.add("loops dropped", dropped_loops_);
+  status.add("seconds in the filter", c.seconds);
+  status.add("seconds of the last map rebuild", last_map_seconds_);
+  status.add("last problem", last_problem_);
+}
+
+}  // namespace llc_ros

@@ -1,0 +1,114 @@
+#include "laser_loop_closure/ros/loop_closure_ros.hpp"
+
+#include <ros/package.h>
+
+#include <stdexcept>
+
+#include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "laser_loop_closure/ros/parameters.hpp"
+#include "laser_loop_closure/ros/tf_bridge.hpp"
+
+namespace llc_ros {
+
+std::string LoopClosureNodeOptions::validate() const {
+  if (odom_frame.empty()) return "odom_frame must not be empty";
+  if (!(tf_timeout >= 0.0)) return "tf_timeout must not be negative";
+  if (queue_size < 1) return "queue_size must be at least 1";
+  return "";
+}
+
+LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : tf_listener_(tf_buffer_, nh), diagnostics_(nh, private_nh) {
+  std::string error;
+  std::vector<std::string> names;
+  if (!readParameters(private_nh, &options_,
+                      [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &names,
+                      &error) ||
+      !readSystemOptions(private_nh, &system_, &names, &error))
+    throw std::runtime_error("loop_closure: " + error);
+  for (const std::string& unknown : unknownParameters(private_nh, names))
+    ROS_WARN("loop_closure: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  if (options_.model_path.empty())
+    options_.model_path = ros::package::getPath("laser_loop_closure") + "/config/classifier.yaml";
+  llc::ClassifierModel model;
+  try {
+    model = llc::loadClassifierModel(options_.model_path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("loop_closure: ") + e.what());
+  }
+  const llc::SlamOptions& slam = system_.slam;
+  front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
+  ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
+           model.classifier.thresholdK());
+
+  keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
+  loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
+  scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScan, this);
+  diagnostics_.setHardwareID("none");
+  diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
+  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+}
+
+void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t scan_index = scans_received_++;
+  std::string error;
+  llc::Keyframe keyframe;
+  if (!fromScan360(*msg, &keyframe.scan, &error)) {
+    ++malformed_;
+    last_problem_ = error;
+    ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", error.c_str());
+    return;
+  }
+  if (options_.use_wheel_odometry) {
+    keyframe.has_wheel_odometry =
+        lookupPose2(tf_buffer_, options_.odom_frame, msg->header.frame_id, msg->header.stamp,
+                    ros::Duration(options_.tf_timeout), &keyframe.wheel_odometry, &error);
+    if (!keyframe.has_wheel_odometry) {
+      ++no_odometry_;
+      last_problem_ = "no wheel odometry: " + error;
+      ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, no wheel odometry (%s -> %s): %s", options_.odom_frame.c_str(),
+                        msg->header.frame_id.c_str(), error.c_str());
+      return;
+    }
+  }
+  const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);
+  if (!step.skip_reason.empty()) {
+    last_problem_ = step.skip_reason;
+    ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", step.skip_reason.c_str());
+    return;
+  }
+  if (!step.keyframe) return;
+  keyframe.scan_index = scan_index;
+  keyframe.stamp = keyframe.scan.stamp;
+  // Keyframe first: the back end must know both ends of a loop before it applies it.
+  keyframe_pub_.publish(toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id));
+  for (const llc::LoopClosure& loop : step.loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
+}
+
+void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const llc::FrontEndCounters& c = front_->counters();
+  if (scans_received_ == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan received yet");
+  else if (c.keyframes == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet: " + last_problem_);
+  else
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");
+  status.add("scans received", scans_received_);
+  status.add("scans without wheel odometry", no_odometry_);
+  status.add("malformed scans", malformed_);
+  status.add("scans skipped by the front end", c.skipped_scans);
+  status.add("keyframes", c.keyframes);
+  status.add("steps matched by ICP", c.matched_steps);
+  status.add("steps from wheel odometry alone", c.wheel_steps);
+  status.add("pairs classified", c.pairs_classified);
+  status.add("candidates", c.candidates);
+  status.add("loops found", c.loops_found);
+  status.add("refused by alignment", c.refused_by_alignment);
+  status.add("seconds classifying", c.seconds_classify);
+  status.add("seconds aligning", c.seconds_align);
+  status.add("last problem", last_problem_);
+}
+
+}  // namespace llc_ros

@@ -1,0 +1,119 @@
+#include "laser_loop_closure/ros/scan_merger_ros.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "laser_loop_closure/ros/parameters.hpp"
+
+namespace llc_ros {
+
+std::string ScanMergerOptions::validate() const {
+  if (base_frame.empty()) return "base_frame must not be empty";
+  if (!(max_pair_gap > 0.0)) return "max_pair_gap must be positive";
+  if (!(back_timeout >= max_pair_gap)) return "back_timeout must be at least max_pair_gap";
+  if (output_beams < 8) return "output_beams must be at least 8";
+  if (queue_size < 1) return "queue_size must be at least 1";
+  return "";
+}
+
+namespace {
+ScanMergerOptions readOptions(const ros::NodeHandle& private_nh) {
+  ScanMergerOptions options;
+  std::string error;
+  std::vector<std::string> names;
+  if (!readParameters(private_nh, &options, [](ScanMergerOptions& o, ParameterReader& r) { visitScanMergerParameters(o, r); },
+                      &names, &error))
+    throw std::invalid_argument("scan_merger: " + error);
+  for (const std::string& unknown : unknownParameters(private_nh, names))
+    ROS_WARN("scan_merger: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  return options;
+}
+}  // namespace
+
+ScanMergerRos::ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : options_(readOptions(private_nh)),
+      tf_listener_(tf_buffer_, nh),
+      mounts_(tf_buffer_, options_.base_frame),
+      diagnostics_(nh, private_nh) {
+  front_filter_.subscribe(nh, "scan_front", options_.queue_size);
+  back_filter_.subscribe(nh, "scan_back", options_.queue_size);
+  sync_ = std::make_unique<message_filters::Synchronizer<Policy>>(Policy(options_.queue_size), front_filter_, back_filter_);
+  sync_->getPolicy()->setMaxIntervalDuration(ros::Duration(options_.max_pair_gap));
+  sync_->registerCallback(&ScanMergerRos::onPair, this);
+  front_alone_sub_ = nh.subscribe("scan_front", options_.queue_size, &ScanMergerRos::onFront, this);
+  back_watch_sub_ = nh.subscribe("scan_back", options_.queue_size, &ScanMergerRos::onBack, this);
+  scan360_pub_ = nh.advertise<laser_loop_closure::Scan360>("scan360", 50);
+  laser_pub_ = nh.advertise<sensor_msgs::LaserScan>("scan_merged", 10);
+  diagnostics_.setHardwareID(options_.base_frame);
+  diagnostics_.add("scan merger", this, &ScanMergerRos::diagnose);
+  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+}
+
+bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
+  std::string error;
+  ScannerMount mount;
+  if (!mounts_.lookup(msg.header.frame_id, &mount, &error) || !toBaseScan(msg, mount, scan, &error)) {
+    ++rejected_;
+    // A new kind of problem is said at once; the same one again at most every 5 s.
+    if (error != last_problem_)
+      ROS_WARN("scan_merger: scan from '%s' skipped: %s", msg.header.frame_id.c_str(), error.c_str());
+    else
+      ROS_WARN_THROTTLE(5.0, "scan_merger: scan from '%s' skipped: %s", msg.header.frame_id.c_str(), error.c_str());
+    last_problem_ = error;
+    return false;
+  }
+  range_max_ = std::max(range_max_, msg.range_max);
+  range_min_ = range_min_ == 0.0f ? msg.range_min : std::min(range_min_, msg.range_min);
+  return true;
+}
+
+void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& back) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_back_stamp_ = back->header.stamp;
+}
+
+void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  llc::Scan front_scan, back_scan;
+  if (!toBase(*front, &front_scan)) return;
+  const bool back_ok = toBase(*back, &back_scan);  // a bad back scan leaves the front alone
+  publish(front_scan, back_ok ? &back_scan : nullptr, *front);
+}
+
+void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // While the back scanner talks, the synchroniser publishes; this path is for when it does not.
+  if (!last_back_stamp_.isZero() && std::abs((front->header.stamp - last_back_stamp_).toSec()) <= options_.back_timeout)
+    return;
+  llc::Scan front_scan;
+  if (toBase(*front, &front_scan)) publish(front_scan, nullptr, *front);
+}
+
+void ScanMergerRos::publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg) {
+  std_msgs::Header header = front_msg.header;
+  header.frame_id = options_.base_frame;
+  const llc::Scan merged = back ? llc::mergeScans(front, *back) : front;
+  ++(back ? merged_ : front_only_);
+  scan360_pub_.publish(toScan360(merged, header));
+  if (laser_pub_.getNumSubscribers() > 0) {
+    llc::ScanMergeOptions resample;
+    resample.output_beams = std::size_t(options_.output_beams);
+    laser_pub_.publish(toLaserScan(llc::mergeScans(front, back ? *back : llc::Scan{}, resample), header, range_min_, range_max_));
+  }
+}
+
+void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (merged_ + front_only_ == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan published yet");
+  else if (rejected_ > 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "some scans skipped: " + last_problem_);
+  else
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "merging");
+  status.add("merged scans", merged_);
+  status.add("front-only scans", front_only_);
+  status.add("skipped scans", rejected_);
+  status.add("last problem", last_problem_);
+}
+
+}  // namespace llc_ros

@@ -1,0 +1,133 @@
+// rostest: the simulated drive played through bag.launch's nodelets. Asserts what a user sees:
+// map -> odom on /tf dated ahead of the clock, a latched /map, a Path that grows to one pose
+// per keyframe, at least 80% of the drive's true revisits closed and no wrong loop applied
+// (checked against /ground_truth with the same code as `llc slam --evaluate`).
+#include <gtest/gtest.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <fstream>
+#include <map>
+#include <mutex>
+
+#include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/core/slam_evaluation.hpp"
+#include "laser_loop_closure/ros/msg_conversion.hpp"
+
+namespace {
+
+struct Observed {
+  std::mutex mutex;
+  std::map<double, llc::Pose2> truth;  // by stamp
+  std::vector<double> keyframe_stamps;
+  std::vector<bool> keyframe_full_circle;
+  std::vector<llc::LoopRecord> records;
+  std::vector<std::size_t> path_sizes;
+  std::size_t map_to_odom = 0, map_to_odom_future = 0;
+  ros::WallTime last_message = ros::WallTime::now();
+};
+
+llc::Pose2 truthAt(const std::map<double, llc::Pose2>& truth, double stamp) {
+  auto after = truth.lower_bound(stamp);
+  if (after == truth.end()) return std::prev(after)->second;
+  if (after == truth.begin() || std::abs(after->first - stamp) < std::abs(std::prev(after)->first - stamp))
+    return after->second;
+  return std::prev(after)->second;
+}
+
+TEST(BagRun, MapsTheSimulatedDrive) {
+  ros::NodeHandle nh, pnh("~");
+  std::string bag;
+  pnh.getParam("bag", bag);
+  if (!std::ifstream(bag).good()) GTEST_SKIP() << "no bag at '" << bag << "' (scripts/test simulates it)";
+  double quiet_seconds = 20.0, max_wall_seconds = 900.0;
+  pnh.getParam("quiet_seconds", quiet_seconds);
+  pnh.getParam("max_wall_seconds", max_wall_seconds);
+
+  Observed seen;
+  auto touch = [&] { seen.last_message = ros::WallTime::now(); };
+  ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>("/ground_truth", 5000, [&](const nav_msgs::Odometry::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    seen.truth[m->header.stamp.toSec()] = llc_ros::toPose2(m->pose.pose);
+  });
+  ros::Subscriber keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>("/keyframes", 5000, [&](const laser_loop_closure::Keyframe::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    seen.keyframe_stamps.push_back(m->header.stamp.toSec());
+    seen.keyframe_full_circle.push_back(m->scan.full_circle);
+    touch();
+  });
+  ros::Subscriber record_sub = nh.subscribe<laser_loop_closure::LoopClosure>(
+      "/esdf_backend/loop_records", 5000, [&](const laser_loop_closure::LoopClosure::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(seen.mutex);
+        llc::LoopRecord record;
+        record.loop = llc_ros::fromLoopClosureMsg(*m);
+        record.applied = m->accepted;
+        seen.records.push_back(record);
+        touch();
+      });
+  ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>("/path", 100, [&](const nav_msgs::Path::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    seen.path_sizes.push_back(m->poses.size());
+    touch();
+  });
+  ros::Subscriber tf_sub = nh.subscribe<tf2_msgs::TFMessage>("/tf", 1000, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    for (const auto& t : m->transforms) {
+      if (t.header.frame_id != "map" || t.child_frame_id != "odom") continue;
+      ++seen.map_to_odom;
+      if (t.header.stamp > ros::Time::now()) ++seen.map_to_odom_future;
+    }
+  });
+
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const ros::WallTime start = ros::WallTime::now();
+  while ((ros::WallTime::now() - start).toSec() < max_wall_seconds) {
+    ros::WallDuration(1.0).sleep();
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    if (!seen.keyframe_stamps.empty() && (ros::WallTime::now() - seen.last_message).toSec() > quiet_seconds) break;
+  }
+
+  // A subscriber that comes after the map was published still gets it: /map is latched.
+  nav_msgs::OccupancyGrid::ConstPtr map =
+      ros::topic::waitForMessage<nav_msgs::OccupancyGrid>("/map", nh, ros::Duration(10.0));
+  spinner.stop();
+
+  std::lock_guard<std::mutex> lock(seen.mutex);
+  const std::size_t keyframes = seen.keyframe_stamps.size();
+  ASSERT_GT(keyframes, 100u) << "the front end made too few keyframes";
+  ASSERT_NE(map, nullptr) << "no latched /map";
+  EXPECT_GT(map->info.width * map->info.height, 10000u);
+  EXPECT_GT(seen.map_to_odom, 100u) << "map -> odom not on /tf";
+  EXPECT_GT(seen.map_to_odom_future, seen.map_to_odom / 2) << "map -> odom is not dated ahead (transform_tolerance)";
+  ASSERT_GE(seen.path_sizes.size(), 10u);
+  for (std::size_t i = 1; i < seen.path_sizes.size(); ++i) EXPECT_GE(seen.path_sizes[i], seen.path_sizes[i - 1]);
+  EXPECT_EQ(seen.path_sizes.back(), keyframes) << "the path must end with one pose per keyframe";
+
+  std::vector<llc::Pose2> truth;
+  for (double stamp : seen.keyframe_stamps) truth.push_back(truthAt(seen.truth, stamp));
+  const llc::LoopTruthCheck check = llc::checkLoopsAgainstTruth(truth, seen.keyframe_full_circle, seen.records);
+  // In the rostest's XML result (scripts/test prints them).
+  RecordProperty("keyframes", int(keyframes));
+  RecordProperty("loops_applied", int(check.applied));
+  RecordProperty("true_loop_keyframes", int(check.true_loop_keyframes));
+  RecordProperty("true_loop_keyframes_closed", int(check.closed));
+  RecordProperty("wrong_loops_applied", int(check.wrong_loops));
+  RecordProperty("path_messages", int(seen.path_sizes.size()));
+  RecordProperty("map_to_odom_broadcasts", int(seen.map_to_odom));
+  ASSERT_GT(check.true_loop_keyframes, 20u);
+  EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
+  EXPECT_EQ(check.wrong_loops, 0u);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_bag_run");
+  return RUN_ALL_TESTS();
+}
