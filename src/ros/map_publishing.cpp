@@ -103,9 +103,18 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
   nodes.scale.x = nodes.scale.y = nodes.scale.z = 0.15;
   nodes.color.r = 0.1f, nodes.color.g = 0.3f, nodes.color.b = 0.9f, nodes.color.a = 1.0f;
   visualization_msgs::Marker odometry = lineList(header, "odometry", 0.04, 0.1f, 0.3f, 0.9f, 0.8f);
-  visualization_msgs::Marker applied = lineList(header, "loops_applied", 0.08, 0.0f, 0.8f, 0.0f, 1.0f);
-  visualization_msgs::Marker gated = lineList(header, "loops_refused_by_gate", 0.08, 0.9f, 0.0f, 0.0f, 1.0f);
+  visualization_msgs::Marker applied = lineList(header, "loops_applied", 0.1, 0.0f, 0.8f, 0.0f, 1.0f);
+  visualization_msgs::Marker gated = lineList(header, "loops_refused_by_gate", 0.1, 0.9f, 0.0f, 0.0f, 1.0f);
   visualization_msgs::Marker aligned = lineList(header, "loops_refused_by_alignment", 0.02, 0.5f, 0.5f, 0.5f, 0.5f);
+  // A loop joins two poses less than a few metres apart: at the scale of a whole map its line
+  // is a dot, so the newer pose of each loop is also marked by a disc that stays visible.
+  visualization_msgs::Marker applied_places = applied, gated_places = gated;
+  for (visualization_msgs::Marker* m : {&applied_places, &gated_places}) {
+    m->ns = m == &applied_places ? "loop_places_applied" : "loop_places_refused_by_gate";
+    m->type = visualization_msgs::Marker::SPHERE_LIST;
+    m->scale.x = m->scale.y = 2.0, m->scale.z = 0.05;
+    m->color.a = 0.6f;
+  }
   for (std::size_t k = 0; k < poses.size(); ++k) {
     nodes.points.push_back(point(poses[k]));
     if (k > 0) {
@@ -118,9 +127,10 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
     visualization_msgs::Marker& m = record.applied ? applied : record.loop.accepted ? gated : aligned;
     m.points.push_back(point(poses[record.loop.from]));
     m.points.push_back(point(poses[record.loop.to]));
+    if (record.loop.accepted) (record.applied ? applied_places : gated_places).points.push_back(point(poses[record.loop.to]));
   }
   visualization_msgs::MarkerArray array;
-  for (visualization_msgs::Marker* m : {&nodes, &odometry, &applied, &gated, &aligned}) {
+  for (visualization_msgs::Marker* m : {&nodes, &odometry, &applied, &gated, &aligned, &applied_places, &gated_places}) {
     // rviz refuses an empty LINE_LIST/SPHERE_LIST with a warning; DELETE keeps it quiet.
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;
     array.markers.push_back(*m);

@@ -243,6 +243,46 @@ TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {
   EXPECT_NEAR(slam.poses().back().x, x, 1e-6);
 }
 
+TEST(SlamBackEnd, RefusesMalformedKeyframesAndLoopsWithAReason) {
+  llc::SlamBackEnd back;
+  llc::Keyframe first;
+  first.has_wheel_odometry = true;
+  first.wheel_odometry = {2.0, 1.0, 0.5};
+  EXPECT_EQ(back.addKeyframe(first, llc::Pose2{}, Eigen::Matrix3d::Identity()), "");
+  EXPECT_NEAR(back.poses()[0].x, 2.0, 1e-9);  // the first keyframe sits at its wheel pose
+  Eigen::Matrix3d not_positive = Eigen::Matrix3d::Identity();
+  not_positive(2, 2) = -1.0;
+  EXPECT_NE(back.addKeyframe(llc::Keyframe{}, {1.0, 0.0, 0.0}, not_positive), "");
+  EXPECT_NE(back.addKeyframe(llc::Keyframe{}, {std::nan(""), 0.0, 0.0}, Eigen::Matrix3d::Identity()), "");
+  EXPECT_EQ(back.keyframes().size(), 1u);
+  EXPECT_EQ(back.addKeyframe(llc::Keyframe{}, {1.0, 0.0, 0.0}, 0.01 * Eigen::Matrix3d::Identity()), "");
+  ASSERT_EQ(back.keyframes().size(), 2u);
+
+  llc::LoopClosure loop;
+  loop.from = 0, loop.to = 5;  // no keyframe 5
+  loop.accepted = true;
+  EXPECT_FALSE(back.addLoop(loop).applied);
+  loop.to = 0;
+  EXPECT_NE(back.addLoop(loop).reject_reason, "");  // to itself
+  loop.to = 1;
+  loop.pose = {1.0, 0.0, 0.0};
+  loop.covariance = not_positive;
+  EXPECT_FALSE(back.addLoop(loop).applied);
+  loop.covariance = 0.01 * Eigen::Matrix3d::Identity();
+  loop.pose = {30.0, 0.0, 0.0};  // far from the odometry: the gate refuses it
+  const llc::LoopRecord gated = back.addLoop(loop);
+  EXPECT_FALSE(gated.applied);
+  EXPECT_GT(gated.innovation_chi2, 16.27);
+  loop.pose = {1.01, 0.0, 0.0};
+  EXPECT_TRUE(back.addLoop(loop).applied);
+  EXPECT_EQ(back.counters().refused_loops, 3u);
+  EXPECT_EQ(back.counters().refused_by_gate, 1u);
+  EXPECT_EQ(back.counters().loops_accepted, 1u);
+  EXPECT_EQ(back.loops().size(), 5u);
+  // map -> odom: the newest keyframe has no wheel odometry, so identity.
+  EXPECT_EQ(back.mapToOdom().x, 0.0);
+}
+
 TEST(SlamPipeline, OptionsAreValidatedOnce) {
   llc::SlamOptions options;
   options.odometry.keyframe_distance = 0.0;

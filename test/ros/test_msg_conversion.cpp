@@ -86,6 +86,73 @@ TEST(MsgConversion, Scan360RoundTrip) {
   EXPECT_FALSE(llc_ros::fromScan360(bad, &back, &error));
 }
 
+TEST(MsgConversion, KeyframeAndLoopClosureRoundTrip) {
+  llc::Keyframe keyframe;
+  keyframe.scan_index = 17;
+  keyframe.stamp = 12.5;
+  keyframe.scan.ranges = {1.0, 2.0};
+  keyframe.scan.bearings = {-0.5, 0.5};
+  keyframe.has_wheel_odometry = true;
+  keyframe.wheel_odometry = {1.0, -2.0, 0.3};
+  llc::OdometryStep step;
+  step.motion = {0.9, 0.1, -0.2};
+  step.covariance << 0.01, 0.002, 0.0, 0.002, 0.02, 0.001, 0.0, 0.001, 0.003;
+  step.matched = true;
+  const laser_loop_closure::Keyframe msg = llc_ros::toKeyframeMsg(keyframe, 4, step, "base_link");
+  EXPECT_EQ(msg.index, 4u);
+  EXPECT_EQ(msg.motion_covariance[1], 0.002);  // row-major: (0, 1)
+  EXPECT_EQ(msg.motion_covariance[5], 0.001);  // (1, 2)
+  llc::Keyframe back;
+  llc::Pose2 motion;
+  Eigen::Matrix3d covariance;
+  std::string error;
+  ASSERT_TRUE(llc_ros::fromKeyframeMsg(msg, &back, &motion, &covariance, &error)) << error;
+  EXPECT_EQ(back.scan_index, 17u);
+  EXPECT_DOUBLE_EQ(back.stamp, 12.5);
+  EXPECT_DOUBLE_EQ(back.wheel_odometry.theta, 0.3);
+  EXPECT_DOUBLE_EQ(motion.x, 0.9);
+  EXPECT_TRUE(covariance.isApprox(step.covariance, 0.0));
+  laser_loop_closure::Keyframe bad = msg;
+  bad.motion.theta = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(llc_ros::fromKeyframeMsg(bad, &back, &motion, &covariance, &error));
+
+  llc::LoopClosure loop;
+  loop.from = 3, loop.to = 40, loop.score = 0.7, loop.pose = {0.5, -0.25, 3.0}, loop.inlier_share = 0.95;
+  loop.covariance = step.covariance;
+  loop.accepted = true;
+  std_msgs::Header header;
+  const llc::LoopClosure loop_back = llc_ros::fromLoopClosureMsg(llc_ros::toLoopClosureMsg(loop, header));
+  EXPECT_EQ(loop_back.from, 3u);
+  EXPECT_EQ(loop_back.to, 40u);
+  EXPECT_DOUBLE_EQ(loop_back.pose.theta, 3.0);
+  EXPECT_TRUE(loop_back.covariance.isApprox(loop.covariance, 0.0));
+  llc::LoopRecord record;
+  record.loop = loop;
+  record.applied = false;
+  record.reject_reason = "backend: gate";
+  record.innovation_chi2 = 42.0;
+  const laser_loop_closure::LoopClosure as_met = llc_ros::toLoopClosureMsg(record, header);
+  EXPECT_FALSE(as_met.accepted);  // on ~loop_records, accepted means applied
+  EXPECT_EQ(as_met.innovation_chi2, 42.0);
+}
+
+TEST(MsgConversion, ResampledScanAsLaserScanOfConstantSize) {
+  llc::Scan front;
+  front.ranges = {1.0, std::numeric_limits<double>::quiet_NaN(), 2.0};
+  front.bearings = {-0.1, 0.0, 0.1};
+  llc::ScanMergeOptions resample;
+  resample.output_beams = 360;
+  std_msgs::Header header;
+  const sensor_msgs::LaserScan msg = llc_ros::toLaserScan(llc::mergeScans(front, llc::Scan{}, resample), header, 0.1f, 30.0f);
+  ASSERT_EQ(msg.ranges.size(), 360u);
+  EXPECT_NEAR(msg.angle_increment, 2.0 * M_PI / 360.0, 1e-6);
+  EXPECT_NEAR(msg.angle_min + 359 * msg.angle_increment, msg.angle_max, 1e-5);
+  std::size_t finite = 0;
+  for (float r : msg.ranges) finite += std::isfinite(r);
+  EXPECT_EQ(finite, 2u);  // everything else +inf (REP-117: nothing returned)
+  EXPECT_TRUE(std::isinf(msg.ranges[0]) && msg.ranges[0] > 0);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {

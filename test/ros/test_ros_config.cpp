@@ -1,0 +1,58 @@
+// config/ros.yaml holds every ROS-side parameter of each nodelet at its code default, and
+// nothing else (the SLAM parameters' file is checked the same way in test_core).
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <string>
+
+#include "laser_loop_closure/ros/esdf_backend_ros.hpp"
+#include "laser_loop_closure/ros/loop_closure_ros.hpp"
+#include "laser_loop_closure/ros/scan_merger_ros.hpp"
+
+namespace {
+
+/// Compares each visited default with the YAML section's value; collects the names.
+struct DefaultsMatch {
+  YAML::Node section;
+  std::set<std::string> names;
+  template <class T>
+  void operator()(const std::string& name, T& value) {
+    names.insert(name);
+    ASSERT_TRUE(section[name]) << name << " is missing from config/ros.yaml";
+    EXPECT_EQ(section[name].as<T>(), value) << name;
+  }
+};
+
+template <class Options, class Visit>
+void checkSection(const YAML::Node& root, const std::string& node, Visit visit) {
+  SCOPED_TRACE(node);
+  ASSERT_TRUE(root[node]) << "no section " << node;
+  Options defaults;
+  EXPECT_EQ(defaults.validate(), "") << "the defaults must be valid";
+  DefaultsMatch match{root[node], {}};
+  visit(defaults, match);
+  for (const auto& entry : root[node]) EXPECT_TRUE(match.names.count(entry.first.as<std::string>())) << entry.first.as<std::string>() << " is read by no one";
+}
+
+TEST(RosConfig, EveryParameterAtItsDefault) {
+  const YAML::Node root = YAML::LoadFile(std::string(LLC_SOURCE_DIR) + "/config/ros.yaml");
+  checkSection<llc_ros::ScanMergerOptions>(root, "scan_merger", [](auto& o, auto& v) { llc_ros::visitScanMergerParameters(o, v); });
+  checkSection<llc_ros::LoopClosureNodeOptions>(root, "loop_closure", [](auto& o, auto& v) { llc_ros::visitLoopClosureParameters(o, v); });
+  checkSection<llc_ros::EsdfBackendNodeOptions>(root, "esdf_backend", [](auto& o, auto& v) { llc_ros::visitEsdfBackendParameters(o, v); });
+  EXPECT_EQ(root.size(), 3u);
+}
+
+TEST(RosConfig, BadOptionsAreRefused) {
+  llc_ros::ScanMergerOptions merger;
+  merger.back_timeout = 0.01;  // below max_pair_gap
+  EXPECT_NE(merger.validate(), "");
+  llc_ros::EsdfBackendNodeOptions backend;
+  backend.odom_frame = backend.map_frame;
+  EXPECT_NE(backend.validate(), "");
+  llc_ros::LoopClosureNodeOptions loop;
+  loop.tf_timeout = -1.0;
+  EXPECT_NE(loop.validate(), "");
+}
+
+}  // namespace
