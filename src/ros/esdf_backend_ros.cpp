@@ -153,7 +153,8 @@ void EsdfBackendRos::publishMap() {
     last_problem_ = std::string("map: ") + e.what();
     ROS_WARN_THROTTLE(30.0, "esdf_backend: map not rebuilt: %s", e.what());
   }
-  if (cloud_pub_.getNumSubscribers() > 0 || cloud_pub_.isLatched())
+  // The cloud of every return costs as much as the grid: built only for someone listening.
+  if (cloud_pub_.getNumSubscribers() > 0)
     cloud_pub_.publish(toCloudMsg(back_->keyframes(), back_->poses(), system_.map.max_range, options_.cloud_voxel_size, header));
   last_map_seconds_ = llc::secondsSince(start);
 }
