@@ -10,7 +10,6 @@
 namespace llc {
 namespace {
 
-bool finitePose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
 
 /// Finite, symmetric within rounding and positive definite.
 bool usableCovariance(const Eigen::Matrix3d& c) {
@@ -50,9 +49,9 @@ std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, con
     ++counters_.refused_keyframes;
     return why;
   };
-  if (keyframe.has_wheel_odometry && !finitePose(keyframe.wheel_odometry))
+  if (keyframe.has_wheel_odometry && !isFinite(keyframe.wheel_odometry))
     return refuse("wheel odometry is not finite");
-  if (esdf_ && (!finitePose(motion) || !usableCovariance(covariance)))
+  if (esdf_ && (!isFinite(motion) || !usableCovariance(covariance)))
     return refuse("odometry motion not finite, or its covariance not positive definite");
   const auto start = std::chrono::steady_clock::now();
   if (!esdf_) {
@@ -78,7 +77,7 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
   if (loop.from >= keyframes_.size() || loop.to >= keyframes_.size())
     return refuse("keyframe " + std::to_string(std::max(loop.from, loop.to)) + " is unknown");
   if (loop.from == loop.to) return refuse("a loop from a keyframe to itself");
-  if (!finitePose(loop.pose) || !usableCovariance(loop.covariance))
+  if (!isFinite(loop.pose) || !usableCovariance(loop.covariance))
     return refuse("pose not finite, or covariance not positive definite");
   const auto start = std::chrono::steady_clock::now();
   const EsdfUpdateResult update = esdf_->update(loop.from, loop.to, loop.pose, loop.covariance, gate_loops_);

@@ -7,7 +7,6 @@
 
 namespace llc {
 namespace {
-bool finitePose(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
 }  // namespace
 
 SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
@@ -24,7 +23,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   };
   if (!std::isfinite(scan.stamp)) return skip("stamp is not finite");
   if (scan.ranges.size() != scan.bearings.size()) return skip("ranges and bearings differ in count");
-  if (wheel_odometry && !finitePose(*wheel_odometry)) return skip("wheel odometry is not finite");
+  if (wheel_odometry && !isFinite(*wheel_odometry)) return skip("wheel odometry is not finite");
   if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) return skip("time went backwards");
 
   const auto start = std::chrono::steady_clock::now();

@@ -24,15 +24,9 @@ std::string EsdfBackendNodeOptions::validate() const {
 }
 
 EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) : diagnostics_(nh, private_nh) {
-  std::string error;
-  std::vector<std::string> names;
-  if (!readParameters(private_nh, &options_,
-                      [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &names,
-                      &error) ||
-      !readSystemOptions(private_nh, &system_, &names, &error))
-    throw std::runtime_error("esdf_backend: " + error);
-  for (const std::string& unknown : unknownParameters(private_nh, names))
-    ROS_WARN("esdf_backend: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  loadNodeParameters(
+      private_nh, "esdf_backend", &options_,
+      [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &system_);
   back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);

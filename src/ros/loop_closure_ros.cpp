@@ -19,15 +19,9 @@ std::string LoopClosureNodeOptions::validate() const {
 
 LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : tf_listener_(tf_buffer_, nh), diagnostics_(nh, private_nh) {
-  std::string error;
-  std::vector<std::string> names;
-  if (!readParameters(private_nh, &options_,
-                      [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &names,
-                      &error) ||
-      !readSystemOptions(private_nh, &system_, &names, &error))
-    throw std::runtime_error("loop_closure: " + error);
-  for (const std::string& unknown : unknownParameters(private_nh, names))
-    ROS_WARN("loop_closure: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  loadNodeParameters(
+      private_nh, "loop_closure", &options_,
+      [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &system_);
   if (options_.model_path.empty())
     options_.model_path = ros::package::getPath("laser_loop_closure") + "/config/classifier.yaml";
   llc::ClassifierModel model;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include <ros/console.h>
 #include <ros/param.h>
 
 namespace llc_ros {
@@ -44,6 +45,11 @@ std::vector<std::string> unknownParameters(const ros::NodeHandle& nh, const std:
     if (std::find(known.begin(), known.end(), relative) == known.end()) unknown.push_back(relative);
   }
   return unknown;
+}
+
+void warnUnknownParameters(const ros::NodeHandle& nh, const std::string& node, const std::vector<std::string>& known) {
+  for (const std::string& unknown : unknownParameters(nh, known))
+    ROS_WARN("%s: parameter %s/%s is not one of mine; ignored", node.c_str(), nh.getNamespace().c_str(), unknown.c_str());
 }
 
 bool readSystemOptions(const ros::NodeHandle& nh, llc::SystemOptions* options, std::vector<std::string>* names,

@@ -19,13 +19,8 @@ std::string ScanMergerOptions::validate() const {
 namespace {
 ScanMergerOptions readOptions(const ros::NodeHandle& private_nh) {
   ScanMergerOptions options;
-  std::string error;
-  std::vector<std::string> names;
-  if (!readParameters(private_nh, &options, [](ScanMergerOptions& o, ParameterReader& r) { visitScanMergerParameters(o, r); },
-                      &names, &error))
-    throw std::invalid_argument("scan_merger: " + error);
-  for (const std::string& unknown : unknownParameters(private_nh, names))
-    ROS_WARN("scan_merger: parameter %s/%s is not one of mine; ignored", private_nh.getNamespace().c_str(), unknown.c_str());
+  loadNodeParameters(private_nh, "scan_merger", &options,
+                     [](ScanMergerOptions& o, ParameterReader& r) { visitScanMergerParameters(o, r); });
   return options;
 }
 }  // namespace

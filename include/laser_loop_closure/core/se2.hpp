@@ -21,6 +21,9 @@ struct Pose2 {
 };
 
 /// a (+) b: pose b, expressed in the frame of a, moved into a's parent frame.
+/// All three numbers finite (a pose from a message or a log may not be).
+inline bool isFinite(const Pose2& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
+
 inline Pose2 compose(const Pose2& a, const Pose2& b) {
   const double c = std::cos(a.theta), s = std::sin(a.theta);
   return {a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, normalizeAngle(a.theta + b.theta)};

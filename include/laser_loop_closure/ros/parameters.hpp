@@ -6,6 +6,7 @@
 #include <ros/node_handle.h>
 
 #include <cstddef>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -61,5 +62,21 @@ bool readParameters(const ros::NodeHandle& nh, Options* options, Visit&& visit, 
 /// The SLAM options (odometry/..., loops/..., aligner/..., esdf/..., map/...) under nh.
 bool readSystemOptions(const ros::NodeHandle& nh, llc::SystemOptions* options, std::vector<std::string>* names,
                        std::string* error);
+
+/// Logs a warning for each parameter under nh that is not among `known`.
+void warnUnknownParameters(const ros::NodeHandle& nh, const std::string& node, const std::vector<std::string>& known);
+
+/// What a nodelet reads at start: its own options (through visit) and, when `system` is given,
+/// the SLAM options too. Warns about parameters no one reads; throws std::runtime_error
+/// "<node>: <problem>" on a bad value.
+template <class Options, class Visit>
+void loadNodeParameters(const ros::NodeHandle& nh, const std::string& node, Options* options, Visit&& visit,
+                        llc::SystemOptions* system = nullptr) {
+  std::string error;
+  std::vector<std::string> names;
+  if (!readParameters(nh, options, visit, &names, &error) || (system && !readSystemOptions(nh, system, &names, &error)))
+    throw std::runtime_error(node + ": " + error);
+  warnUnknownParameters(nh, node, names);
+}
 
 }  // namespace llc_ros

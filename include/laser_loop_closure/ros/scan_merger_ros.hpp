@@ -42,7 +42,7 @@ void visitScanMergerParameters(ScanMergerOptions& o, Visit&& visit) {
 class ScanMergerRos {
  public:
   /// Subscribes scan_front and scan_back, publishes scan360 and scan_merged (names relative
-  /// to nh, remappable). Throws std::invalid_argument on bad parameters.
+  /// to nh, remappable). Throws std::runtime_error on bad parameters.
   ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  private:
