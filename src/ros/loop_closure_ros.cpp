@@ -2,8 +2,10 @@
 
 #include <ros/package.h>
 
+#include <algorithm>
 #include <stdexcept>
 
+#include "laser_loop_closure/ros/classifier_retraining.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
 #include "laser_loop_closure/ros/parameters.hpp"
 #include "laser_loop_closure/ros/tf_bridge.hpp"
@@ -14,6 +16,7 @@ std::string LoopClosureNodeOptions::validate() const {
   if (odom_frame.empty()) return "odom_frame must not be empty";
   if (!(tf_timeout >= 0.0)) return "tf_timeout must not be negative";
   if (queue_size < 1) return "queue_size must be at least 1";
+  if (trained_model_path.empty()) return "trained_model_path must not be empty";
   return "";
 }
 
@@ -32,12 +35,15 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   const llc::SlamOptions& slam = system_.slam;
   front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
+  model_path_ = options_.model_path;
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
   scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScan, this);
+  path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
+  train_srv_ = private_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
   diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
@@ -73,11 +79,75 @@ void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
     return;
   }
   if (!step.keyframe) return;
+  keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
   keyframe.scan_index = scan_index;
   keyframe.stamp = keyframe.scan.stamp;
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   keyframe_pub_.publish(toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id));
   for (const llc::LoopClosure& loop : step.loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
+}
+
+void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {
+  std::vector<llc::Pose2> poses;
+  poses.reserve(msg->poses.size());
+  for (const geometry_msgs::PoseStamped& pose : msg->poses) poses.push_back(toPose2(pose.pose));
+  std::lock_guard<std::mutex> lock(mutex_);
+  optimised_poses_ = std::move(poses);
+}
+
+bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Request& request,
+                                     laser_loop_closure::TrainClassifier::Response& response) {
+  std::unique_lock<std::mutex> one_at_a_time(training_, std::try_to_lock);
+  if (!one_at_a_time) {
+    response.message = "not trained: another training is running";
+    return true;
+  }
+  llc::ClassifierModel running;
+  llc::TrainingSet session;
+  std::string session_text;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running = front_->detector().model();
+    if (request.data.empty()) {
+      // Keyframes the back end has placed (the path may lag a keyframe or two behind).
+      const std::size_t n = std::min(optimised_poses_.size(), front_->keyframeCount());
+      std::vector<std::vector<double>> features;
+      for (std::size_t k = 0; k < n; ++k) features.push_back(front_->detector().features(k));
+      llc::PairLabelingOptions labeling;
+      labeling.full_circle = keyframes_full_circle_;
+      labeling.min_index_gap = system_.slam.loops.min_keyframe_gap;
+      const std::vector<llc::Pose2> poses(optimised_poses_.begin(), optimised_poses_.begin() + long(n));
+      try {
+        session = llc::keyframeTrainingSet(features, poses, running.features.feature_set, labeling);
+      } catch (const std::exception& e) {
+        response.message = std::string("not trained: ") + e.what();
+        return true;
+      }
+      session_text = "session: " + std::to_string(n) + " keyframes labelled by their optimised poses";
+    }
+  }
+  ROS_INFO("loop_closure: training a classifier (%s)", request.data.empty() ? session_text.c_str() : "from files");
+  RetrainingOutcome outcome = retrainClassifier(request, running, session, session_text, options_.trained_model_path);
+  response = outcome.response;
+  if (response.success && outcome.better_or_equal) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    try {
+      front_->detector().setModel(outcome.model);
+      response.swapped = true;
+      model_path_ = response.model_path;
+      ++models_swapped_;
+    } catch (const std::exception& e) {
+      response.message += std::string("; not swapped: ") + e.what();
+    }
+  } else if (response.success) {
+    response.message += "; not swapped: the running model is better on these pairs";
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    models_trained_ += response.success;
+  }
+  ROS_INFO("loop_closure: train_classifier: %s", response.message.c_str());
+  return true;
 }
 
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -93,6 +163,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("scans without wheel odometry", no_odometry_);
   status.add("malformed scans", malformed_);
   status.add("scans skipped by the front end", c.skipped_scans);
+  status.add("model", model_path_);
+  status.add("models trained", models_trained_);
+  status.add("models swapped in", models_swapped_);
   status.add("keyframes", c.keyframes);
   status.add("steps matched by ICP", c.matched_steps);
   status.add("steps from wheel odometry alone", c.wheel_steps);

@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
 
 namespace llc_tool {
@@ -17,52 +18,33 @@ int runTrain(const Args& args) {
   const std::vector<PairData> data = loadPairData(specs, features, args);
   const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
-  llc::AdaBoostOptions boost;
-  boost.rounds = int(args.integer("rounds", boost.rounds));
-  const llc::AdaBoostResult trained = llc::AdaBoostTrainer(boost).train(set);
-  if (!trained.stopped_early.empty() && trained.rounds.empty())
-    throw ToolError("training failed: " + trained.stopped_early);
-  llc::ClassifierModel model;
-  model.features = features;
-  model.classifier = trained.classifier;
-
+  llc::ClassifierTrainingOptions options;
+  options.rounds = int(args.integer("rounds", options.rounds));
+  options.folds = int(args.integer("folds", options.folds));
+  options.repeats = int(args.integer("repeats", options.repeats));
+  options.seed = std::uint64_t(args.integer("seed", long(options.seed)));
+  options.target_false_alarm = args.number("target-false-alarm", options.target_false_alarm);
+  llc::ClassifierTrainingResult trained;
+  try {
+    trained = llc::trainClassifierModel(set, features, options);
+  } catch (const std::invalid_argument& e) {
+    throw ToolError(e.what());
+  }
+  llc::ClassifierModel& model = trained.model;
   std::ostringstream data_text;
   for (const std::string& spec : specs) data_text << (data_text.tellp() ? " " : "") << spec;
   model.provenance["data"] = data_text.str();
-  model.provenance["pairs"] = std::to_string(set.size());
   if (args.has("k")) {
     const double k = args.number("k", 0.5);
     if (!(k >= 0.0 && k <= 1.0)) throw ToolError("--k must lie in [0, 1]");
     model.classifier.setThresholdK(k);
     model.provenance["threshold_k"] = "given with --k";
-  } else {
-    // K for the target false-alarm rate, from cross-validated scores (never training scores).
-    llc::CrossValidationOptions cv;
-    cv.folds = int(args.integer("folds", 10));
-    cv.repeats = int(args.integer("repeats", 1));
-    cv.seed = std::uint64_t(args.integer("seed", 1));
-    cv.adaboost = boost;
-    const double target = args.number("target-false-alarm", 0.01);
-    const auto runs = llc::crossValidate(set, cv);
-    std::vector<double> scores;
-    std::vector<int> labels;
-    for (const auto& run : runs) {
-      scores.insert(scores.end(), run.scores.begin(), run.scores.end());
-      labels.insert(labels.end(), set.labels.begin(), set.labels.end());
-    }
-    double k = 0.5;
-    const double detection = llc::detectionAtFalseAlarm(scores, labels, target, &k);
-    model.classifier.setThresholdK(k);
-    std::ostringstream why;
-    why << "cross-validated (" << cv.folds << " folds x " << cv.repeats << ") for false alarm <= "
-        << target << ": detection " << std::setprecision(4) << detection << ", AUC "
-        << llc::areaUnderCurve(scores, labels);
-    model.provenance["threshold_k"] = why.str();
   }
   llc::saveClassifierModel(model, model_path);
   std::cout << "pairs=" << set.size() << " rounds=" << model.classifier.stumps().size()
-            << " threshold_k=" << model.classifier.thresholdK() << " -> " << model_path << "\n";
-  if (!trained.stopped_early.empty()) std::cout << "note: " << trained.stopped_early << "\n";
+            << " threshold_k=" << model.classifier.thresholdK() << " detection_at_target=" << trained.detection
+            << " auc=" << trained.auc << " -> " << model_path << "\n";
+  if (!trained.note.empty()) std::cout << "note: " << trained.note << "\n";
   return 0;
 }
 

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <iostream>
 
-#include "laser_loop_closure/core/carmen_reader.hpp"
-#include "laser_loop_closure/ros/bag_io.hpp"
+#include "laser_loop_closure/core/classifier_training.hpp"
+#include "laser_loop_closure/ros/drive_input.hpp"
 
 namespace llc_tool {
 
@@ -100,43 +100,15 @@ llc::FeatureOptions featureOptions(const Args& args) {
   return options;
 }
 
-std::pair<std::string, std::string> splitDataSpec(const std::string& spec) {
-  const std::size_t colon = spec.rfind(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
-    throw ToolError("--data expects LOG:PAIRS, not '" + spec + "'");
-  return {spec.substr(0, colon), spec.substr(colon + 1)};
-}
-
-namespace {
-bool endsWith(const std::string& text, const std::string& end) {
-  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
-}
-}  // namespace
-
 llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
-  std::ifstream probe(path);
-  if (!probe) throw ToolError(path + ": no such file or not readable");
+  std::vector<std::string> warnings;
   llc::ScanSequence sequence;
-  if (endsWith(path, ".bag")) {
-    llc_ros::BagReadReport report;
-    try {
-      sequence = llc_ros::readBagSequence(path, bagOptions(args), &report);
-    } catch (const llc_ros::BagError& e) {
-      throw ToolError(e.what());
-    }
-    if (report.skipped_scans > 0)
-      std::cerr << "warning: " << path << ": skipped " << report.skipped_scans << " front scans; the first: "
-                << report.first_problem << "\n";
-    if (report.truth_from_odometry)
-      std::cerr << "warning: " << path << ": no messages on the truth topic; poses come from odometry\n";
-  } else {
-    try {
-      sequence = llc::loadScanSequence(path);
-    } catch (const llc::CarmenError& e) {
-      throw ToolError(e.what());
-    }
+  try {
+    sequence = llc_ros::loadDrive(path, bagOptions(args), &warnings);
+  } catch (const std::runtime_error& e) {
+    throw ToolError(e.what());
   }
-  if (sequence.scans.empty()) throw ToolError(path + ": the log holds no laser scan");
+  for (const std::string& warning : warnings) std::cerr << "warning: " << warning << "\n";
   return sequence;
 }
 
@@ -154,16 +126,15 @@ std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const 
   if (specs.empty()) throw ToolError("--data LOG:PAIRS is required");
   std::vector<PairData> data;
   for (const std::string& spec : specs) {
-    PairData item;
-    std::tie(item.log_path, item.pairs_path) = splitDataSpec(spec);
-    item.sequence = loadSequence(item.log_path, args);
+    std::vector<std::string> warnings;
     try {
-      item.pairs = llc::readPairs(item.pairs_path, item.sequence.scans.size());
-    } catch (const llc::PairFileError& e) {
+      data.push_back(llc_ros::loadPairData(spec, options, bagOptions(args), &warnings));
+    } catch (const std::invalid_argument& e) {
+      throw ToolError(std::string("--data: ") + e.what());
+    } catch (const std::runtime_error& e) {
       throw ToolError(e.what());
     }
-    item.features = extractAll(item.sequence, options);
-    data.push_back(std::move(item));
+    for (const std::string& warning : warnings) std::cerr << "warning: " << warning << "\n";
   }
   return data;
 }
@@ -171,12 +142,11 @@ std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const 
 llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::FeatureSet feature_set) {
   llc::TrainingSet set;
   set.dimension = llc::pairFeatureCount(feature_set);
-  std::vector<double> row(set.dimension);
-  for (const PairData& item : data)
-    for (const llc::LabeledPair& p : item.pairs) {
-      llc::pairFeatures(feature_set, item.features[p.a].data(), item.features[p.b].data(), row.data());
-      set.add(row.data(), p.label);
-    }
+  for (const PairData& item : data) {
+    const llc::TrainingSet part = llc::pairTrainingSet(item.features, item.pairs, feature_set);
+    set.features.insert(set.features.end(), part.features.begin(), part.features.end());
+    set.labels.insert(set.labels.end(), part.labels.begin(), part.labels.end());
+  }
   return set;
 }
 

@@ -11,6 +11,7 @@
 #include "laser_loop_closure/core/features.hpp"
 #include "laser_loop_closure/core/pair_labeling.hpp"
 #include "laser_loop_closure/core/scan_sequence.hpp"
+#include "laser_loop_closure/ros/drive_input.hpp"
 
 namespace llc_tool {
 
@@ -42,16 +43,9 @@ llc::FeatureOptions featureOptions(const Args& args);
 extern const std::vector<std::string> kFeatureFlags;   ///< the option names it reads
 extern const std::vector<std::string> kFeatureSwitches;
 
-/// One --data LOG:PAIRS item, loaded: the scans, their feature vectors and the pairs.
-struct PairData {
-  std::string log_path, pairs_path;
-  llc::ScanSequence sequence;
-  std::vector<std::vector<double>> features;  ///< one vector per scan
-  std::vector<llc::LabeledPair> pairs;
-};
+/// One --data LOG:PAIRS item, loaded (the adapter's: the service reads pairs the same way).
+using llc_ros::PairData;
 
-/// Splits LOG:PAIRS at the last ':'.
-std::pair<std::string, std::string> splitDataSpec(const std::string& spec);
 /// Flags naming the topics of a .bag input (every subcommand that reads a log takes them).
 extern const std::vector<std::string> kInputFlags;
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).

@@ -6,9 +6,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
+#include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan.hpp"
+#include "laser_loop_closure/core/se2.hpp"
 
 namespace llc_test {
 
@@ -44,6 +48,23 @@ inline void writeText(const std::string& path, const std::string& text) {
 inline std::string readText(const std::string& path) {
   std::ifstream in(path);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// Keyframes driven twice round a 20 m circle (120 per lap): each keyframe's features are a
+/// smooth function of where it is, plus noise large enough that no single feature separates
+/// the classes (a perfect stump makes every later AdaBoost round repeat it).
+inline void circleKeyframes(llc::FeatureSet set, std::vector<std::vector<double>>* features,
+                            std::vector<llc::Pose2>* poses) {
+  llc::Random random(7);
+  const std::size_t per_lap = 120, n = llc::featureCount(set);
+  for (std::size_t k = 0; k < 2 * per_lap; ++k) {
+    const double angle = 2.0 * M_PI * double(k % per_lap) / double(per_lap);
+    poses->push_back(llc::Pose2{20.0 * std::cos(angle), 20.0 * std::sin(angle), angle + M_PI / 2});
+    std::vector<double> f(n);
+    for (std::size_t i = 0; i < n; ++i)
+      f[i] = 5.0 * std::sin(angle + M_PI * double(i) / double(n)) + random.normal(0.0, 0.5);
+    features->push_back(f);
+  }
 }
 
 /// ../shared/data beside the repository, or "" when absent.

@@ -1,7 +1,9 @@
 // rostest: the simulated drive played through bag.launch's nodelets. Asserts what a user sees:
 // map -> odom on /tf dated ahead of the clock, a latched /map, a Path that grows to one pose
 // per keyframe, at least 80% of the drive's true revisits closed and no wrong loop applied
-// (checked against /ground_truth with the same code as `llc slam --evaluate`).
+// (checked against /ground_truth with the same code as `llc slam --evaluate`); then
+// ~train_classifier on the session's keyframes answers, saves a model, and swaps it in only
+// when it is at least as good as the running one.
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -9,12 +11,15 @@
 #include <ros/ros.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <mutex>
 
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/TrainClassifier.h"
+#include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
 
@@ -122,6 +127,24 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);
+
+  // ~train_classifier on the session: keyframes labelled by their optimised poses (the path).
+  char folder[] = "/tmp/llc_bag_run_XXXXXX";
+  ASSERT_NE(mkdtemp(folder), nullptr);
+  laser_loop_closure::TrainClassifier train;
+  train.request.model_path = std::string(folder) + "/session_model.yaml";
+  ASSERT_TRUE(ros::service::waitForService("/loop_closure/train_classifier", 10000));
+  ASSERT_TRUE(ros::service::call("/loop_closure/train_classifier", train));
+  const auto& trained = train.response;
+  RecordProperty("train_session_pairs", int(trained.pairs));
+  RecordProperty("train_session_detection", std::to_string(trained.detection));
+  RecordProperty("train_session_running_detection", std::to_string(trained.running_detection));
+  RecordProperty("train_session_swapped", int(trained.swapped));
+  ASSERT_TRUE(trained.success) << trained.message;
+  EXPECT_GE(trained.pairs, 200u) << trained.message;
+  EXPECT_EQ(trained.swapped, trained.detection >= trained.running_detection) << trained.message;
+  EXPECT_NO_THROW(llc::loadClassifierModel(train.request.model_path));
+  std::system(("rm -rf " + std::string(folder)).c_str());
 }
 
 }  // namespace

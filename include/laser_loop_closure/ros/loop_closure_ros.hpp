@@ -5,6 +5,7 @@
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -12,8 +13,10 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "laser_loop_closure/Scan360.h"
+#include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 
@@ -25,6 +28,7 @@ struct LoopClosureNodeOptions {
   bool use_wheel_odometry = true;    ///< seed scan matching by tf; a scan without it is skipped
   double tf_timeout = 0.1;           ///< s to wait for the odometry transform at a scan's stamp
   int queue_size = 200;              ///< merged scans kept while loop detection runs
+  std::string trained_model_path = "llc_classifier.yaml";  ///< default file of ~train_classifier (relative: to the working directory)
   std::string validate() const;
 };
 
@@ -35,16 +39,22 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("use_wheel_odometry", o.use_wheel_odometry);
   visit("tf_timeout", o.tf_timeout);
   visit("queue_size", o.queue_size);
+  visit("trained_model_path", o.trained_model_path);
 }
 
 class LoopClosureRos {
  public:
-  /// Subscribes scan360; publishes keyframes and loop_closures (names relative to nh).
+  /// Subscribes scan360 and path (the back end's optimised keyframe poses, for training);
+  /// publishes keyframes and loop_closures (names relative to nh); serves ~train_classifier.
   /// Throws std::runtime_error on bad parameters or an unreadable model.
   LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  private:
   void onScan(const laser_loop_closure::Scan360::ConstPtr& msg);
+  void onPath(const nav_msgs::Path::ConstPtr& msg);
+  /// Trains outside the scan lock (scans keep flowing); swaps the model in under it.
+  bool trainClassifier(laser_loop_closure::TrainClassifier::Request& request,
+                       laser_loop_closure::TrainClassifier::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   LoopClosureNodeOptions options_;
@@ -52,13 +62,19 @@ class LoopClosureRos {
   std::unique_ptr<llc::SlamFrontEnd> front_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber scan_sub_;
+  ros::Subscriber scan_sub_, path_sub_;
+  ros::ServiceServer train_srv_;
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
 
-  std::mutex mutex_;
+  std::mutex mutex_;     ///< guards everything below and front_
+  std::mutex training_;  ///< one training at a time
   std::size_t scans_received_ = 0, no_odometry_ = 0, malformed_ = 0;
+  std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
+  bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
+  std::size_t models_trained_ = 0, models_swapped_ = 0;
+  std::string model_path_;  ///< of the running model
   std::string last_problem_;
 };
 
