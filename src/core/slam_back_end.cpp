@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "laser_loop_closure/core/file_util.hpp"
+#include "laser_loop_closure/core/session_io.hpp"
 
 namespace llc {
 namespace {
@@ -92,6 +93,40 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
   counters_.seconds += secondsSince(start);
   loops_.push_back(record);
   return record;
+}
+
+std::string SlamBackEnd::restore(const SlamSession& session) {
+  const std::string invalid = session.validate();
+  if (!invalid.empty()) return invalid;
+  std::unique_ptr<Esdf> esdf;
+  if (!session.keyframes.empty()) {
+    const Keyframe& first = session.keyframes.front();
+    try {
+      esdf = std::make_unique<Esdf>(first.has_wheel_odometry ? first.wheel_odometry : Pose2{}, options_);
+      for (const PoseEdge& edge : session.constraints) {
+        if (edge.to == esdf->size()) {
+          esdf->augmentWithInformation(edge);
+        } else {
+          const EsdfUpdateResult update = esdf->updateWithInformation(edge, false, false);
+          if (!update.applied) return "constraint " + std::to_string(edge.from) + " -> " + std::to_string(edge.to) + ": " + update.reject_reason;
+        }
+      }
+      esdf->solveFrom(session.poses);
+    } catch (const std::exception& e) {
+      return std::string("the graph cannot be rebuilt: ") + e.what();
+    }
+  }
+  esdf_ = std::move(esdf);
+  keyframes_ = session.keyframes;
+  loops_ = session.loops;
+  counters_ = BackEndCounters{};
+  counters_.keyframes = keyframes_.size();
+  for (const LoopRecord& record : loops_) {
+    if (record.applied) ++counters_.loops_accepted;
+    else if (record.innovation_chi2 > 0.0) ++counters_.refused_by_gate;
+    else ++counters_.refused_loops;
+  }
+  return "";
 }
 
 }  // namespace llc

@@ -6,12 +6,49 @@
 #include "laser_loop_closure/core/file_util.hpp"
 
 namespace llc {
-namespace {
-}  // namespace
 
 SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
                            const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
-    : odometry_(odometry), detector_(model, aligner, loops) {}
+    : odometry_(odometry), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
+
+Eigen::Matrix3d SlamFrontEnd::restartCovariance() {
+  // Anywhere within ~100 m, any heading: the first loop closure decides. Not more, so that
+  // the information matrix stays well conditioned next to the first pose's prior.
+  return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal();
+}
+
+std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
+                                  bool continue_odometry, bool* features_recomputed) {
+  if (keyframes.size() != features.size())
+    return std::to_string(keyframes.size()) + " keyframes but " + std::to_string(features.size()) + " feature vectors";
+  LoopDetector detector(detector_.model(), aligner_options_, loop_options_);
+  bool recompute = false;
+  if (!keyframes.empty()) {
+    // Stored single-precision values, so compare with float rounding.
+    const std::vector<double> fresh = detector.describe(keyframes.front().scan);
+    recompute = fresh.size() != features.front().size();
+    for (std::size_t i = 0; !recompute && i < fresh.size(); ++i)
+      recompute = std::abs(fresh[i] - features.front()[i]) > 1e-5 * (1.0 + std::abs(fresh[i]));
+  }
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    auto prepared = detector.aligner().prepare(keyframes[k].scan);
+    if (recompute) detector.add(keyframes[k].scan, prepared);
+    else detector.addWithFeatures(features[k], prepared);
+  }
+  if (features_recomputed) *features_recomputed = recompute;
+  detector_ = std::move(detector);
+  counters_ = FrontEndCounters{};
+  counters_.keyframes = keyframes.size();
+  tracked_motion_ = Pose2{};
+  has_keyframe_ = continue_odometry && !keyframes.empty();
+  restart_pending_ = !continue_odometry && !keyframes.empty();
+  if (has_keyframe_) {
+    last_keyframe_stamp_ = keyframes.back().stamp;
+    last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
+    last_keyframe_wheels_ = keyframes.back().wheel_odometry;
+  }
+  return "";
+}
 
 FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry) {
   FrontEndStep step;
@@ -46,6 +83,10 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       }
     }
     ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
+  } else if (restart_pending_) {
+    step.odometry.covariance = restartCovariance();
+    step.odometry.reject_reason = "a new chain after a restored session";
+    restart_pending_ = false;
   }
   counters_.seconds_odometry += secondsSince(start);
 

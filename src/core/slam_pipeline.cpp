@@ -78,4 +78,22 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   return step;
 }
 
+SlamSession SlamPipeline::session() const {
+  std::vector<std::vector<double>> features;
+  for (std::size_t k = 0; k < front_.keyframeCount(); ++k) features.push_back(front_.detector().features(k));
+  return sessionOf(back_, features);
+}
+
+std::string SlamPipeline::restore(const SlamSession& session, bool continue_odometry) {
+  const std::string invalid = session.validate();
+  if (!invalid.empty()) return invalid;
+  // The back end first: it is the one that can still refuse (a graph that cannot be rebuilt).
+  std::string error = back_.restore(session);
+  if (!error.empty()) return error;
+  error = front_.restore(session.keyframes, session.features, continue_odometry);
+  if (!error.empty()) return error;
+  loops_ = session.loops;
+  return "";
+}
+
 }  // namespace llc

@@ -25,21 +25,8 @@ namespace {
 
 const double kInf = std::numeric_limits<double>::infinity();
 
-llc::ClassifierModel defaultModel() { return llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml"); }
-
-/// The 360-degree scan of one simulated frame, as the bag reader merges it.
-llc::Scan frameScan(const llc::SimDrive& drive, const llc::SimFrame& frame) {
-  auto one = [&](const llc::SimScannerOptions& scanner, const std::vector<double>& ranges) {
-    llc::ScannerGeometry g;
-    g.angle_min = llc::simBeamAngle(scanner, 0);
-    g.angle_increment = llc::simBeamAngle(scanner, 1) - g.angle_min;
-    g.range_max = scanner.max_range;
-    return llc::scanFromRanges(ranges, g, scanner.mount, frame.stamp);
-  };
-  llc::Scan scan = llc::mergeScans(one(drive.front, frame.front), one(drive.back, frame.back));
-  scan.stamp = frame.stamp;
-  return scan;
-}
+using llc_test::defaultModel;
+using llc_test::frameScan;
 
 TEST(TrajectoryError, RigidlyMovedCopyHasNoErrorAndTheMotionIsFound) {
   const std::vector<llc::Pose2> truth = {{0, 0, 0}, {1, 0, 0.1}, {2, 1, 0.5}, {1, 3, 2.0}};

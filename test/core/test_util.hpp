@@ -9,7 +9,9 @@
 #include <vector>
 #include <unistd.h>
 
+#include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/sim_drive.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan.hpp"
 #include "laser_loop_closure/core/se2.hpp"
@@ -65,6 +67,25 @@ inline void circleKeyframes(llc::FeatureSet set, std::vector<std::vector<double>
       f[i] = 5.0 * std::sin(angle + M_PI * double(i) / double(n)) + random.normal(0.0, 0.5);
     features->push_back(f);
   }
+}
+
+/// The shipped classifier.
+inline llc::ClassifierModel defaultModel() {
+  return llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml");
+}
+
+/// The 360-degree scan of one simulated frame, as the bag reader merges it.
+inline llc::Scan frameScan(const llc::SimDrive& drive, const llc::SimFrame& frame) {
+  auto one = [&](const llc::SimScannerOptions& scanner, const std::vector<double>& ranges) {
+    llc::ScannerGeometry g;
+    g.angle_min = llc::simBeamAngle(scanner, 0);
+    g.angle_increment = llc::simBeamAngle(scanner, 1) - g.angle_min;
+    g.range_max = scanner.max_range;
+    return llc::scanFromRanges(ranges, g, scanner.mount, frame.stamp);
+  };
+  llc::Scan scan = llc::mergeScans(one(drive.front, frame.front), one(drive.back, frame.back));
+  scan.stamp = frame.stamp;
+  return scan;
 }
 
 /// ../shared/data beside the repository, or "" when absent.

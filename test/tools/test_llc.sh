@@ -38,7 +38,7 @@ check "simulate unknown scanner" 1 "scanners must be" -- "$LLC" simulate --out "
 check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
 check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 600 --seed 1
 # The whole pipeline on the short drive: files, their headers, and what it must achieve.
-check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet
+check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet --save-session "$TMP/sim.llcsession"
 check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
 check "slam loops header" 0 "^a,b,accepted,score,inlier_share$" -- head -1 "$TMP/slam/loops.csv"
 check "slam map files" 0 "^image: map.pgm$" -- bash -c "test -s '$TMP/slam/map.pgm' && test -s '$TMP/slam/map.png' && cat '$TMP/slam/map.yaml'"
@@ -48,6 +48,12 @@ check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" 
             v["true_loop_keyframes_closed"] >= 0.8 * v["true_loop_keyframes"]
        print (ok ? "ok" : "not ok: rms " v["rms_error_m"] " closed " v["true_loop_keyframes_closed"] "/" v["true_loop_keyframes"])}' "$TMP/slam/report.txt"
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
+check "slam: the saved session maps a second run as a new chain" 0 "restored [0-9]+ keyframes .*a new chain" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_again" --quiet --load-session "$TMP/sim.llcsession"
+check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F= -v first="$(awk -F, '$3 == 1' "$TMP/slam/loops.csv" | wc -l)" '
+    /^loops_accepted=/ {n = $2} END {print (n > 2 * first ? "ok" : "not ok: " n " loops, the first run " first)}' "$TMP/slam_again/report.txt"
+check "slam: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/bad.yaml"
+head -c 5000 "$TMP/sim.llcsession" > "$TMP/truncated.llcsession"
+check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/truncated.llcsession"
 check "slam: both inputs" 1 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
 printf 'odometry:\n  keyframe_distanse: 2\n' > "$TMP/bad_slam.yaml"
 check "slam: unknown parameter" 1 "unknown parameter 'odometry/keyframe_distanse'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_slam.yaml"

@@ -72,6 +72,8 @@ class LoopDetector {
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
 
   std::vector<double> features(std::size_t index) const { return store_.features(index); }
+  /// The feature vector the detector would store for this scan.
+  std::vector<double> describe(const Scan& scan) { return extractor_.extract(scan); }
   const PreparedScan& prepared(std::size_t index) const { return *prepared_.at(index); }
   /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
   void setModel(const ClassifierModel& model);

@@ -42,6 +42,8 @@ struct BackEndCounters {
   double seconds = 0.0;
 };
 
+struct SlamSession;
+
 class SlamBackEnd {
  public:
   /// Throws std::invalid_argument on bad options.
@@ -67,6 +69,12 @@ class SlamBackEnd {
   Eigen::Matrix3d latestCovariance();
   bool gateLoops() const { return gate_loops_; }
   Esdf* esdf() { return esdf_.get(); }
+  const Esdf* esdf() const { return esdf_.get(); }
+
+  /// Replaces everything by a saved session: the ESDF is rebuilt from its constraints in
+  /// their order (augmentations, then loop updates without the gate: they passed it once) and
+  /// solved from the saved poses. Returns "" or why not; then nothing changed.
+  std::string restore(const SlamSession& session);
 
  private:
   EsdfOptions options_;

@@ -6,7 +6,10 @@
 #include <cstddef>
 #include <string>
 
+#include <vector>
+
 #include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/slam_back_end.hpp"
 #include "laser_loop_closure/core/scan_odometry.hpp"
 
 namespace llc {
@@ -41,6 +44,18 @@ class SlamFrontEnd {
   /// and bearings of different lengths, is skipped (skip_reason says why); never throws on data.
   FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
 
+  /// Replaces the keyframes by a saved session's: stored features are used when they are what
+  /// this model's extractor makes (checked on the first keyframe), else recomputed from the
+  /// scans. With continue_odometry the next scan is matched to the newest restored keyframe,
+  /// seeded by wheel odometry (the robot and its odom frame went on); else it starts a new
+  /// chain whose first keyframe is linked to the newest restored one by a motion of almost no
+  /// information (restartCovariance), so that its first loop closure places it. Returns ""
+  /// or why not (keyframes and features of different counts); then nothing changed.
+  std::string restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
+                      bool continue_odometry, bool* features_recomputed = nullptr);
+  /// Covariance of the link between a restored session and a new chain (m^2, rad^2).
+  static Eigen::Matrix3d restartCovariance();
+
   std::size_t keyframeCount() const { return detector_.size(); }
   const FrontEndCounters& counters() const { return counters_; }
   LoopDetector& detector() { return detector_; }
@@ -49,8 +64,12 @@ class SlamFrontEnd {
  private:
   ScanOdometry odometry_;
   LoopDetector detector_;
+  ClassifierModel model_;
+  ScanAlignerOptions aligner_options_;
+  LoopDetectorOptions loop_options_;
   FrontEndCounters counters_;
   bool has_keyframe_ = false;
+  bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
   double last_keyframe_stamp_ = 0.0;
   bool last_keyframe_has_wheels_ = false;
   Pose2 last_keyframe_wheels_;

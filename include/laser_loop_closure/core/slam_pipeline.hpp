@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/slam_back_end.hpp"
+#include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 
 namespace llc {
@@ -63,6 +64,11 @@ class SlamPipeline {
   /// The map -> odom transform (REP-105) implied by the newest keyframe; identity without odometry.
   Pose2 mapToOdom() const { return back_.mapToOdom(); }
   SlamBackEnd& backEnd() { return back_; }
+  /// The state to save: keyframes, their features, the graph and the loops.
+  SlamSession session() const;
+  /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
+  /// Returns "" or why not; then nothing changed.
+  std::string restore(const SlamSession& session, bool continue_odometry);
   LoopDetector& detector() { return front_.detector(); }
 
  private:
