@@ -6,7 +6,9 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/core/file_util.hpp"
+#include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/ros/map_publishing.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
 #include "laser_loop_closure/ros/parameters.hpp"
@@ -20,6 +22,7 @@ std::string EsdfBackendNodeOptions::validate() const {
   if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
   if (!(cloud_voxel_size >= 0.0)) return "cloud_voxel_size must not be negative";
   if (max_pending_loops < 0 || queue_size < 1) return "max_pending_loops >= 0 and queue_size >= 1";
+  if (session_path.empty()) return "session_path must not be empty";
   return "";
 }
 
@@ -37,7 +40,10 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
   keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
   loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
+  session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1, true);
   save_map_srv_ = private_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
+  save_session_srv_ = private_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
+  load_session_srv_ = private_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
   if (options_.publish_tf)
     tf_timer_ = nh.createTimer(ros::Duration(options_.tf_publish_period), [this](const ros::TimerEvent&) { publishTransform(); });
   map_timer_ = nh.createTimer(ros::Duration(options_.map_publish_period), [this](const ros::TimerEvent&) { publishMap(); });
@@ -65,6 +71,7 @@ void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& ms
   } else if (fromKeyframeMsg(*msg, &keyframe, &motion, &covariance, &error)) {
     error = back_->addKeyframe(std::move(keyframe), motion, covariance);
   }
+  if (error.empty()) features_.push_back(msg->features);
   if (!error.empty()) {
     ++refused_keyframes_;
     last_problem_ = error;
@@ -188,6 +195,69 @@ bool EsdfBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, lase
     response.message = e.what();
   }
   ROS_INFO("esdf_backend: save_map: %s", response.message.c_str());
+  return true;
+}
+
+bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& request,
+                                 laser_loop_closure::SaveSession::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string path = request.path.empty() ? options_.session_path : request.path;
+  try {
+    llc::saveSession(llc::sessionOf(*back_, features_), path);
+    response.success = true;
+    response.keyframes = std::uint32_t(back_->keyframes().size());
+    response.loops = std::uint32_t(back_->loops().size());
+    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes, " +
+                       std::to_string(response.loops) + " loops)";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  ROS_INFO("esdf_backend: save_session: %s", response.message.c_str());
+  return true;
+}
+
+bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& request,
+                                 laser_loop_closure::LoadSession::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string path = request.path.empty() ? options_.session_path : request.path;
+  llc::SlamSession session;
+  try {
+    session = llc::loadSession(path);
+  } catch (const llc::SessionError& e) {
+    response.message = e.what();
+  }
+  if (response.message.empty()) {
+    const std::string error = back_->restore(session);
+    if (!error.empty()) response.message = path + ": not restored: " + error;
+  }
+  if (!response.message.empty()) {
+    response.success = false;
+    ROS_WARN("esdf_backend: load_session: %s", response.message.c_str());
+    return true;
+  }
+  features_ = session.features;
+  pending_loops_.clear();
+  refused_by_alignment_.clear();
+  refused_keyframes_ = 0;
+  map_dirty_ = true;
+  // The front end restores its keyframes from this; latched, so it may subscribe late.
+  laser_loop_closure::Session msg;
+  msg.header.stamp = ros::Time::now();
+  msg.path = path;
+  msg.continue_odometry = request.continue_odometry;
+  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
+    msg.keyframes.push_back(toKeyframeMsg(session.keyframes[k], k, llc::OdometryStep{}, ""));
+    msg.keyframes.back().features = session.features[k];
+  }
+  session_pub_.publish(msg);
+  publishPoses();
+  response.success = true;
+  response.keyframes = std::uint32_t(session.keyframes.size());
+  response.loops = std::uint32_t(session.loops.size());
+  response.message = "restored " + std::to_string(response.keyframes) + " keyframes and " +
+                     std::to_string(response.loops) + " loops from " + path;
+  ROS_INFO("esdf_backend: load_session: %s", response.message.c_str());
   return true;
 }
 

@@ -43,6 +43,7 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
   scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScan, this);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
+  session_sub_ = nh.subscribe("session", 1, &LoopClosureRos::onSession, this);
   train_srv_ = private_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
@@ -83,7 +84,9 @@ void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
   keyframe.scan_index = scan_index;
   keyframe.stamp = keyframe.scan.stamp;
   // Keyframe first: the back end must know both ends of a loop before it applies it.
-  keyframe_pub_.publish(toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id));
+  laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id);
+  keyframe_msg.features = front_->detector().features(step.keyframe_index);
+  keyframe_pub_.publish(keyframe_msg);
   for (const llc::LoopClosure& loop : step.loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
 }
 
@@ -93,6 +96,32 @@ void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {
   for (const geometry_msgs::PoseStamped& pose : msg->poses) poses.push_back(toPose2(pose.pose));
   std::lock_guard<std::mutex> lock(mutex_);
   optimised_poses_ = std::move(poses);
+}
+
+void LoopClosureRos::onSession(const laser_loop_closure::Session::ConstPtr& msg) {
+  std::vector<llc::Keyframe> keyframes(msg->keyframes.size());
+  std::vector<std::vector<double>> features;
+  llc::Pose2 motion;
+  Eigen::Matrix3d covariance;
+  std::string error;
+  for (std::size_t k = 0; k < keyframes.size() && error.empty(); ++k) {
+    if (!fromKeyframeMsg(msg->keyframes[k], &keyframes[k], &motion, &covariance, &error))
+      error = "keyframe " + std::to_string(k) + ": " + error;
+    features.push_back(msg->keyframes[k].features);
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  bool recomputed = false;
+  if (error.empty()) error = front_->restore(keyframes, features, msg->continue_odometry, &recomputed);
+  if (!error.empty()) {
+    last_problem_ = "session not restored: " + error;
+    ROS_ERROR("loop_closure: the session from %s was not restored: %s", msg->path.c_str(), error.c_str());
+    return;
+  }
+  keyframes_full_circle_ = true;
+  for (const llc::Keyframe& k : keyframes) keyframes_full_circle_ = keyframes_full_circle_ && k.scan.full_circle;
+  ROS_INFO("loop_closure: restored %zu keyframes from %s (%s%s)", keyframes.size(), msg->path.c_str(),
+           msg->continue_odometry ? "odometry continues" : "the next keyframe starts a new chain",
+           recomputed ? "; features recomputed: the session's were made with other feature parameters" : "");
 }
 
 bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Request& request,

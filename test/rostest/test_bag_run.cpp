@@ -3,7 +3,8 @@
 // per keyframe, at least 80% of the drive's true revisits closed and no wrong loop applied
 // (checked against /ground_truth with the same code as `llc slam --evaluate`); then
 // ~train_classifier on the session's keyframes answers, saves a model, and swaps it in only
-// when it is at least as good as the running one.
+// when it is at least as good as the running one; ~save_session writes the run and
+// ~load_session restores it and hands its keyframes to the front end.
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -18,7 +19,11 @@
 
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/LoadSession.h"
+#include "laser_loop_closure/SaveSession.h"
+#include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
+#include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
@@ -144,6 +149,32 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   EXPECT_GE(trained.pairs, 200u) << trained.message;
   EXPECT_EQ(trained.swapped, trained.detection >= trained.running_detection) << trained.message;
   EXPECT_NO_THROW(llc::loadClassifierModel(train.request.model_path));
+
+  // ~save_session, then ~load_session of it: the front end gets the keyframes on /session.
+  laser_loop_closure::SaveSession save;
+  save.request.path = std::string(folder) + "/run.llcsession";
+  ASSERT_TRUE(ros::service::call("/esdf_backend/save_session", save));
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  EXPECT_EQ(save.response.keyframes, keyframes);
+  const llc::SlamSession saved = llc::loadSession(save.request.path);
+  ASSERT_EQ(saved.keyframes.size(), keyframes);
+  EXPECT_EQ(saved.features.front().size(), llc::featureCount(llc::FeatureSet::kExtended));
+  EXPECT_EQ(saved.constraints.size(), keyframes - 1 + check.applied);
+  laser_loop_closure::LoadSession load;
+  load.request.path = std::string(folder) + "/none.llcsession";
+  ASSERT_TRUE(ros::service::call("/esdf_backend/load_session", load));
+  EXPECT_FALSE(load.response.success);
+  EXPECT_NE(load.response.message.find("none.llcsession"), std::string::npos) << load.response.message;
+  load.request.path = save.request.path;
+  ASSERT_TRUE(ros::service::call("/esdf_backend/load_session", load));
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  EXPECT_EQ(load.response.keyframes, keyframes);
+  const laser_loop_closure::Session::ConstPtr restored =
+      ros::topic::waitForMessage<laser_loop_closure::Session>("/session", nh, ros::Duration(10.0));
+  ASSERT_NE(restored, nullptr) << "no latched /session after ~load_session";
+  EXPECT_EQ(restored->keyframes.size(), keyframes);
+  EXPECT_EQ(restored->keyframes.back().features.size(), saved.features.back().size());
+  RecordProperty("session_bytes", int(std::ifstream(save.request.path, std::ios::ate | std::ios::binary).tellg()));
   std::system(("rm -rf " + std::string(folder)).c_str());
 }
 

@@ -16,7 +16,9 @@
 
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/LoadSession.h"
 #include "laser_loop_closure/SaveMap.h"
+#include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam_back_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 
@@ -31,6 +33,7 @@ struct EsdfBackendNodeOptions {
   double map_publish_period = 2.0;     ///< s between rebuilds of /map, the cloud and the markers (when changed)
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
+  std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
   int max_pending_loops = 1000;        ///< loops held until their keyframes arrive
   int queue_size = 1000;               ///< keyframes and loops kept while the back end is busy
   std::string validate() const;
@@ -46,6 +49,7 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
   visit("map_publish_period", o.map_publish_period);
   visit("cloud_voxel_size", o.cloud_voxel_size);
   visit("map_path", o.map_path);
+  visit("session_path", o.session_path);
   visit("max_pending_loops", o.max_pending_loops);
   visit("queue_size", o.queue_size);
 }
@@ -53,7 +57,8 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
 class EsdfBackendRos {
  public:
   /// Subscribes keyframes and loop_closures; publishes path, pose, map (latched), map_cloud,
-  /// graph_markers and ~loop_records; serves ~save_map. Throws std::runtime_error on bad parameters.
+  /// graph_markers, ~loop_records and session (latched, after a load); serves ~save_map,
+  /// ~save_session and ~load_session. Throws std::runtime_error on bad parameters.
   EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
  private:
@@ -65,6 +70,8 @@ class EsdfBackendRos {
   void publishMap();
   void publishTransform();
   bool saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response);
+  bool saveSession(laser_loop_closure::SaveSession::Request& request, laser_loop_closure::SaveSession::Response& response);
+  bool loadSession(laser_loop_closure::LoadSession::Request& request, laser_loop_closure::LoadSession::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   std_msgs::Header mapHeader() const;
 
@@ -73,14 +80,15 @@ class EsdfBackendRos {
   std::unique_ptr<llc::SlamBackEnd> back_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Subscriber keyframe_sub_, loop_sub_;
-  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_;
-  ros::ServiceServer save_map_srv_;
+  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
+  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_;
   ros::Timer tf_timer_, map_timer_, diagnostics_timer_;
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;
   std::deque<laser_loop_closure::LoopClosure> pending_loops_;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
+  std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
   bool map_dirty_ = false;
   ros::Time last_tf_time_;
   std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "laser_loop_closure/Scan360.h"
+#include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
@@ -44,7 +45,8 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
 
 class LoopClosureRos {
  public:
-  /// Subscribes scan360 and path (the back end's optimised keyframe poses, for training);
+  /// Subscribes scan360, path (the back end's optimised keyframe poses, for training) and
+  /// session (keyframes of a session the back end loaded);
   /// publishes keyframes and loop_closures (names relative to nh); serves ~train_classifier.
   /// Throws std::runtime_error on bad parameters or an unreadable model.
   LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
@@ -52,6 +54,8 @@ class LoopClosureRos {
  private:
   void onScan(const laser_loop_closure::Scan360::ConstPtr& msg);
   void onPath(const nav_msgs::Path::ConstPtr& msg);
+  /// A session the back end restored: the keyframes (and their features) replace ours.
+  void onSession(const laser_loop_closure::Session::ConstPtr& msg);
   /// Trains outside the scan lock (scans keep flowing); swaps the model in under it.
   bool trainClassifier(laser_loop_closure::TrainClassifier::Request& request,
                        laser_loop_closure::TrainClassifier::Response& response);
@@ -62,7 +66,7 @@ class LoopClosureRos {
   std::unique_ptr<llc::SlamFrontEnd> front_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber scan_sub_, path_sub_;
+  ros::Subscriber scan_sub_, path_sub_, session_sub_;
   ros::ServiceServer train_srv_;
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
