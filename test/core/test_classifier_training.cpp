@@ -13,13 +13,7 @@ namespace {
 const llc::FeatureSet kSet = llc::FeatureSet::kPaper;
 
 llc::TrainingSet circleSet(std::vector<llc::LabeledPair>* pairs = nullptr) {
-  std::vector<std::vector<double>> features;
-  std::vector<llc::Pose2> poses;
-  llc_test::circleKeyframes(kSet, &features, &poses);
-  llc::PairLabelingOptions labeling;
-  labeling.full_circle = true;
-  labeling.max_pairs_per_class = 60;
-  return llc::keyframeTrainingSet(features, poses, kSet, labeling, pairs);
+  return llc_test::circleTrainingSet(kSet, pairs);
 }
 
 TEST(ClassifierTraining, SessionPairsAreLabelledByPosesAndRowsArePairFeatures) {

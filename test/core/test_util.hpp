@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "laser_loop_closure/core/classifier_model.hpp"
+#include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/features.hpp"
 #include "laser_loop_closure/core/sim_drive.hpp"
 #include "laser_loop_closure/core/random.hpp"
@@ -67,6 +68,17 @@ inline void circleKeyframes(llc::FeatureSet set, std::vector<std::vector<double>
       f[i] = 5.0 * std::sin(angle + M_PI * double(i) / double(n)) + random.normal(0.0, 0.5);
     features->push_back(f);
   }
+}
+
+/// Pairs of circleKeyframes labelled by their poses: 60 per class, any heading.
+inline llc::TrainingSet circleTrainingSet(llc::FeatureSet set, std::vector<llc::LabeledPair>* pairs = nullptr) {
+  std::vector<std::vector<double>> features;
+  std::vector<llc::Pose2> poses;
+  circleKeyframes(set, &features, &poses);
+  llc::PairLabelingOptions labeling;
+  labeling.full_circle = true;
+  labeling.max_pairs_per_class = 60;
+  return llc::keyframeTrainingSet(features, poses, set, labeling, pairs);
 }
 
 /// The shipped classifier.

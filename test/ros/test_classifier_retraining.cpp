@@ -12,15 +12,7 @@ namespace {
 
 const llc::FeatureSet kSet = llc::FeatureSet::kPaper;
 
-llc::TrainingSet circleSession() {
-  std::vector<std::vector<double>> features;
-  std::vector<llc::Pose2> poses;
-  llc_test::circleKeyframes(kSet, &features, &poses);
-  llc::PairLabelingOptions labeling;
-  labeling.full_circle = true;
-  labeling.max_pairs_per_class = 60;
-  return llc::keyframeTrainingSet(features, poses, kSet, labeling);
-}
+llc::TrainingSet circleSession() { return llc_test::circleTrainingSet(kSet); }
 
 /// A running model of one stump: worse than what 20 rounds learn.
 llc::ClassifierModel weakModel(const llc::TrainingSet& set) {
