@@ -37,6 +37,14 @@ void TrainingSet::add(const double* pair_features, int label) {
   labels.push_back(label);
 }
 
+void TrainingSet::append(const TrainingSet& other) {
+  if (other.dimension != dimension)
+    throw std::invalid_argument("training set: rows of " + std::to_string(other.dimension) + " values appended to rows of " +
+                                std::to_string(dimension));
+  features.insert(features.end(), other.features.begin(), other.features.end());
+  labels.insert(labels.end(), other.labels.begin(), other.labels.end());
+}
+
 TrainingSet TrainingSet::subset(const std::vector<std::size_t>& rows) const {
   TrainingSet out;
   out.dimension = dimension;

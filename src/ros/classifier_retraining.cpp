@@ -35,8 +35,7 @@ RetrainingOutcome retrainClassifier(const laser_loop_closure::TrainClassifier::R
       for (const std::string& spec : request.data) {
         const PairData item = loadPairData(spec, running.features, BagReadOptions{}, &warnings);
         const llc::TrainingSet part = llc::pairTrainingSet(item.features, item.pairs, running.features.feature_set);
-        set.features.insert(set.features.end(), part.features.begin(), part.features.end());
-        set.labels.insert(set.labels.end(), part.labels.begin(), part.labels.end());
+        set.append(part);
         data_text += (data_text.empty() ? "" : " ") + spec;
       }
     }

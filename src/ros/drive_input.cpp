@@ -39,15 +39,21 @@ std::pair<std::string, std::string> splitDataSpec(const std::string& spec) {
   return {spec.substr(0, colon), spec.substr(colon + 1)};
 }
 
+std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence, const llc::FeatureOptions& options) {
+  llc::FeatureExtractor extractor(options);
+  std::vector<std::vector<double>> features;
+  features.reserve(sequence.scans.size());
+  for (const llc::LoggedScan& s : sequence.scans) features.push_back(extractor.extract(s.scan));
+  return features;
+}
+
 PairData loadPairData(const std::string& spec, const llc::FeatureOptions& features, const BagReadOptions& bag,
                       std::vector<std::string>* warnings) {
   PairData item;
   std::tie(item.log_path, item.pairs_path) = splitDataSpec(spec);
   item.sequence = loadDrive(item.log_path, bag, warnings);
   item.pairs = llc::readPairs(item.pairs_path, item.sequence.scans.size());  // PairFileError: runtime_error
-  llc::FeatureExtractor extractor(features);
-  item.features.reserve(item.sequence.scans.size());
-  for (const llc::LoggedScan& s : item.sequence.scans) item.features.push_back(extractor.extract(s.scan));
+  item.features = extractAll(item.sequence, features);
   return item;
 }
 

@@ -112,15 +112,6 @@ llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
   return sequence;
 }
 
-std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
-                                            const llc::FeatureOptions& options) {
-  llc::FeatureExtractor extractor(options);
-  std::vector<std::vector<double>> features;
-  features.reserve(sequence.scans.size());
-  for (const llc::LoggedScan& s : sequence.scans) features.push_back(extractor.extract(s.scan));
-  return features;
-}
-
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args) {
   if (specs.empty()) throw ToolError("--data LOG:PAIRS is required");
@@ -144,8 +135,7 @@ llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::Feature
   set.dimension = llc::pairFeatureCount(feature_set);
   for (const PairData& item : data) {
     const llc::TrainingSet part = llc::pairTrainingSet(item.features, item.pairs, feature_set);
-    set.features.insert(set.features.end(), part.features.begin(), part.features.end());
-    set.labels.insert(set.labels.end(), part.labels.begin(), part.labels.end());
+    set.append(part);
   }
   return set;
 }

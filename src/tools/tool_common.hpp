@@ -50,8 +50,7 @@ using llc_ros::PairData;
 extern const std::vector<std::string> kInputFlags;
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
 llc::ScanSequence loadSequence(const std::string& path, const Args& args);
-std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence,
-                                            const llc::FeatureOptions& options);
+using llc_ros::extractAll;
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args);
 /// Pair feature rows of every pair of every data item, in order.

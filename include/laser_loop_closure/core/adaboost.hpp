@@ -54,6 +54,8 @@ struct TrainingSet {
   std::size_t size() const { return labels.size(); }
   const double* row(std::size_t i) const { return features.data() + i * dimension; }
   void add(const double* pair_features, int label);
+  /// Appends every row of `other`, which must have the same dimension (std::invalid_argument).
+  void append(const TrainingSet& other);
   /// Rows picked by index, in that order.
   TrainingSet subset(const std::vector<std::size_t>& rows) const;
 };

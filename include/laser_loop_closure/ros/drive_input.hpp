@@ -18,6 +18,9 @@ namespace llc_ros {
 /// odometry for lack of truth) are appended to `warnings`.
 llc::ScanSequence loadDrive(const std::string& path, const BagReadOptions& bag, std::vector<std::string>* warnings);
 
+/// The feature vector of every scan of a drive, in order.
+std::vector<std::vector<double>> extractAll(const llc::ScanSequence& sequence, const llc::FeatureOptions& options);
+
 /// One LOG:PAIRS item, loaded: the scans, their feature vectors and the pairs.
 struct PairData {
   std::string log_path, pairs_path;
