@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/scan_sequence.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace llc {
@@ -41,6 +42,16 @@ ScanSequence makeScanSequence(const CarmenLog& log, const ScanSequenceOptions& o
 
 ScanSequence loadScanSequence(const std::string& path, const ScanSequenceOptions& options) {
   return makeScanSequence(readCarmenLog(path), options);
+}
+
+void shiftOdometry(ScanSequence* sequence, int offset) {
+  if (offset == 0 || sequence->scans.empty()) return;
+  std::vector<Pose2> odometry;
+  odometry.reserve(sequence->scans.size());
+  for (const LoggedScan& s : sequence->scans) odometry.push_back(s.odometry);
+  const long last = long(odometry.size()) - 1;
+  for (long i = 0; i <= last; ++i)
+    sequence->scans[std::size_t(i)].odometry = odometry[std::size_t(std::clamp(i + offset, 0L, last))];
 }
 
 }  // namespace llc

@@ -16,6 +16,7 @@
 #include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/map_picture.hpp"
+#include "laser_loop_closure/core/odometry_offset.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 #include "laser_loop_closure/core/trajectory_error.hpp"
@@ -65,12 +66,9 @@ Eigen::Vector3d relativeError(const llc::Pose2& truth, const llc::Pose2& measure
 /// closed, and applied loops that are wrong (off the truth by more than 1 m or 0.1 rad).
 TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSequence& sequence,
                              const std::vector<llc::OdometryStep>& steps, double positive_distance,
-                             double positive_heading, bool force) {
+                             double positive_heading, bool has_truth) {
   TruthCheck check;
-  bool differs = force;
-  for (const llc::LoggedScan& s : sequence.scans)
-    differs |= s.truth.x != s.odometry.x || s.truth.y != s.odometry.y || s.truth.theta != s.odometry.theta;
-  if (!differs || slam.keyframes().empty()) return check;
+  if (!has_truth || slam.keyframes().empty()) return check;
   check.available = true;
   const auto& keyframes = slam.keyframes();
   std::vector<llc::Pose2> truth, odometry;
@@ -138,6 +136,45 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
   }
 }
 
+bool hasTruthBesideOdometry(const llc::ScanSequence& sequence) {
+  for (const llc::LoggedScan& s : sequence.scans)
+    if (s.truth.x != s.odometry.x || s.truth.y != s.odometry.y || s.truth.theta != s.odometry.theta) return true;
+  return false;
+}
+
+struct OffsetChoice {
+  int offset = 0;
+  std::string table;  ///< report lines of the estimate (auto only)
+};
+
+/// --odometry-offset N (scans), or auto: the offset whose odometry ICP corrects least.
+OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& sequence, const llc::SlamOptions& options) {
+  OffsetChoice choice;
+  const std::string given = args.get("odometry-offset", "0");
+  if (given != "auto") {
+    choice.offset = int(args.integer("odometry-offset", 0));
+    if (std::abs(choice.offset) > 50) throw ToolError("--odometry-offset must be auto or an integer in [-50, 50]");
+    return choice;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const llc::OdometryOffsetResult estimate = llc::estimateOdometryOffset(
+      sequence, llc::ScanOdometry(options.odometry), llc::ScanAligner(options.aligner));
+  std::ostringstream table;
+  table << std::setprecision(4);
+  table << "odometry_offset_seconds=" << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+        << "  (the estimate; not in seconds below)\n";
+  for (const llc::OdometryOffsetScore& s : estimate.scores)
+    table << "odometry_offset_tried: offset=" << s.offset << " pairs=" << s.pairs << " matched=" << s.matched
+          << " mean_correction_m=" << s.mean_correction_m << " mean_correction_rad=" << s.mean_correction_rad << "\n";
+  if (!estimate.ok) {
+    std::cerr << "warning: --odometry-offset auto: " << estimate.reason << "; using 0\n";
+    table << "odometry_offset_estimate=none (" << estimate.reason << ")\n";
+  }
+  choice.offset = estimate.ok ? estimate.best_offset : 0;
+  choice.table = table.str();
+  return choice;
+}
+
 }  // namespace
 
 int runSlam(const Args& args) {
@@ -160,9 +197,13 @@ int runSlam(const Args& args) {
   } catch (const llc::ModelError& e) {
     throw ToolError(e.what());
   }
-  const llc::ScanSequence sequence = loadSequence(input, args);
+  llc::ScanSequence sequence = loadSequence(input, args);
   ensureDirectory(dir);
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
+  // Decided before any odometry shift: a log whose true poses are its odometry has no truth.
+  const bool has_truth = args.has("evaluate") || hasTruthBesideOdometry(sequence);
+  const OffsetChoice offset = chooseOdometryOffset(args, sequence, options.slam);
+  llc::shiftOdometry(&sequence, offset.offset);
 
   const auto start = std::chrono::steady_clock::now();
   llc::SlamPipeline slam(model, options.slam);
@@ -213,13 +254,14 @@ int runSlam(const Args& args) {
   // Restored keyframes come from another input: their scan indices do not name this one's.
   const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, args.number("positive-distance", 1.5),
                                              args.number("positive-heading-deg", 45.0) * M_PI / 180.0,
-                                             args.has("evaluate"));
+                                             has_truth);
   std::ostringstream report;
   report << std::setprecision(4);
   report << "input=" << input << "\n"
          << "scans=" << c.scans << "\n"
          << "skipped_scans=" << c.skipped_scans << "\n"
          << "keyframes=" << c.keyframes << "\n"
+         << "odometry_offset=" << offset.offset << "\n" << offset.table
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
          << "pairs_tested=" << c.pairs_classified << "\n"

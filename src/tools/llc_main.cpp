@@ -70,12 +70,13 @@ const std::vector<Command>& commands() {
        "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--max-relinearizations 20]"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
-             "save-session"},
+             "save-session", "odometry-offset"},
             kInputFlags),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
        "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, loops.csv, map.pgm/.yaml/.png, report.txt)\n"
-       "      [--load-session FILE [--continue-odometry]] [--save-session FILE]"},
+       "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
+       "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)"},
       {"train-crf", llc_tool::runTrainCrf,
        with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
        "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},

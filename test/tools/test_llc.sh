@@ -99,7 +99,10 @@ if [ -f "$LOG" ]; then
   fi
   RAW="$DATA/carmen/intel-raw-odometry.log.gz"
   if [ -f "$RAW" ]; then
-    check "slam on the raw Intel log (real wheel odometry)" 0 "^keyframes=[0-9]{3}" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_intel" --quiet
+    # Its poses run one scan ahead of its scans: auto must find -1, and the map then closes loops.
+    check "slam on the raw Intel log finds its odometry offset" 0 "^odometry_offset=-1$" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_intel" --odometry-offset auto --quiet
+    check "slam on the raw Intel log applies loops" 0 "^ok$" -- awk -F= '/^loops_accepted=/ {print ($2 >= 150 ? "ok" : "loops " $2)}' "$TMP/slam_intel/report.txt"
+    check "odometry offset not a number" 1 "odometry-offset" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_bad" --odometry-offset soon --quiet
   fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }

@@ -39,4 +39,10 @@ ScanSequence makeScanSequence(const CarmenLog& log, const ScanSequenceOptions& o
 /// Throws std::runtime_error with a clear message on failure.
 ScanSequence loadScanSequence(const std::string& path, const ScanSequenceOptions& options = {});
 
+/// Pairs each scan with the odometry pose of the scan `offset` places later (negative:
+/// earlier), for drives whose odometry was written out of step with the laser (the raw Intel
+/// log needs -1: its poses run one scan ahead). Beyond either end the nearest pose repeats.
+/// Only the odometry moves; the truth stays where it was.
+void shiftOdometry(ScanSequence* sequence, int offset);
+
 }  // namespace llc
