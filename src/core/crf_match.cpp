@@ -291,7 +291,7 @@ std::vector<long> crfTrueAssociation(const CrfScan& source, const CrfScan& targe
   for (std::size_t i = 0; i < source.nodes.size(); ++i) {
     std::size_t index;
     double distance_sq;
-    if (tree.nearest(transformPoint(pose, source.nodes[i]), &index, &distance_sq) && distance_sq <= max_distance * max_distance)
+    if (tree.nearest(transformPoint(pose, source.nodes[i]), &index, &distance_sq, max_distance * max_distance) && distance_sq <= max_distance * max_distance)
       association[i] = long(index);
   }
   return association;

@@ -64,7 +64,7 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
       const Point2 moved = motion(source[k]);
       std::size_t index;
       double distance_sq;
-      if (!target.tree.nearest(moved, &index, &distance_sq) || distance_sq > gate_sq) continue;
+      if (!target.tree.nearest(moved, &index, &distance_sq, gate_sq) || distance_sq > gate_sq) continue;
       const Point2& normal = target.normals[index];
       if (normal.isZero()) continue;
       if (source_normals) {

@@ -1,6 +1,7 @@
 #include "laser_loop_closure/core/point_cloud.hpp"
 
 #include <cmath>
+#include <limits>
 #include <nanoflann.hpp>
 
 namespace llc {
@@ -48,12 +49,19 @@ struct KdTree2::Index {
 KdTree2::KdTree2(Points2 points) : points_(std::move(points)), index_(std::make_unique<Index>(&points_)) {}
 KdTree2::~KdTree2() = default;
 
-bool KdTree2::nearest(const Point2& q, std::size_t* index, double* squared_distance) const {
+bool KdTree2::nearest(const Point2& q, std::size_t* index, double* squared_distance, double max_squared_distance) const {
   if (points_.empty()) return false;
   const double query[2] = {q.x(), q.y()};
   std::size_t i = 0;
   double d = 0.0;
-  index_->tree.knnSearch(query, 1, &i, &d);
+  nanoflann::KNNResultSet<double, std::size_t> result(1);
+  result.init(&i, &d);
+  // The bound is the result set's worst distance: branches beyond it are never visited. One
+  // step above it, since nanoflann keeps only points strictly nearer (the bound is inclusive).
+  if (max_squared_distance < std::numeric_limits<double>::infinity())
+    d = std::nextafter(max_squared_distance, std::numeric_limits<double>::infinity());
+  index_->tree.findNeighbors(result, query, nanoflann::SearchParams());
+  if (result.size() == 0) return false;
   *index = i;
   *squared_distance = d;
   return true;

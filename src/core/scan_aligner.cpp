@@ -1,6 +1,8 @@
 #include "laser_loop_closure/core/scan_aligner.hpp"
 
 #include <chrono>
+#include <functional>
+#include <future>
 #include <stdexcept>
 
 namespace llc {
@@ -31,6 +33,56 @@ std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const
                                               fieldOfView(scan, options_.max_range));
 }
 
+namespace {
+
+/// ICP from each start, in order: every converged result with its fit, and the reason of the
+/// first start that did not converge.
+struct StartResults {
+  std::vector<IcpResult> converged;
+  std::vector<double> fits;
+  IcpResult first_failure;
+  bool any_failure = false;
+};
+
+StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::vector<Pose2>& starts,
+                       const ScanAlignerOptions& options) {
+  // The fit is the share of points within selection_distance (tighter than validation's d, so
+  // that a result shifted along a corridor loses to the right one), both ways: such a result
+  // also leaves the ends of the other scan unmatched.
+  ShapeValidationOptions tight = options.validation;
+  tight.max_distance = options.selection_distance;
+  StartResults out;
+  for (const Pose2& start_pose : starts) {
+    IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options.icp, &b.icp_target.normals);
+    if (!icp.converged) {
+      if (!out.any_failure) out.first_failure = std::move(icp), out.any_failure = true;
+      continue;
+    }
+    out.fits.push_back(0.5 * (validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share +
+                              validateShape(a.points, b.icp_target.tree, inverse(icp.pose), tight).inlier_share));
+    out.converged.push_back(std::move(icp));
+  }
+  return out;
+}
+
+/// CRF-match of a's contour as the chain (b to a the other way round), and ICP from its starts.
+struct ReverseMatch {
+  CrfMatchResult crf;
+  StartResults starts;
+};
+
+ReverseMatch matchReverse(const PreparedScan& a, const PreparedScan& b, const ScanAlignerOptions& options) {
+  ReverseMatch reverse;
+  reverse.crf = matchCrf(a.crf, b.crf, options.crf);
+  if (!reverse.crf.ok) return reverse;
+  std::vector<Pose2> starts = {inverse(reverse.crf.pose)};
+  for (const Pose2& p : reverse.crf.alternatives) starts.push_back(inverse(p));
+  reverse.starts = tryStarts(a, b, starts, options);
+  return reverse;
+}
+
+}  // namespace
+
 ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
   const auto start = std::chrono::steady_clock::now();
   ScanAlignmentResult result;
@@ -39,48 +91,38 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
   };
-  result.crf = matchCrf(b.crf, a.crf, options_.crf);
-  // ICP from the CRF's transform and from its runners-up; the result with the largest share of
-  // points within selection_distance of the other scan wins (tighter than validation's d, so
-  // that a result shifted along a corridor loses to the right one).
+  // The reverse match is needed only when the forward one fits poorly, but that is the common
+  // case (candidates are mostly other places): with parallel, it runs beside the forward one
+  // and is dropped when not needed, so the result is the same as one after the other.
+  std::future<ReverseMatch> reverse_ahead;
+  if (options_.parallel) reverse_ahead = std::async(std::launch::async, matchReverse, std::cref(a), std::cref(b), std::cref(options_));
+
   bool any = false;
   double best_fit = -1.0;
-  ShapeValidationOptions tight = options_.validation;
-  tight.max_distance = options_.selection_distance;
-  auto tryStarts = [&](const std::vector<Pose2>& starts) {
-    for (const Pose2& start_pose : starts) {
-      IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options_.icp, &b.icp_target.normals);
-      if (!icp.converged) {
-        if (!any && result.icp.reject_reason.empty()) result.icp = icp;
-        continue;
-      }
-      // Both ways: a result shifted along a corridor leaves the ends of the other scan unmatched.
-      const double fit = 0.5 * (validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share +
-                                validateShape(a.points, b.icp_target.tree, inverse(icp.pose), tight).inlier_share);
-      result.icp_poses.push_back(icp.pose);
-      result.icp_shares.push_back(fit);
-      if (!any || fit > best_fit) {
-        result.icp = std::move(icp);
-        best_fit = fit;
+  auto take = [&](StartResults&& starts) {
+    if (starts.any_failure && !any && result.icp.reject_reason.empty()) result.icp = std::move(starts.first_failure);
+    for (std::size_t k = 0; k < starts.converged.size(); ++k) {
+      result.icp_poses.push_back(starts.converged[k].pose);
+      result.icp_shares.push_back(starts.fits[k]);
+      if (!any || starts.fits[k] > best_fit) {
+        result.icp = std::move(starts.converged[k]);
+        best_fit = starts.fits[k];
         any = true;
       }
     }
   };
-  std::vector<Pose2> starts;
+  // ICP from the CRF's transform and from its runners-up; the best fit wins.
+  result.crf = matchCrf(b.crf, a.crf, options_.crf);
   if (result.crf.ok) {
-    starts = {result.crf.pose};
+    std::vector<Pose2> starts = {result.crf.pose};
     starts.insert(starts.end(), result.crf.alternatives.begin(), result.crf.alternatives.end());
-    tryStarts(starts);
+    take(tryStarts(a, b, starts, options_));
   }
   // A poor best fit: CRF-match the other way round (a's contour as the chain) for more starts.
   if (best_fit < options_.reverse_below) {
-    const CrfMatchResult reverse = matchCrf(a.crf, b.crf, options_.crf);
-    if (reverse.ok) {
-      starts = {inverse(reverse.pose)};
-      for (const Pose2& p : reverse.alternatives) starts.push_back(inverse(p));
-      tryStarts(starts);
-    }
-    if (!result.crf.ok && !reverse.ok) return finish("crf: " + result.crf.reject_reason);
+    ReverseMatch reverse = options_.parallel ? reverse_ahead.get() : matchReverse(a, b, options_);
+    if (reverse.crf.ok) take(std::move(reverse.starts));
+    if (!result.crf.ok && !reverse.crf.ok) return finish("crf: " + result.crf.reject_reason);
   }
   if (!any) return finish("icp: " + result.icp.reject_reason);
   result.pose = result.icp.pose;

@@ -50,7 +50,7 @@ ShapeValidationResult validateShape(const Points2& source, const KdTree2& target
     ++tested;
     std::size_t index;
     double distance_sq;
-    if (target.nearest(moved, &index, &distance_sq) && distance_sq <= limit_sq) ++inliers;
+    if (target.nearest(moved, &index, &distance_sq, limit_sq) && distance_sq <= limit_sq) ++inliers;
   }
   result.points = tested;
   if (tested == 0) {

@@ -124,6 +124,12 @@ TEST(KdTree, NearestMatchesBruteForce) {
     ASSERT_TRUE(tree.nearest(query, &index, &distance));
     EXPECT_DOUBLE_EQ(distance, best);
     EXPECT_DOUBLE_EQ((points[index] - query).squaredNorm(), best);
+    // With a bound: the same point when it lies within (the bound is inclusive), else none.
+    std::size_t bounded_index = 99999;
+    double bounded = -1.0;
+    EXPECT_TRUE(tree.nearest(query, &bounded_index, &bounded, best));
+    EXPECT_EQ(bounded_index, index);
+    EXPECT_FALSE(tree.nearest(query, &bounded_index, &bounded, 0.999 * best));
   }
   const llc::KdTree2 empty(Points2{});
   std::size_t index;
@@ -348,6 +354,33 @@ TEST(Aligner, ReverseMatchingAddsStartsAndAgreesWithTheForwardOne) {
   EXPECT_GT(r_both.icp_poses.size(), r_forward.icp_poses.size());
   expectPoseNear(r_both.pose, llc::between(a, b), 0.02, 0.005);
   expectPoseNear(r_forward.pose, llc::between(a, b), 0.02, 0.005);
+}
+
+TEST(Aligner, MatchingTheOtherWayOnASecondThreadChangesNothing) {
+  // A clean pair (the forward match suffices) and a room against a corridor (a poor forward
+  // fit: the match the other way round is used).
+  llc::ScanAlignerOptions parallel, serial;
+  parallel.parallel = true;
+  serial.parallel = false;
+  const llc::ScanAligner aligner_parallel(parallel), aligner_serial(serial);
+  const Pose2 a{0.2, -0.4, 0.1}, b{1.1, 0.3, 2.0};
+  const auto pa = aligner_serial.prepare(scanAt(room(), a, 720, 0.005, 3));
+  const auto pb = aligner_serial.prepare(scanAt(room(), b, 720, 0.005, 4));
+  const auto other = aligner_serial.prepare(scanAt(corridor(), b, 720, 0.005, 5));
+  for (const auto& second : {pb, other}) {
+    const llc::ScanAlignmentResult p = aligner_parallel.align(*pa, *second);
+    const llc::ScanAlignmentResult s = aligner_serial.align(*pa, *second);
+    EXPECT_EQ(p.accepted, s.accepted);
+    EXPECT_EQ(p.reject_reason, s.reject_reason);
+    EXPECT_EQ(p.pose.x, s.pose.x);
+    EXPECT_EQ(p.pose.y, s.pose.y);
+    EXPECT_EQ(p.pose.theta, s.pose.theta);
+    EXPECT_EQ(p.icp_shares, s.icp_shares);
+    EXPECT_EQ(p.validation.inlier_share, s.validation.inlier_share);
+  }
+  const llc::ScanAlignmentResult poor = aligner_parallel.align(*pa, *other);
+  EXPECT_FALSE(poor.accepted);
+  for (const double share : poor.icp_shares) EXPECT_LT(share, parallel.reverse_below);
 }
 
 /// Energy of an association under the weights: what max-product minimises.

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -43,8 +44,10 @@ class KdTree2 {
 
   const Points2& points() const { return points_; }
   std::size_t size() const { return points_.size(); }
-  /// Index of the point nearest to q and its squared distance; false when the set is empty.
-  bool nearest(const Point2& q, std::size_t* index, double* squared_distance) const;
+  /// Index of the point nearest to q and its squared distance; false when the set is empty or
+  /// no point lies within max_squared_distance (a bound prunes the search: far queries are cheap).
+  bool nearest(const Point2& q, std::size_t* index, double* squared_distance,
+               double max_squared_distance = std::numeric_limits<double>::infinity()) const;
   /// Up to k nearest points, nearest first (fewer when the set is smaller).
   void kNearest(const Point2& q, std::size_t k, std::vector<std::size_t>* indices,
                 std::vector<double>* squared_distances) const;

@@ -16,6 +16,7 @@ struct ScanAlignerOptions {
   double max_range = 40.0;  ///< m; returns at or beyond this are not aligned (sparse, noisy)
   double selection_distance = 0.1;  ///< m; of several ICP results, the one with most points this near (both ways) wins
   double reverse_below = 0.6;  ///< best such share below this: CRF-match b to a as well, for more starts (1 = always)
+  bool parallel = true;  ///< match the other way round on a second thread meanwhile (same result, less wall time)
   CrfMatchOptions crf{};
   IcpOptions icp{};
   ShapeValidationOptions validation{};

@@ -65,6 +65,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("aligner/max_range", aligner.max_range);
   visit("aligner/selection_distance", aligner.selection_distance);
   visit("aligner/reverse_below", aligner.reverse_below);
+  visit("aligner/parallel", aligner.parallel);
   visit("aligner/crf/node_spacing", aligner.crf.node_spacing);
   visit("aligner/crf/max_nodes", aligner.crf.max_nodes);
   visit("aligner/crf/break_distance", aligner.crf.break_distance);
