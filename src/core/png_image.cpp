@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
@@ -31,15 +32,30 @@ void RgbImage::set(int x, int y, Rgb colour) {
   if (x >= 0 && y >= 0 && x < width_ && y < height_) pixels_[std::size_t(y * width_ + x)] = colour;
 }
 
-void RgbImage::line(double x0, double y0, double x1, double y1, Rgb colour, int thickness) {
+void RgbImage::line(double x0, double y0, double x1, double y1, Rgb colour, int thickness, double opacity) {
   const double length = std::hypot(x1 - x0, y1 - y0);
   const int steps = std::max(1, int(std::ceil(length * 2)));
   const int half = thickness / 2;
+  const double keep = 1.0 - std::clamp(opacity, 0.0, 1.0);
+  auto mix = [&](std::uint8_t below, std::uint8_t above) {
+    return std::uint8_t(std::lround(keep * below + (1.0 - keep) * above));
+  };
+  int last_x = INT_MIN, last_y = INT_MIN;
   for (int i = 0; i <= steps; ++i) {
     const double t = double(i) / steps;
     const int x = int(std::lround(x0 + t * (x1 - x0))), y = int(std::lround(y0 + t * (y1 - y0)));
+    if (x == last_x && y == last_y) continue;  // steps are half a pixel: do not mix a pixel twice
+    last_x = x, last_y = y;
     for (int dy = -half; dy <= half; ++dy)
-      for (int dx = -half; dx <= half; ++dx) set(x + dx, y + dy, colour);
+      for (int dx = -half; dx <= half; ++dx) {
+        const int px = x + dx, py = y + dy;
+        if (keep == 0.0 || px < 0 || py < 0 || px >= width_ || py >= height_) {
+          set(px, py, colour);
+          continue;
+        }
+        const Rgb below = at(px, py);
+        set(px, py, Rgb{mix(below.r, colour.r), mix(below.g, colour.g), mix(below.b, colour.b)});
+      }
   }
 }
 

@@ -132,9 +132,33 @@ TEST(MapPicture, DrawsWithinBoundsAtAnySize) {
   const std::vector<llc::Pose2> trajectory = {{0, 0, 0}, {1, 0, 0}};
   const llc::RgbImage small = llc::renderMapPicture(grid, trajectory, {{0, 1, true}, {0, 7, false}}, 20);
   EXPECT_LE(std::max(small.width(), small.height()), 20);
-  const llc::RgbImage full = llc::renderMapPicture(grid, trajectory, {}, 5000);
+  const llc::RgbImage full = llc::renderMapPicture(grid, trajectory, {}, 5000, 0);
   EXPECT_EQ(full.width(), grid.width);
   EXPECT_EQ(full.height(), grid.height);
+  // A small grid is magnified by a whole factor, every cell a square of pixels.
+  const int zoom = 1000 / std::max(grid.width, grid.height);
+  ASSERT_GE(zoom, 2);
+  const llc::RgbImage magnified = llc::renderMapPicture(grid, trajectory, {}, 5000, 1000);
+  EXPECT_EQ(magnified.width(), zoom * grid.width);
+  EXPECT_EQ(magnified.height(), zoom * grid.height);
+  for (int row = 0; row < grid.height; ++row)
+    for (int col = 0; col < grid.width; ++col) {
+      const llc::Rgb a = full.at(col, row), b = magnified.at(zoom * col + zoom - 1, zoom * row + zoom - 1);
+      if (a.b == 220 || b.b == 220) continue;  // the trajectory (blue) lies over other pixels at each size
+      EXPECT_EQ(b.r, a.r) << col << "," << row;
+    }
+}
+
+TEST(PngImage, AFaintLineMixesEachPixelOnce) {
+  llc::RgbImage image(10, 3, llc::Rgb{200, 200, 200});
+  image.line(0, 1, 9, 1, llc::Rgb{0, 0, 0}, 1, 0.25);
+  for (int x = 0; x < 10; ++x) {
+    EXPECT_EQ(image.at(x, 1).r, 150) << x;  // 0.75 * 200 + 0.25 * 0, not mixed twice (112)
+    EXPECT_EQ(image.at(x, 0).r, 200) << x;
+  }
+  image.line(0, 1, 9, 1, llc::Rgb{0, 0, 0});
+  EXPECT_EQ(image.at(4, 1).r, 0);
+  image.line(-5, -5, 20, 20, llc::Rgb{1, 2, 3}, 3, 0.5);  // beyond the edges: clipped, no crash
 }
 
 TEST(SlamParameters, NamesAreUniqueAndTheShippedConfigGivesEveryOneAtItsDefault) {

@@ -15,9 +15,11 @@ struct PictureLoop {
   bool applied = false;
 };
 
-/// Renders the grid at most max_pixels wide and high (cells are pooled, occupied wins), with
-/// the trajectory in blue and the loops as lines between their poses.
+/// Renders the grid at most max_pixels wide and high (cells are pooled, occupied wins), and a
+/// small grid magnified by a whole factor towards min_pixels, with the trajectory in blue and
+/// the loops as lines between their poses: refused ones faint (there are often hundreds of
+/// them), applied ones on top.
 RgbImage renderMapPicture(const OccupancyGrid& grid, const std::vector<Pose2>& trajectory,
-                          const std::vector<PictureLoop>& loops, int max_pixels = 2000);
+                          const std::vector<PictureLoop>& loops, int max_pixels = 2000, int min_pixels = 1000);
 
 }  // namespace llc
