@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <stdexcept>
 
@@ -33,6 +34,11 @@ struct Esdf::Impl {
   std::size_t blocks = 0, analysed_blocks = 0;
   bool current = false;      // factor and mean match the system
   bool factor_valid = false;  // the factor is that of the system at the current linearisation
+  // Poses from leaf_start on were added by augmentation alone to a current system (each hangs
+  // off one earlier pose by one edge): their covariances follow from the factor of the poses
+  // before by propagation, with no new factorisation. npos: no such run.
+  std::size_t leaf_start = std::string::npos;
+  std::vector<std::size_t> augmentation_edge;  // per pose: index in edges_ of the edge that added it
   std::vector<int> inverse_permutation;  // original variable -> row of the factor
   Impl() {
     cholmod_start(&common);
@@ -110,6 +116,7 @@ void Esdf::addToSystem(const PoseEdge& e) {
 
 void Esdf::rebuildSystem() {
   impl_->factor_valid = false;
+  impl_->leaf_start = std::string::npos;
   for (auto& row : impl_->upper) row.clear();
   impl_->blocks = 0;
   impl_->gradient.setZero();
@@ -164,6 +171,7 @@ void Esdf::solveMean() {
   const Eigen::VectorXd step = impl_->solve(impl_->gradient);
   for (std::size_t p = 0; p < size(); ++p) mean_[p] = plus(linearization_[p], step.data() + 3 * p);
   impl_->current = true;
+  impl_->leaf_start = std::string::npos;
 }
 
 bool Esdf::rankUpdate(const PoseEdge& e) {
@@ -234,6 +242,9 @@ std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
   if (!e.information.allFinite() || !std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) ||
       e.information.llt().info() != Eigen::Success)
     throw std::invalid_argument("esdf: odometry not finite, or its covariance not positive definite");
+  if (impl_->current && impl_->factor_valid && impl_->factor && impl_->factor->n == 3 * size()) impl_->leaf_start = size();
+  impl_->augmentation_edge.resize(size() + 1, std::string::npos);
+  impl_->augmentation_edge[size()] = edges_.size();
   mean_.push_back(compose(mean_[e.from], e.measurement));
   linearization_.push_back(mean_.back());
   impl_->upper.emplace_back();
@@ -278,6 +289,7 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
     }
   }
   edges_.push_back(e);
+  impl_->leaf_start = std::string::npos;  // no longer a run of leaves: the next covariance needs a factor
   const bool factor_was_valid = impl_->factor_valid;
   addToSystem(e);
   impl_->factor_valid = false;
@@ -300,10 +312,9 @@ int Esdf::solveFrom(const std::vector<Pose2>& poses) {
   return relinearizeUntilSteady();
 }
 
-Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) {
-  if (a >= size() || b >= size()) throw std::out_of_range("esdf: no pose " + std::to_string(std::max(a, b)));
-  if (!impl_->current) factorAndSolve();
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 6);
+Eigen::Matrix<double, 6, 6> Esdf::factoredJointCovariance(std::size_t a, std::size_t b) {
+  const long n = long(impl_->factor->n);
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n, 6);
   rhs.block<3, 3>(3 * long(a), 0).setIdentity();
   rhs.block<3, 3>(3 * long(b), 3).setIdentity();
   const Eigen::MatrixXd x = impl_->solve(rhs);
@@ -313,13 +324,71 @@ Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) 
   return 0.5 * (joint + joint.transpose());
 }
 
+namespace {
+constexpr std::size_t kMaxLeafChain = 2000;  // longer runs are factorised instead (and the recursion stays shallow)
+}  // namespace
+
+Eigen::Matrix<double, 6, 6> Esdf::leafJointCovariance(std::size_t a, std::size_t b) {
+  const std::size_t m = impl_->leaf_start;
+  auto root = [&](std::size_t p) {
+    while (p >= m) p = edges_[impl_->augmentation_edge[p]].from;
+    return p;
+  };
+  const Eigen::Matrix<double, 6, 6> base = factoredJointCovariance(root(a), root(b));
+  const std::size_t ra = root(a), rb = root(b);
+  // A leaf p with base q and edge error r ~ r0 + J_q dq + J_p dp (information Omega) is, given
+  // q, dp = A dq + w with A = -J_p^-1 J_q and cov(w) = J_p^-1 Omega^-1 J_p^-T: exactly what
+  // the factor of the larger system would give, since a leaf changes no other marginal.
+  std::map<std::pair<std::size_t, std::size_t>, Eigen::Matrix3d> memo;
+  std::function<Eigen::Matrix3d(std::size_t, std::size_t)> block = [&](std::size_t i, std::size_t j) -> Eigen::Matrix3d {
+    if (i > j) return block(j, i).transpose();
+    if (j < m) {  // both factored: i and j are ra or rb
+      const int bi = i == ra ? 0 : 3, bj = j == ra ? 0 : 3;
+      return base.block<3, 3>(bi, bj);
+    }
+    const auto key = std::make_pair(i, j);
+    if (const auto found = memo.find(key); found != memo.end()) return found->second;
+    const PoseEdge& e = edges_[impl_->augmentation_edge[j]];
+    Eigen::Matrix3d jq, jp;
+    linearize(e, linearization_[e.from], linearization_[j], &jq, &jp);
+    const Eigen::Matrix3d jp_inverse = jp.inverse();
+    const Eigen::Matrix3d propagate = -jp_inverse * jq;
+    Eigen::Matrix3d result;
+    if (i == j) result = propagate * block(e.from, e.from) * propagate.transpose() +
+                         jp_inverse * e.information.inverse() * jp_inverse.transpose();
+    else result = block(i, e.from) * propagate.transpose();
+    memo.emplace(key, result);
+    return result;
+  };
+  Eigen::Matrix<double, 6, 6> joint;
+  joint.block<3, 3>(0, 0) = block(a, a);
+  joint.block<3, 3>(3, 3) = block(b, b);
+  joint.block<3, 3>(0, 3) = block(a, b);
+  joint.block<3, 3>(3, 0) = joint.block<3, 3>(0, 3).transpose();
+  return 0.5 * (joint + joint.transpose());
+}
+
+bool Esdf::leafCovariancesAvailable(std::size_t a, std::size_t b) const {
+  const Impl& m = *impl_;
+  if (m.leaf_start == std::string::npos || !m.factor_valid || !m.factor || m.factor->n != 3 * m.leaf_start) return false;
+  auto chain = [&](std::size_t p) {
+    std::size_t length = 0;
+    while (p >= m.leaf_start && length <= kMaxLeafChain) p = edges_[m.augmentation_edge[p]].from, ++length;
+    return length;
+  };
+  return chain(a) <= kMaxLeafChain && chain(b) <= kMaxLeafChain;
+}
+
+Eigen::Matrix<double, 6, 6> Esdf::jointCovariance(std::size_t a, std::size_t b) {
+  if (a >= size() || b >= size()) throw std::out_of_range("esdf: no pose " + std::to_string(std::max(a, b)));
+  if (!impl_->current && leafCovariancesAvailable(a, b)) return leafJointCovariance(a, b);
+  if (!impl_->current) factorAndSolve();
+  return factoredJointCovariance(a, b);
+}
+
 Eigen::Matrix3d Esdf::marginalCovariance(std::size_t pose) {
   if (pose >= size()) throw std::out_of_range("esdf: no pose " + std::to_string(pose));
-  if (!impl_->current) factorAndSolve();
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(3 * long(size()), 3);
-  rhs.block<3, 3>(3 * long(pose), 0).setIdentity();
-  const Eigen::Matrix3d m = impl_->solve(rhs).block<3, 3>(3 * long(pose), 0);
-  return 0.5 * (m + m.transpose());
+  return jointCovariance(pose, pose).topLeftCorner<3, 3>();
 }
 
 void Esdf::relativePose(std::size_t a, std::size_t b, Pose2* mean, Eigen::Matrix3d* covariance) {

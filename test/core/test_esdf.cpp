@@ -154,6 +154,46 @@ TEST(Esdf, MatchesADenseReferenceOnRandomGraphs) {
   }
 }
 
+TEST(Esdf, CovariancesOfPosesAddedSinceTheLastFactorisationNeedNoNewOne) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    std::vector<Pose2> truth;
+    const llc::PoseGraph2 g = randomGraph(seed, 25, 8, &truth);
+    // Converged, so that the twin's fresh solve below stays at the same linearisation point.
+    llc::EsdfOptions options;
+    options.relinearize_translation = 1e-12;
+    options.relinearize_rotation = 1e-12;
+    options.max_relinearizations = 100;
+    llc::Esdf filter(Pose2{}, options), twin(Pose2{}, options);
+    for (llc::Esdf* f : {&filter, &twin})
+      for (const llc::PoseEdge& e : g.edges) {
+        if (e.to == f->size()) f->augmentWithInformation(e);
+        else ASSERT_TRUE(f->updateWithInformation(e, false).applied);
+      }
+    filter.marginalCovariance(0);  // current: factored
+    // New poses: a chain off the newest, and branches off older poses (the front end's restart).
+    const Eigen::Matrix3d c = Eigen::Vector3d(0.02, 0.01, 0.003).asDiagonal();
+    const std::vector<std::pair<std::size_t, Pose2>> added = {
+        {24, {1.0, 0.1, 0.2}}, {25, {0.8, -0.2, -0.4}}, {3, {0.5, 0.5, 1.0}}, {26, {1.2, 0.0, 0.1}}, {27, {0.3, 0.2, 2.5}}};
+    for (llc::Esdf* f : {&filter, &twin})
+      for (const auto& [base, motion] : added) f->augmentFrom(base, motion, c);
+    const int factorizations = filter.factorizations();
+    twin.solveFrom(twin.mean());  // the same system factorised afresh: the reference
+    for (auto [a, b] : {std::pair<std::size_t, std::size_t>{2, 20}, {5, 25}, {25, 28}, {27, 26}, {29, 29}, {3, 27}, {0, 29}}) {
+      const Eigen::Matrix<double, 6, 6> leaf = filter.jointCovariance(a, b), fresh = twin.jointCovariance(a, b);
+      EXPECT_LT((leaf - fresh).cwiseAbs().maxCoeff(), 1e-9 * std::max(1.0, fresh.cwiseAbs().maxCoeff()))
+          << "seed " << seed << " poses " << a << ", " << b;
+    }
+    EXPECT_EQ(filter.factorizations(), factorizations) << "propagated, not factorised";
+    // A gate decision from the propagated covariance equals the factorised one.
+    const Pose2 measured = llc::between(truth[4], filter.mean()[28]);
+    EXPECT_NEAR(filter.innovationChi2(4, 28, measured, c), twin.innovationChi2(4, 28, measured, c), 1e-6);
+    // A loop edge ends the run: the next covariance is factorised.
+    ASSERT_TRUE(filter.update(10, 28, llc::between(filter.mean()[10], filter.mean()[28]), c, false).applied);
+    filter.marginalCovariance(28);
+    EXPECT_GT(filter.factorizations(), factorizations);
+  }
+}
+
 TEST(Esdf, ChiSquareGateRefusesAPlantedWrongLoopAndAcceptsTheRightOnes) {
   std::vector<Pose2> truth;
   const llc::PoseGraph2 g = randomGraph(9, 40, 0, &truth);

@@ -89,6 +89,9 @@ class Esdf {
   void solveMean();
   bool rankUpdate(const PoseEdge& edge);
   int relinearizeUntilSteady();
+  Eigen::Matrix<double, 6, 6> factoredJointCovariance(std::size_t a, std::size_t b);
+  bool leafCovariancesAvailable(std::size_t a, std::size_t b) const;
+  Eigen::Matrix<double, 6, 6> leafJointCovariance(std::size_t a, std::size_t b);
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
   std::vector<PoseEdge> edges_;
