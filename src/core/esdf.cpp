@@ -334,8 +334,8 @@ Eigen::Matrix<double, 6, 6> Esdf::leafJointCovariance(std::size_t a, std::size_t
     while (p >= m) p = edges_[impl_->augmentation_edge[p]].from;
     return p;
   };
-  const Eigen::Matrix<double, 6, 6> base = factoredJointCovariance(root(a), root(b));
   const std::size_t ra = root(a), rb = root(b);
+  const Eigen::Matrix<double, 6, 6> base = factoredJointCovariance(ra, rb);
   // A leaf p with base q and edge error r ~ r0 + J_q dq + J_p dp (information Omega) is, given
   // q, dp = A dq + w with A = -J_p^-1 J_q and cov(w) = J_p^-1 Omega^-1 J_p^-T: exactly what
   // the factor of the larger system would give, since a leaf changes no other marginal.
