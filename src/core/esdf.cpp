@@ -401,6 +401,15 @@ void Esdf::relativePose(std::size_t a, std::size_t b, Pose2* mean, Eigen::Matrix
   *covariance = j * joint * j.transpose();
 }
 
+double Esdf::placeChi2(std::size_t a, std::size_t b, double radius) {
+  Pose2 relative;
+  Eigen::Matrix3d covariance;
+  relativePose(a, b, &relative, &covariance);
+  const Eigen::Vector2d t(relative.x, relative.y);
+  const Eigen::Matrix2d s = covariance.topLeftCorner<2, 2>() + radius * radius * Eigen::Matrix2d::Identity();
+  return t.dot(s.ldlt().solve(t));
+}
+
 double Esdf::innovationChi2(std::size_t from, std::size_t to, const Pose2& measurement, const Eigen::Matrix3d& covariance) {
   return innovationChi2(PoseEdge{from, to, measurement, errorInformation(measurement, covariance)});
 }

@@ -84,7 +84,7 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   return loop;
 }
 
-LoopDetectionResult LoopDetector::detect(std::size_t index) const {
+LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check) const {
   const auto start = std::chrono::steady_clock::now();
   if (index >= prepared_.size()) throw std::out_of_range("detect: no keyframe " + std::to_string(index));
   LoopDetectionResult result;
@@ -97,6 +97,21 @@ LoopDetectionResult LoopDetector::detect(std::size_t index) const {
     result.candidates = candidates.size();
     result.classify_seconds = secondsSince(start);
     for (const LoopCandidate& candidate : candidates) {
+      std::string refused;
+      if (check) {
+        const auto check_start = std::chrono::steady_clock::now();
+        refused = check(candidate.keyframe, index);
+        result.check_seconds += secondsSince(check_start);
+      }
+      if (!refused.empty()) {
+        LoopClosure skipped;
+        skipped.from = candidate.keyframe;
+        skipped.to = index;
+        skipped.score = candidate.score;
+        skipped.reject_reason = std::move(refused);
+        result.not_aligned.push_back(std::move(skipped));
+        continue;
+      }
       result.aligned.push_back(verify(candidate.keyframe, index, candidate.score));
       if (result.aligned.back().accepted && options_.stop_at_first_accepted) break;
     }

@@ -45,6 +45,14 @@ Eigen::Matrix3d SlamBackEnd::latestCovariance() {
   return esdf_->marginalCovariance(esdf_->size() - 1);
 }
 
+double SlamBackEnd::placeChi2(std::size_t from, std::size_t to, double radius) {
+  if (!esdf_) throw std::out_of_range("placeChi2: no keyframe yet");
+  const auto start = std::chrono::steady_clock::now();
+  const double chi2 = esdf_->placeChi2(from, to, radius);
+  counters_.seconds += secondsSince(start);
+  return chi2;
+}
+
 std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance) {
   auto refuse = [&](const std::string& why) {
     ++counters_.refused_keyframes;

@@ -5,6 +5,26 @@
 
 namespace llc {
 
+namespace {
+
+bool trueRevisit(const Pose2& older, const Pose2& newer, bool full_circle, const LoopTruthOptions& options) {
+  const Pose2 d = between(older, newer);
+  return std::hypot(d.x, d.y) < options.positive_distance && (full_circle || std::abs(d.theta) < options.positive_heading);
+}
+
+}  // namespace
+
+std::size_t countTrueRevisitPairs(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
+                                  const std::vector<LoopClosure>& pairs, const LoopTruthOptions& options) {
+  std::size_t count = 0;
+  for (const LoopClosure& pair : pairs) {
+    if (pair.from >= truth.size() || pair.to >= truth.size()) continue;
+    const bool full = pair.to < full_circle.size() && full_circle[pair.to];
+    count += trueRevisit(truth[pair.from], truth[pair.to], full, options);
+  }
+  return count;
+}
+
 LoopTruthCheck checkLoopsAgainstTruth(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
                                       const std::vector<LoopRecord>& loops, const LoopTruthOptions& options) {
   LoopTruthCheck check;
@@ -25,10 +45,7 @@ LoopTruthCheck checkLoopsAgainstTruth(const std::vector<Pose2>& truth, const std
   for (std::size_t k = gap; k < truth.size(); ++k) {
     const bool full = k < full_circle.size() && full_circle[k];
     bool revisit = false;
-    for (std::size_t j = 0; j + gap <= k && !revisit; ++j) {
-      const Pose2 d = between(truth[j], truth[k]);
-      revisit = std::hypot(d.x, d.y) < options.positive_distance && (full || std::abs(d.theta) < options.positive_heading);
-    }
+    for (std::size_t j = 0; j + gap <= k && !revisit; ++j) revisit = trueRevisit(truth[j], truth[k], full, options);
     check.true_loop_keyframes += revisit;
     check.closed += revisit && closed[k];
   }

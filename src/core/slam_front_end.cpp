@@ -98,15 +98,19 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
   ++counters_.keyframes;
-
-  step.loops = detector_.detect(step.keyframe_index);
-  counters_.pairs_classified += step.loops.compared;
-  counters_.candidates += step.loops.candidates;
-  counters_.aligned += step.loops.aligned.size();
-  counters_.seconds_classify += step.loops.classify_seconds;
-  counters_.seconds_align += step.loops.seconds - step.loops.classify_seconds;
-  for (const LoopClosure& loop : step.loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
   return step;
+}
+
+LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check) {
+  LoopDetectionResult loops = detector_.detect(keyframe_index, check);
+  counters_.pairs_classified += loops.compared;
+  counters_.candidates += loops.candidates;
+  counters_.aligned += loops.aligned.size();
+  counters_.not_aligned += loops.not_aligned.size();
+  counters_.seconds_classify += loops.classify_seconds;
+  counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;
+  for (const LoopClosure& loop : loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
+  return loops;
 }
 
 }  // namespace llc

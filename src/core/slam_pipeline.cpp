@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/slam_pipeline.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace llc {
@@ -13,8 +15,16 @@ const SlamOptions& checked(const SlamOptions& options) {
 
 }  // namespace
 
+std::string PlaceGateOptions::validate() const {
+  if (!(radius > 0.0) || !std::isfinite(radius)) return "radius must be > 0 m";
+  if (!(chi2_threshold > 0.0)) return "chi2_threshold must be > 0";
+  return "";
+}
+
 std::string SlamOptions::validate() const {
-  std::string error = odometry.validate();
+  std::string error = place_gate.validate();
+  if (!error.empty()) return "place_gate: " + error;
+  error = odometry.validate();
   if (!error.empty()) return "odometry: " + error;
   error = aligner.validate();
   if (!error.empty()) return "aligner: " + error;
@@ -38,7 +48,7 @@ SlamCounters SlamPipeline::counters() const {
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
-  c.refused_by_gate = b.refused_by_gate;
+  c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
   c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
   c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
   return c;
@@ -52,7 +62,6 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   step.keyframe = true;
   step.keyframe_index = front.keyframe_index;
   step.odometry = front.odometry;
-  step.loops = std::move(front.loops);
 
   Keyframe keyframe;
   keyframe.scan_index = scan_index;
@@ -63,6 +72,18 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   // The front end has checked what the back end would refuse, so the indices stay together.
   const std::string refused = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
   if (!refused.empty()) throw std::logic_error("slam pipeline: the back end refused a keyframe: " + refused);
+
+  CandidateCheck place_gate;
+  if (options_.place_gate.enabled) {
+    place_gate = [this](std::size_t from, std::size_t to) {
+      const double chi2 = back_.placeChi2(from, to, options_.place_gate.radius);
+      if (chi2 <= options_.place_gate.chi2_threshold) return std::string();
+      char why[96];
+      std::snprintf(why, sizeof why, "place gate: too far apart for one place (statistic %.1f)", chi2);
+      return std::string(why);
+    };
+  }
+  step.loops = front_.detectLoops(step.keyframe_index, place_gate);
 
   for (const LoopClosure& loop : step.loops.aligned) {
     LoopRecord record;

@@ -87,7 +87,8 @@ void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
   keyframe_pub_.publish(keyframe_msg);
-  for (const llc::LoopClosure& loop : step.loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
+  const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index);
+  for (const llc::LoopClosure& loop : loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
 }
 
 void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {

@@ -50,6 +50,7 @@ struct TruthCheck {
   bool available = false;
   double slam_rms = 0.0, odometry_rms = 0.0, path_length = 0.0;
   std::size_t true_loop_keyframes = 0, closed = 0, wrong_loops = 0;
+  std::size_t true_pairs_not_aligned = 0;  ///< candidates the place gate skipped that were true revisits
   /// Odometry steps and applied loops against the truth: RMS errors, and the mean of
   /// e^T C^-1 e with the covariance C the back end was given (3 when C is honest).
   double step_rms_m = 0.0, step_rms_rad = 0.0, step_nees = 0.0, loop_nees = 0.0;
@@ -65,7 +66,8 @@ Eigen::Vector3d relativeError(const llc::Pose2& truth, const llc::Pose2& measure
 /// positive_distance and, for partial scans, positive_heading), how many of them the pipeline
 /// closed, and applied loops that are wrong (off the truth by more than 1 m or 0.1 rad).
 TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSequence& sequence,
-                             const std::vector<llc::OdometryStep>& steps, double positive_distance,
+                             const std::vector<llc::OdometryStep>& steps,
+                             const std::vector<llc::LoopClosure>& not_aligned, double positive_distance,
                              double positive_heading, bool has_truth) {
   TruthCheck check;
   if (!has_truth || slam.keyframes().empty()) return check;
@@ -102,6 +104,7 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
   check.closed = loops.closed;
   check.wrong_loops = loops.wrong_loops;
   check.loop_nees = loops.loop_nees;
+  check.true_pairs_not_aligned = llc::countTrueRevisitPairs(truth, full_circle, not_aligned, truth_options);
   return check;
 }
 
@@ -223,6 +226,7 @@ int runSlam(const Args& args) {
   std::size_t first_skip_reported = 0;
   std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
   std::vector<llc::OdometryStep> steps;  // per keyframe (the first one's is empty)
+  std::vector<llc::LoopClosure> not_aligned;  // candidates the place gate skipped
   // Reasons without their numbers, so that alike ones are counted together.
   auto general = [](std::string reason) {
     const std::size_t digit = reason.find_first_of("0123456789");
@@ -237,6 +241,7 @@ int runSlam(const Args& args) {
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
     for (const llc::LoopRecord& record : step.records)
       if (!record.applied) ++loop_reasons[general(record.reject_reason)];
+    not_aligned.insert(not_aligned.end(), step.loops.not_aligned.begin(), step.loops.not_aligned.end());
     progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -252,7 +257,7 @@ int runSlam(const Args& args) {
   const llc::SlamCounters& c = slam.counters();
   const double duration = sequence.scans.back().stamp - sequence.scans.front().stamp;
   // Restored keyframes come from another input: their scan indices do not name this one's.
-  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, args.number("positive-distance", 1.5),
+  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, args.number("positive-distance", 1.5),
                                              args.number("positive-heading-deg", 45.0) * M_PI / 180.0,
                                              has_truth);
   std::ostringstream report;
@@ -266,6 +271,7 @@ int runSlam(const Args& args) {
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"
+         << "candidates_not_aligned=" << c.not_aligned << "  (the place gate: the back end says not one place)\n"
          << "aligned=" << c.aligned << "\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
@@ -283,6 +289,7 @@ int runSlam(const Args& args) {
            << "true_loop_keyframes=" << truth.true_loop_keyframes << "\n"
            << "true_loop_keyframes_closed=" << truth.closed << "\n"
            << "wrong_loops_accepted=" << truth.wrong_loops << "\n"
+           << "true_pairs_not_aligned=" << truth.true_pairs_not_aligned << "  (candidates the place gate skipped that truly revisit)\n"
            << "odometry_step_error_rms_m=" << truth.step_rms_m << "\n"
            << "odometry_step_error_rms_rad=" << truth.step_rms_rad << "\n"
            << "odometry_step_nees=" << truth.step_nees << "  (3 when the step covariance is honest)\n"

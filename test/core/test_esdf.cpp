@@ -253,6 +253,24 @@ TEST(Esdf, AugmentationIsTheCompositionAndLeavesOtherPosesAlone) {
   EXPECT_THROW(filter.innovationChi2(0, 5, relative, covariance), std::out_of_range);
 }
 
+TEST(Esdf, PlaceChiSquareOfAHandWorkedPair) {
+  // Pose 1 is 3 m ahead and 4 m left of pose 0 with covariance diag(0.5, 2) in pose 0's frame;
+  // one place would put it within about 1 m: 3^2 / (0.5 + 1) + 4^2 / (2 + 1) = 6 + 16/3.
+  llc::Esdf filter(Pose2{10.0, -5.0, 2.0});
+  filter.augment(Pose2{3.0, 4.0, M_PI / 2}, Eigen::Vector3d(0.5, 2.0, 0.01).asDiagonal());
+  EXPECT_NEAR(filter.placeChi2(0, 1, 1.0), 6.0 + 16.0 / 3.0, 1e-6);
+  // The other way round: pose 0 sits at (-4, 3) in pose 1's frame, and the heading's variance
+  // swings that arm: C = R^T diag(0.5, 2) R + 0.01 (3, 4)(3, 4)^T = [2.09 0.12; 0.12 0.66].
+  const Eigen::Vector2d t(-4.0, 3.0);
+  Eigen::Matrix2d s;
+  s << 3.09, 0.12, 0.12, 1.66;
+  EXPECT_NEAR(filter.placeChi2(1, 0, 1.0), t.dot(s.inverse() * t), 1e-6);
+  // A wider place makes it smaller; a pose is always at its own place.
+  EXPECT_LT(filter.placeChi2(0, 1, 3.0), filter.placeChi2(0, 1, 1.0));
+  EXPECT_NEAR(filter.placeChi2(1, 1, 1.0), 0.0, 1e-12);
+  EXPECT_THROW(filter.placeChi2(0, 2, 1.0), std::out_of_range);
+}
+
 TEST(G2o, RoundTripAndOdometryChainStart) {
   llc_test::TempDir dir;
   std::vector<Pose2> truth;

@@ -16,6 +16,7 @@
 #include "laser_loop_closure/core/map_picture.hpp"
 #include "laser_loop_closure/core/occupancy_grid.hpp"
 #include "laser_loop_closure/core/sim_drive.hpp"
+#include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 #include "laser_loop_closure/core/slam_pipeline.hpp"
 #include "laser_loop_closure/core/trajectory_error.hpp"
@@ -335,6 +336,28 @@ TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
     found_first |= candidate.from == 0;
   }
   EXPECT_TRUE(found_first);
+  // A CandidateCheck is asked about every candidate, best first; what it refuses is not aligned.
+  std::vector<std::size_t> asked;
+  const llc::LoopDetectionResult refused = detector.detect(query, [&](std::size_t from, std::size_t to) {
+    EXPECT_EQ(to, query);
+    asked.push_back(from);
+    return std::string("not here");
+  });
+  EXPECT_EQ(refused.candidates, result.candidates);
+  EXPECT_TRUE(refused.aligned.empty());
+  ASSERT_EQ(refused.not_aligned.size(), result.aligned.size());
+  for (std::size_t k = 0; k < asked.size(); ++k) {
+    EXPECT_EQ(asked[k], result.aligned[k].from);
+    EXPECT_EQ(refused.not_aligned[k].from, asked[k]);
+    EXPECT_EQ(refused.not_aligned[k].score, result.aligned[k].score);
+    EXPECT_EQ(refused.not_aligned[k].reject_reason, "not here");
+    EXPECT_FALSE(refused.not_aligned[k].accepted);
+  }
+  const llc::LoopDetectionResult passed = detector.detect(query, [](std::size_t, std::size_t) { return std::string(); });
+  ASSERT_EQ(passed.aligned.size(), result.aligned.size());
+  EXPECT_TRUE(passed.not_aligned.empty());
+  for (std::size_t k = 0; k < passed.aligned.size(); ++k) EXPECT_EQ(passed.aligned[k].pose.x, result.aligned[k].pose.x);
+
   const llc::LoopClosure& loop = result.aligned.front();
   // Its covariance is at least the floor, and positive definite.
   EXPECT_GE(loop.covariance(0, 0), options.translation_sigma * options.translation_sigma);
@@ -397,5 +420,66 @@ TEST_P(SlamOnShortDrive, ScanMatchingBeatsDeadReckoning) {
 }
 
 INSTANTIATE_TEST_SUITE_P(WheelsOrNot, SlamOnShortDrive, ::testing::Bool());
+
+TEST(SlamPipeline, PlaceGateSparesAlignmentsButNoTrueLoop) {
+  llc::SimDriveOptions drive_options;
+  drive_options.length_m = 500.0;
+  const llc::SimWorld world(llc::simWorldOptions(drive_options));
+  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  struct Run {
+    llc::SlamCounters counters;
+    std::vector<llc::Pose2> poses, truth;
+    std::vector<bool> full_circle;
+    std::vector<llc::LoopClosure> not_aligned;
+    llc::LoopTruthCheck loops;
+  };
+  auto run = [&](bool gate) {
+    llc::SlamOptions options;
+    options.place_gate.enabled = gate;
+    llc::SlamPipeline slam(defaultModel(), options);
+    Run r;
+    for (std::size_t i = 0; i < drive.frames.size(); ++i) {
+      const llc::SlamStepResult step = slam.addScan(frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+      r.not_aligned.insert(r.not_aligned.end(), step.loops.not_aligned.begin(), step.loops.not_aligned.end());
+      if (step.keyframe) r.truth.push_back(drive.frames[i].truth), r.full_circle.push_back(true);
+    }
+    r.counters = slam.counters();
+    r.poses = slam.poses();
+    r.loops = llc::checkLoopsAgainstTruth(r.truth, r.full_circle, slam.loops());
+    return r;
+  };
+  const Run off = run(false), on = run(true);
+  ASSERT_GT(off.loops.closed, 5u) << "the drive must close loops";
+  EXPECT_EQ(off.counters.not_aligned, 0u);
+  EXPECT_TRUE(off.not_aligned.empty());
+  // The gate keeps candidates from alignment, and none of them is a true revisit ...
+  EXPECT_GT(on.counters.not_aligned, 0u);
+  EXPECT_EQ(on.counters.not_aligned, on.not_aligned.size());
+  EXPECT_LT(on.counters.aligned, off.counters.aligned);
+  EXPECT_EQ(llc::countTrueRevisitPairs(on.truth, on.full_circle, on.not_aligned), 0u);
+  for (const llc::LoopClosure& skipped : on.not_aligned) EXPECT_EQ(skipped.reject_reason.rfind("place gate: ", 0), 0u);
+  // ... so the same revisits are closed, none wrongly, and the map is as good.
+  EXPECT_GE(on.loops.closed, off.loops.closed);
+  EXPECT_EQ(on.loops.wrong_loops, 0u);
+  const double error_on = llc::alignedRmsError(on.poses, on.truth), error_off = llc::alignedRmsError(off.poses, off.truth);
+  std::cout << "aligned " << on.counters.aligned << " of " << off.counters.aligned << ", closed " << on.loops.closed << " of "
+            << off.loops.closed << ", rms " << error_on << " m against " << error_off << " m\n";
+  EXPECT_LT(error_on, 0.3);
+  EXPECT_LT(error_on, error_off + 0.05);
+}
+
+TEST(LoopTruth, TrueRevisitPairsAreCountedByDistanceAndHeading) {
+  const std::vector<llc::Pose2> truth{{0.0, 0.0, 0.0}, {1.0, 0.0, 3.0}, {5.0, 0.0, 0.0}, {0.5, 0.0, 0.2}};
+  auto pair = [](std::size_t from, std::size_t to) {
+    llc::LoopClosure p;
+    p.from = from, p.to = to;
+    return p;
+  };
+  const std::vector<llc::LoopClosure> pairs{pair(0, 1), pair(0, 2), pair(0, 3), pair(0, 9)};
+  // 360-degree scans: 0-1 and 0-3 are near; 0-2 is 5 m away; keyframe 9 is unknown.
+  EXPECT_EQ(llc::countTrueRevisitPairs(truth, {true, true, true, true}, pairs), 2u);
+  // Partial scans: 0-1 faces the other way, so only 0-3 counts.
+  EXPECT_EQ(llc::countTrueRevisitPairs(truth, {false, false, false, false}, pairs), 1u);
+}
 
 }  // namespace

@@ -70,6 +70,12 @@ class Esdf {
   Eigen::Matrix<double, 6, 6> jointCovariance(std::size_t a, std::size_t b);
   /// Predicted pose of b in a's frame and its covariance (from the joint marginal).
   void relativePose(std::size_t a, std::size_t b, Pose2* mean, Eigen::Matrix3d* covariance);
+  /// Could poses a and b be at one place? The squared Mahalanobis distance (2 DoF) of b's
+  /// predicted position in a's frame from a's own, when two poses of one place lie about
+  /// `radius` (m, one standard deviation per axis) apart: t^T (C_t + radius^2 I)^-1 t, with
+  /// t and C_t the translation and its covariance from relativePose. Heading is left out:
+  /// a place is recognised whichever way the robot faces.
+  double placeChi2(std::size_t a, std::size_t b, double radius);
   /// Squared Mahalanobis distance of the measurement from the prediction, with the
   /// measurement's own covariance added: the chi-square statistic of an update (3 DoF).
   double innovationChi2(std::size_t from, std::size_t to, const Pose2& measurement, const Eigen::Matrix3d& covariance);

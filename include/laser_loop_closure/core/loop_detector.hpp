@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,8 +46,14 @@ struct LoopDetectionResult {
   std::size_t compared = 0;    ///< stored keyframes the classifier saw
   std::size_t candidates = 0;  ///< of those, at or above the threshold (at most max_candidates kept)
   std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
-  double classify_seconds = 0.0, seconds = 0.0;
+  /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
+  std::vector<LoopClosure> not_aligned;
+  double classify_seconds = 0.0, check_seconds = 0.0, seconds = 0.0;  ///< check: inside CandidateCheck
 };
+
+/// Asked before a candidate pair (from, to) is aligned: "" to align it, else why not (e.g. the
+/// back end says the two keyframes cannot be at one place). Detection itself needs none.
+using CandidateCheck = std::function<std::string(std::size_t from, std::size_t to)>;
 
 class LoopDetector {
  public:
@@ -66,8 +73,9 @@ class LoopDetector {
   /// Stores a keyframe whose features are already known (a loaded session).
   std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared);
   /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
-  /// the best candidates. Throws std::out_of_range for an unknown keyframe.
-  LoopDetectionResult detect(std::size_t index) const;
+  /// the best candidates, each after `check` (when given) let it through. Throws
+  /// std::out_of_range for an unknown keyframe.
+  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
 

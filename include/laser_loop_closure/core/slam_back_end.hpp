@@ -65,6 +65,9 @@ class SlamBackEnd {
   const BackEndCounters& counters() const { return counters_; }
   /// map -> odom (REP-105) implied by the newest keyframe; identity without wheel odometry.
   Pose2 mapToOdom() const;
+  /// Esdf::placeChi2 of two stored keyframes (counted in the back end's seconds); throws
+  /// std::out_of_range for a keyframe it does not have.
+  double placeChi2(std::size_t from, std::size_t to, double radius);
   /// Marginal covariance of the newest keyframe's pose (zero when there is none).
   Eigen::Matrix3d latestCovariance();
   bool gateLoops() const { return gate_loops_; }

@@ -29,4 +29,10 @@ struct LoopTruthCheck {
 LoopTruthCheck checkLoopsAgainstTruth(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
                                       const std::vector<LoopRecord>& loops, const LoopTruthOptions& options = {});
 
+/// How many of these pairs (from, to: keyframes) are true revisits by the same test as
+/// true_loop_keyframes (distance, and heading for partial scans; the gap is not asked).
+/// Pairs naming keyframes beyond truth are ignored.
+std::size_t countTrueRevisitPairs(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
+                                  const std::vector<LoopClosure>& pairs, const LoopTruthOptions& options = {});
+
 }  // namespace llc

@@ -21,6 +21,7 @@ struct FrontEndCounters {
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
+  std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0;
 };
 
@@ -29,7 +30,6 @@ struct FrontEndStep {
   bool keyframe = false;
   std::size_t keyframe_index = 0;
   OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
-  LoopDetectionResult loops;  ///< when keyframe: every aligned candidate, accepted or not
   std::string skip_reason;    ///< non-empty: the scan was not used (and why)
 };
 
@@ -42,7 +42,11 @@ class SlamFrontEnd {
   /// Feeds one scan (base frame) with the wheel-odometry pose at its stamp when there is one.
   /// A scan older than the last keyframe, with a non-finite stamp or odometry, or with ranges
   /// and bearings of different lengths, is skipped (skip_reason says why); never throws on data.
+  /// A new keyframe is only stored: detectLoops looks for its loops.
   FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
+  /// Loop detection for a stored keyframe (LoopDetector::detect), counted. Two calls apart so
+  /// that a back end can take the keyframe first and then answer `check`.
+  LoopDetectionResult detectLoops(std::size_t keyframe_index, const CandidateCheck& check = {});
 
   /// Replaces the keyframes by a saved session's: stored features are used when they are what
   /// this model's extractor makes (checked on the first keyframe), else recomputed from the

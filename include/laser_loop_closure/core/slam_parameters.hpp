@@ -85,6 +85,11 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/prior_information", esdf.prior_information);
   visit("esdf/gate_loops", options.slam.gate_loops);
 
+  PlaceGateOptions& place_gate = options.slam.place_gate;
+  visit("place_gate/enabled", place_gate.enabled);
+  visit("place_gate/radius", place_gate.radius);
+  visit("place_gate/chi2_threshold", place_gate.chi2_threshold);
+
   OccupancyGridOptions& map = options.map;
   visit("map/resolution", map.resolution);
   visit("map/max_range", map.max_range);

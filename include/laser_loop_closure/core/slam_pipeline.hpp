@@ -14,12 +14,24 @@
 
 namespace llc {
 
+/// Before a candidate is aligned, the back end's prediction of where its two keyframes are
+/// (means and joint covariance) is asked whether they can be at one place (Esdf::placeChi2).
+/// The classifier still sees every stored keyframe with no pose prior; this only spares the
+/// alignment of candidates that the chi-square gate would refuse anyway.
+struct PlaceGateOptions {
+  bool enabled = true;            ///< false: align every candidate, as the paper does
+  double radius = 3.0;            ///< m: how far apart two keyframes of one place lie (1 sigma per axis)
+  double chi2_threshold = 13.82;  ///< 2 DoF (99.9%); a larger statistic: not aligned
+  std::string validate() const;
+};
+
 struct SlamOptions {
   ScanOdometryOptions odometry{};
   ScanAlignerOptions aligner{};
   LoopDetectorOptions loops{};
   EsdfOptions esdf{};
   bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
+  PlaceGateOptions place_gate{};
   std::string validate() const;  ///< names the stage whose option is wrong
 };
 
@@ -31,6 +43,7 @@ struct SlamCounters {
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
+  std::size_t not_aligned = 0;           ///< candidates the place gate kept from alignment
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0, seconds_backend = 0.0;
 };
 
@@ -39,7 +52,7 @@ struct SlamStepResult {
   bool keyframe = false;
   std::size_t keyframe_index = 0;
   OdometryStep odometry;        ///< when keyframe (and not the first one)
-  LoopDetectionResult loops;    ///< when keyframe
+  LoopDetectionResult loops;    ///< when keyframe: candidates aligned and not
   std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them
   std::string skip_reason;      ///< non-empty: the scan was not used (and why)
 };
