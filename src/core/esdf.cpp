@@ -23,6 +23,13 @@ std::string EsdfOptions::validate() const {
   return "";
 }
 
+/// A leaf's deviation as d_leaf = propagate d_root + w, cov(w) = noise, with root its first
+/// factored ancestor: it depends only on the leaves' own edges, so it is made once per leaf.
+struct Esdf::LeafState {
+  std::size_t root = 0;
+  Eigen::Matrix3d propagate, noise;
+};
+
 /// The linear system at the linearisation point, in blocks, and CHOLMOD's factor of it.
 /// The information vector is kept in gradient form: b = eta - Lambda * linearisation, so that
 /// the solve gives the step from the linearisation point (angles never leave [-pi, pi)).
@@ -39,6 +46,8 @@ struct Esdf::Impl {
   // before by propagation, with no new factorisation. npos: no such run.
   std::size_t leaf_start = std::string::npos;
   std::vector<std::size_t> augmentation_edge;  // per pose: index in edges_ of the edge that added it
+  std::vector<LeafState> leaf_states;  // per leaf from leaf_start on, filled as far as asked
+  std::size_t leaf_states_start = std::string::npos;  // the leaf_start they were made for
   std::vector<int> inverse_permutation;  // original variable -> row of the factor
   Impl() {
     cholmod_start(&common);
@@ -328,8 +337,49 @@ namespace {
 constexpr std::size_t kMaxLeafChain = 2000;  // longer runs are factorised instead (and the recursion stays shallow)
 }  // namespace
 
+const Esdf::LeafState& Esdf::leafState(std::size_t leaf) {
+  Impl& m = *impl_;
+  if (m.leaf_states_start != m.leaf_start) m.leaf_states.clear(), m.leaf_states_start = m.leaf_start;
+  while (m.leaf_states.size() <= leaf - m.leaf_start) {
+    const std::size_t p = m.leaf_start + m.leaf_states.size();
+    const PoseEdge& e = edges_[m.augmentation_edge[p]];
+    Eigen::Matrix3d jq, jp;
+    linearize(e, linearization_[e.from], linearization_[p], &jq, &jp);
+    const Eigen::Matrix3d jp_inverse = jp.inverse();
+    const Eigen::Matrix3d a = -jp_inverse * jq;
+    const Eigen::Matrix3d w = jp_inverse * e.information.inverse() * jp_inverse.transpose();
+    LeafState state;
+    if (e.from < m.leaf_start) {
+      state.root = e.from, state.propagate = a, state.noise = w;
+    } else {
+      const LeafState& base = m.leaf_states[e.from - m.leaf_start];
+      state.root = base.root, state.propagate = a * base.propagate, state.noise = a * base.noise * a.transpose() + w;
+    }
+    m.leaf_states.push_back(state);
+  }
+  return m.leaf_states[leaf - m.leaf_start];
+}
+
 Eigen::Matrix<double, 6, 6> Esdf::leafJointCovariance(std::size_t a, std::size_t b) {
   const std::size_t m = impl_->leaf_start;
+  // The common queries (a stored pose and a leaf; one leaf) in constant time from the states.
+  if ((a < m) != (b < m) || (a == b && a >= m)) {
+    const bool swapped = a >= m && a != b;
+    const std::size_t leaf = swapped ? a : b, other = swapped ? b : a;
+    const LeafState state = leafState(leaf);
+    const bool same = other == leaf;
+    const Eigen::Matrix<double, 6, 6> base = factoredJointCovariance(same ? state.root : other, state.root);
+    const Eigen::Matrix3d& p = state.propagate;
+    const Eigen::Matrix3d leaf_block = p * base.block<3, 3>(3, 3) * p.transpose() + state.noise;
+    const Eigen::Matrix3d other_block = same ? leaf_block : Eigen::Matrix3d(base.block<3, 3>(0, 0));
+    const Eigen::Matrix3d cross = same ? leaf_block : Eigen::Matrix3d(base.block<3, 3>(0, 3) * p.transpose());  // (other, leaf)
+    Eigen::Matrix<double, 6, 6> joint;
+    joint.block<3, 3>(0, 0) = swapped ? leaf_block : other_block;
+    joint.block<3, 3>(3, 3) = swapped ? other_block : leaf_block;
+    joint.block<3, 3>(0, 3) = swapped ? Eigen::Matrix3d(cross.transpose()) : cross;
+    joint.block<3, 3>(3, 0) = joint.block<3, 3>(0, 3).transpose();
+    return 0.5 * (joint + joint.transpose());
+  }
   auto root = [&](std::size_t p) {
     while (p >= m) p = edges_[impl_->augmentation_edge[p]].from;
     return p;

@@ -98,6 +98,8 @@ class Esdf {
   Eigen::Matrix<double, 6, 6> factoredJointCovariance(std::size_t a, std::size_t b);
   bool leafCovariancesAvailable(std::size_t a, std::size_t b) const;
   Eigen::Matrix<double, 6, 6> leafJointCovariance(std::size_t a, std::size_t b);
+  struct LeafState;
+  const LeafState& leafState(std::size_t leaf);
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
   std::vector<PoseEdge> edges_;
