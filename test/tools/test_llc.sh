@@ -47,6 +47,10 @@ check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" 
   END {ok = v["rms_error_m"] < 0.5 && v["rms_error_odometry_m"] > 2 && v["true_loop_keyframes"] > 20 &&
             v["true_loop_keyframes_closed"] >= 0.8 * v["true_loop_keyframes"]
        print (ok ? "ok" : "not ok: rms " v["rms_error_m"] " closed " v["true_loop_keyframes_closed"] "/" v["true_loop_keyframes"])}' "$TMP/slam/report.txt"
+check "slam: the place gate spared alignments but skipped no true revisit" 0 "^ok$" -- awk -F= '
+    {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
+printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
+check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
 check "slam: the saved session maps a second run as a new chain" 0 "restored [0-9]+ keyframes .*a new chain" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_again" --quiet --load-session "$TMP/sim.llcsession"
 check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F= -v first="$(awk -F, '$3 == 1' "$TMP/slam/loops.csv" | wc -l)" '
