@@ -1,6 +1,8 @@
 #include "laser_loop_closure/core/scan_aligner.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <functional>
 #include <future>
 #include <stdexcept>
@@ -29,8 +31,10 @@ ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) 
 }
 
 std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const {
-  return std::make_shared<const PreparedScan>(scanPoints(scan, options_.max_range), options_,
-                                              fieldOfView(scan, options_.max_range));
+  auto prepared = std::make_shared<PreparedScan>(scanPoints(scan, options_.max_range), options_,
+                                                 fieldOfView(scan, options_.max_range));
+  if (options_.validation.max_seen_through_share < 1.0) prepared->free_space = freeSpace(scan, options_.max_range);
+  return prepared;
 }
 
 namespace {
@@ -129,6 +133,20 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   result.covariance = result.icp.covariance;
   result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation, &a.view);
   if (!result.validation.accepted) return finish("validation: " + result.validation.reject_reason);
+  const ShapeValidationOptions& validation = options_.validation;
+  if (validation.max_seen_through_share < 1.0 && !a.free_space.empty() && !b.free_space.empty()) {
+    result.validation.seen_through_share =
+        std::max(seenThroughShare(b.points, result.pose, a.free_space, validation.free_space_margin),
+                 seenThroughShare(a.points, inverse(result.pose), b.free_space, validation.free_space_margin));
+    if (result.validation.seen_through_share > validation.max_seen_through_share) {
+      result.validation.accepted = false;
+      char text[96];
+      std::snprintf(text, sizeof text, "seen-through share %.3f above %.3f", result.validation.seen_through_share,
+                    validation.max_seen_through_share);
+      result.validation.reject_reason = text;
+      return finish(std::string("validation: ") + text);
+    }
+  }
   result.accepted = true;
   return finish("");
 }

@@ -41,7 +41,8 @@ struct MethodStats {
 }  // namespace
 
 const std::vector<std::string> kAlignerFlags = {"max-range", "validation-distance", "validation-share",
-                                                "validation-only-in-view", "crf-weights"};
+                                                "validation-only-in-view", "validation-seen-through",
+                                                "free-space-margin", "crf-weights"};
 
 std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t index) {
   auto& slot = prepared_[index];
@@ -54,6 +55,9 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
   options.max_range = args.number("max-range", options.max_range);
   options.validation.max_distance = args.number("validation-distance", options.validation.max_distance);
   options.validation.min_inlier_share = args.number("validation-share", options.validation.min_inlier_share);
+  options.validation.max_seen_through_share =
+      args.number("validation-seen-through", options.validation.max_seen_through_share);
+  options.validation.free_space_margin = args.number("free-space-margin", options.validation.free_space_margin);
   const long in_view = args.integer("validation-only-in-view", options.validation.only_in_view ? 1 : 0);
   if (in_view != 0 && in_view != 1) throw ToolError("--validation-only-in-view must be 0 or 1");
   options.validation.only_in_view = in_view == 1;

@@ -207,6 +207,40 @@ TEST(ShapeValidation, CountsOnlyPointsTheOtherScannerCouldSee) {
   EXPECT_FALSE(f.contains(Point2(-1, 0.5)));
 }
 
+TEST(ShapeValidation, SeenThroughShareByHand) {
+  // Target: five beams around straight ahead, all returning from 5 m; a sixth with no return.
+  llc::Scan target;
+  for (int i = -2; i <= 2; ++i) target.bearings.push_back(0.1 * i), target.ranges.push_back(5.0);
+  target.bearings.push_back(0.35), target.ranges.push_back(std::numeric_limits<double>::infinity());
+  const llc::FreeSpace space = llc::freeSpace(target, 40.0);
+  ASSERT_EQ(space.bearings.size(), 6u);
+  EXPECT_TRUE(std::isnan(space.ranges[5]));
+  // Moved 1 m ahead by the pose: (1, 0) lands 2 m out where the target saw to 5 m (seen
+  // through); (3.8, 0) lands 4.8 m out (within the margin); (9, 0) behind the wall; (0, 5)
+  // outside the beams; (2, 0.4) at bearing ~0.13, bracketed by beams 0.1 and 0.2 and flanked by
+  // 0 and the no-return beam: 3.04 m out, seen through.
+  const Points2 source{{1.0, 0.0}, {3.8, 0.0}, {9.0, 0.0}, {0.0, 5.0}, {2.0, 0.4}};
+  std::size_t tested = 0;
+  EXPECT_DOUBLE_EQ(llc::seenThroughShare(source, Pose2{1.0, 0.0, 0.0}, space, 0.5, &tested), 2.0 / 4.0);
+  EXPECT_EQ(tested, 4u);
+  // A wider margin than the gap: only the first (3 m short of the wall) stays seen through.
+  EXPECT_DOUBLE_EQ(llc::seenThroughShare(source, Pose2{1.0, 0.0, 0.0}, space, 2.5, &tested), 1.0 / 4.0);
+  // Nothing to test: 0, and no target beams: 0.
+  EXPECT_EQ(llc::seenThroughShare({}, Pose2{}, space, 0.5, &tested), 0.0);
+  EXPECT_EQ(tested, 0u);
+  EXPECT_EQ(llc::seenThroughShare(source, Pose2{}, llc::FreeSpace{}, 0.5), 0.0);
+  // A full circle wraps round: a point just short of +pi is bracketed by the last and first beams.
+  const llc::FreeSpace ring = llc::freeSpace(llc_test::ringScan(std::vector<double>(8, 3.0)), 40.0);
+  EXPECT_DOUBLE_EQ(llc::seenThroughShare({{-1.0, 0.01}}, Pose2{}, ring, 0.5, &tested), 1.0);
+  EXPECT_EQ(tested, 1u);
+  llc::ShapeValidationOptions bad;
+  bad.max_seen_through_share = 1.5;
+  EXPECT_FALSE(bad.validate().empty());
+  bad = {};
+  bad.free_space_margin = -1.0;
+  EXPECT_FALSE(bad.validate().empty());
+}
+
 TEST(Icp, ConvergesToTheTruthFromANearbyStartWithACovariance) {
   const Pose2 a{0.3, -0.2, 0.1}, b{1.4, 0.6, 0.5};
   const Pose2 truth = llc::between(a, b);
@@ -277,6 +311,7 @@ TEST_P(AlignerRecovers, AKnownRigidTransformOfASyntheticScan) {
   ASSERT_TRUE(r.accepted) << r.reject_reason;
   expectPoseNear(r.pose, llc::between(a, b), 0.02, 0.005);
   EXPECT_GT(r.validation.inlier_share, 0.95);
+  EXPECT_LT(r.validation.seen_through_share, 0.02);  // the same room: nothing seen through
   EXPECT_TRUE(r.covariance.allFinite());
 }
 
@@ -294,12 +329,21 @@ TEST(Aligner, ConvergesWithThirtyPercentClutterAndPartialOverlap) {
     else if (random.uniform() < 0.3) sb.ranges[i] = random.uniform(0.3, 0.9) * sb.ranges[i];
   }
   llc::ScanAlignerOptions options;
-  options.validation.min_inlier_share = 0.6;  // the clutter is not in scan a
+  options.validation.min_inlier_share = 0.6;  // the clutter is not in scan a ...
+  options.validation.max_seen_through_share = 1.0;  // ... which saw the walls behind it
   const llc::ScanAligner aligner(options);
   const llc::ScanAlignmentResult r = aligner.align(*aligner.prepare(scanAt(room(), a)), *aligner.prepare(sb));
   ASSERT_TRUE(r.icp.converged) << r.reject_reason;
   expectPoseNear(r.pose, llc::between(a, b), 0.05, 0.01);
   EXPECT_TRUE(r.accepted) << r.reject_reason;
+  // With the seen-through test (the default share), that clutter contradicts the match.
+  options.validation.max_seen_through_share = llc::ShapeValidationOptions{}.max_seen_through_share;
+  const llc::ScanAligner strict(options);
+  const llc::ScanAlignmentResult s = strict.align(*strict.prepare(scanAt(room(), a)), *strict.prepare(sb));
+  expectPoseNear(s.pose, llc::between(a, b), 0.05, 0.01);
+  EXPECT_FALSE(s.accepted);
+  EXPECT_EQ(s.reject_reason.rfind("validation: seen-through share", 0), 0u) << s.reject_reason;
+  EXPECT_GT(s.validation.seen_through_share, 0.15);
 }
 
 TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {

@@ -30,6 +30,7 @@ struct PreparedScan {
   FieldOfView view;  ///< what its scanner could see (for shape validation)
   CrfScan crf;
   IcpTarget icp_target;  ///< its k-d tree also serves shape validation
+  FreeSpace free_space;  ///< where its beams ended (prepare() fills it when the seen-through test is on)
 };
 
 struct ScanAlignmentResult {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "laser_loop_closure/core/point_cloud.hpp"
 
@@ -15,6 +16,12 @@ struct ShapeValidationOptions {
   /// of view and range); the paper's 360-degree scans see everything, a 180-degree scanner
   /// turned by 45 degrees does not, and its unseen points are no evidence against the match.
   bool only_in_view = true;
+  /// Beyond the paper: a point of one scan that lies where the other scanner saw through it
+  /// (every nearby beam returned from more than free_space_margin beyond it) contradicts the
+  /// alignment. Refused when, either way round, more than this share of the points tested
+  /// does (1 = the check is off, as in the paper).
+  double max_seen_through_share = 0.1;
+  double free_space_margin = 0.5;  ///< m
   std::string validate() const;
 };
 
@@ -29,9 +36,27 @@ struct FieldOfView {
 /// The field of view of a scan: its bearing span (full circle when marked so) and max_range.
 FieldOfView fieldOfView(const Scan& scan, double max_range);
 
+/// Where a scan's beams ended, by bearing (normalised, sorted), for the seen-through test:
+/// range of a return nearer than max_range, NaN where the beam gives no evidence.
+struct FreeSpace {
+  std::vector<double> bearings, ranges;
+  bool full_circle = false;
+  bool empty() const { return bearings.empty(); }
+};
+FreeSpace freeSpace(const Scan& scan, double max_range);
+
+/// The share of source points (moved by pose into the target's frame) that the target's
+/// scanner saw through by more than margin: the beams bracketing the point's bearing and one
+/// more on each side all returned farther than its range + margin (at least one returned).
+/// Points outside the beams' span, or with no returning beam near, are not tested; *tested
+/// counts the others. 0 when none is tested.
+double seenThroughShare(const Points2& source, const Pose2& pose, const FreeSpace& target, double margin,
+                        std::size_t* tested = nullptr);
+
 struct ShapeValidationResult {
   bool accepted = false;
   double inlier_share = 0.0;  ///< share of source points whose nearest target point is within d
+  double seen_through_share = 0.0;  ///< the larger of the two ways round (when the check ran)
   std::size_t points = 0;     ///< source points tested
   std::string reject_reason;  ///< empty when accepted
 };

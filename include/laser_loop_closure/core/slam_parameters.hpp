@@ -76,6 +76,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("aligner/validation/max_distance", aligner.validation.max_distance);
   visit("aligner/validation/min_inlier_share", aligner.validation.min_inlier_share);
   visit("aligner/validation/only_in_view", aligner.validation.only_in_view);
+  visit("aligner/validation/max_seen_through_share", aligner.validation.max_seen_through_share);
+  visit("aligner/validation/free_space_margin", aligner.validation.free_space_margin);
 
   EsdfOptions& esdf = options.slam.esdf;
   visit("esdf/relinearize_translation", esdf.relinearize_translation);
