@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/features.hpp"
 
+#include "laser_loop_closure/core/outline.hpp"
 #include "laser_loop_closure/core/range_profile.hpp"
 #include "laser_loop_closure/core/rank_selection.hpp"
 #include "laser_loop_closure/core/vector_kernels.hpp"
@@ -38,7 +39,8 @@ std::vector<std::string> concat(const std::vector<std::string>& a,
 
 // Signatures: distributions kept as kSignatureLevels quantiles, compared as distributions.
 const char* const kSignatureNames[kSignatureCount] = {"range_distribution", "centroid_distance_distribution",
-                                                       "chord_distribution"};
+                                                       "chord_distribution", "outline_d2_distribution",
+                                                       "outline_centroid_distance_distribution"};
 
 std::vector<std::string> signatureValueNames() {
   std::vector<std::string> names;
@@ -472,7 +474,39 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   }
   ranks_.assign(work_.data(), m);
   writeQuantiles(ranks_, signature + 2 * kSignatureLevels);
+  writeOutlineSignatures(closed, n, signature + 3 * kSignatureLevels);
   writeRangeProfileBySector(sector_.data(), clipped_.data(), n, out + profileOffset(FeatureSet::kExtended));
+}
+
+void FeatureExtractor::writeOutlineSignatures(bool closed, std::size_t n, double* out) {
+  // Room for the points and, after them, the first half again: pairs (i, i + s mod k) are
+  // then plain runs for distancesAhead.
+  outline_x_.resize(kOutlineMaxPoints + kOutlineMaxPoints / 2);
+  outline_y_.resize(outline_x_.size());
+  double* px = outline_x_.data();
+  double* py = outline_y_.data();
+  const std::size_t k = resampleOutline(x_.data(), y_.data(), valid_.data(), step_.data(), n, closed, px, py);
+  // D2: distances between points s apart along the outline (cyclically) for every odd s up to
+  // k / 2: about a quarter of all pairs, an even sample of them whatever the outline's shape.
+  std::copy(px, px + k / 2, px + k);
+  std::copy(py, py + k / 2, py + k);
+  std::size_t m = 0;
+  outline_work_.resize(k * ((k / 2 + 1) / 2));
+  for (std::size_t s = 1; s <= k / 2; s += 2) {
+    distancesAhead(px, py, k + s, s, outline_work_.data() + m);
+    m += k;
+  }
+  ranks_.assign(outline_work_.data(), m);
+  writeQuantiles(ranks_, out);
+  // Distances of the outline's points to their centroid.
+  double cx = 0.0, cy = 0.0;
+  for (std::size_t i = 0; i < k; ++i) cx += px[i], cy += py[i];
+  cx = safeDiv(cx, double(k));
+  cy = safeDiv(cy, double(k));
+  outline_work_.resize(std::max(outline_work_.size(), k));
+  distancesFromCentred(px, py, k, cx, cy, 0.0, 0.0, outline_work_.data());
+  ranks_.assign(outline_work_.data(), k);
+  writeQuantiles(ranks_, out + kSignatureLevels);
 }
 
 std::size_t pairFeatureCount(FeatureSet set) {

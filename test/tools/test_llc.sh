@@ -66,7 +66,7 @@ check "pairs on sim.log (360 degrees)" 0 "any heading" -- "$LLC" pairs --log "$T
 head -c 8 "$TMP/sim/world.png" | od -c | grep -q "P   N   G" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: world.png is no PNG"; }
 # Every log-taking subcommand also takes the bag, with topic flags.
 check "pairs on sim.bag" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.bag" --out "$TMP/sim/bag_pairs.csv" --max-per-class 60
-check "features on sim.bag" 0 "features=125" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/sim/f.csv"
+check "features on sim.bag" 0 "features=157" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/sim/f.csv"
 check "train on sim.bag" 0 "rounds=20" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/sim/m.yaml" --rounds 20 --repeats 1
 check "score on sim.bag" 0 "pairs=120" -- "$LLC" score --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/s.csv"
 check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev" --repeats 1 --no-curve --no-ablation

@@ -47,7 +47,7 @@ std::size_t profileOffset(FeatureSet set);
 /// Signatures (extended set only): distributions stored inside the feature vector as
 /// kSignatureLevels quantiles each, from signatureOffset(set) on.
 constexpr std::size_t kSignatureLevels = 16;
-constexpr std::size_t kSignatureCount = 3;
+constexpr std::size_t kSignatureCount = 5;
 std::size_t signatureCount(FeatureSet set);
 std::size_t signatureOffset(FeatureSet set);
 /// Wasserstein-1 distance of two signatures (the mean absolute difference of their
@@ -75,12 +75,15 @@ class FeatureExtractor {
 
  private:
   void updateTrigonometry(const std::vector<double>& bearings);
+  /// The two outline signatures (outline.hpp) of the points in x_, y_ into out.
+  void writeOutlineSignatures(bool closed, std::size_t n, double* out);
 
   FeatureOptions options_;
   std::vector<double> cached_bearings_, cos_, sin_, half_sin_;  ///< half_sin_[i]: sin of half the step to i+1
   double seam_half_sin_ = 0.0;  ///< the same from the last beam round to the first
   // Work arrays, kept to avoid allocating per scan.
   std::vector<double> clipped_, x_, y_, step_, skip2_, segment_, centre_distance_, circle_distance_, work_, turn_, curvature_;
+  std::vector<double> outline_x_, outline_y_, outline_work_;
   RankSelector ranks_;
   std::vector<std::size_t> sector_;  ///< range-profile sector of each beam (cached with the trigonometry)
   std::vector<unsigned char> valid_;
