@@ -1,6 +1,7 @@
 #include "laser_loop_closure/core/keyframe_store.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -107,15 +108,49 @@ void addScalarStump(const Stump& s, std::size_t scalars, double q, const float* 
 
 /// d[k] for keyframes begin..begin+width: the sum of absolute quantile differences that
 /// signatureDistance forms for one signature (first_column.. its kSignatureLevels columns).
+/// All of a keyframe's quantiles in one pass, the sum kept in a register: in the order of
+/// signatureSum, so bit for bit the same.
 LLC_VECTOR_CLONES
 void addSignatureDistances(const std::vector<std::vector<float>>& columns, std::size_t first_column,
                            const double* query_signature, std::size_t begin, std::size_t width, double* d) {
-  std::fill(d, d + width, 0.0);
+  const float* column[kSignatureLevels];
+  double v[kSignatureLevels];
   for (std::size_t q = 0; q < kSignatureLevels; ++q) {
-    const float* column = columns[first_column + q].data() + begin;
-    const double v = query_signature[q];
-    for (std::size_t k = 0; k < width; ++k) d[k] += std::fabs(v - double(column[k]));
+    column[q] = columns[first_column + q].data() + begin;
+    v[q] = query_signature[q];
   }
+  for (std::size_t k = 0; k < width; ++k) {
+    double sum = 0.0;
+#pragma GCC unroll 16
+    for (std::size_t q = 0; q < kSignatureLevels; ++q) sum += std::fabs(v[q] - double(column[q][k]));
+    d[k] = sum;
+  }
+}
+
+/// Adds alpha to out[k] for every keyframe k of [0, width) whose signature stump votes
+/// "match", from the distance sums d and the magnitudes (as signatureFromSums forms the value).
+LLC_VECTOR_CLONES
+void addSignatureStump(const Stump& s, bool relative, const double* d, double query_magnitude,
+                       const double* keyframe_magnitude, std::size_t width, double* out) {
+  const double polarity = s.polarity, bound = s.polarity * s.threshold, alpha = s.alpha;
+  if (!relative) {
+    for (std::size_t k = 0; k < width; ++k)
+      out[k] += polarity * (d[k] / double(kSignatureLevels)) < bound ? alpha : 0.0;
+    return;
+  }
+  for (std::size_t k = 0; k < width; ++k) {
+    const double scale = query_magnitude + keyframe_magnitude[k];
+    const double value = scale > 0.0 ? d[k] / scale : 0.0;
+    out[k] += polarity * value < bound ? alpha : 0.0;
+  }
+}
+
+/// How many of partial[0..width) can still reach `needed` with `remaining` more alpha.
+LLC_VECTOR_CLONES
+std::size_t countInRace(const double* partial, std::size_t width, double remaining, double needed) {
+  std::size_t in_race = 0;
+  for (std::size_t k = 0; k < width; ++k) in_race += partial[k] + remaining >= needed;
+  return in_race;
 }
 
 /// Signature value from the distance sum d and the two magnitudes, as signatureDistance.
@@ -148,11 +183,13 @@ void KeyframeStore::reserve(std::size_t keyframes) {
   for (auto& column : columns_) column.reserve(keyframes);
   for (auto& magnitude : magnitudes_) magnitude.reserve(keyframes);
   profiles_.reserve(keyframes * profile_size_);
+  if (profile_size_ > 0) profile_presence_.reserve(keyframes);
 }
 
 std::size_t KeyframeStore::add(const double* features) {
   for (std::size_t f = 0; f < columns_.size(); ++f) columns_[f].push_back(float(features[f]));
   for (std::size_t p = 0; p < profile_size_; ++p) profiles_.push_back(float(features[columns_.size() + p]));
+  if (profile_size_ > 0) profile_presence_.push_back(profilePresence(profiles_.data() + size_ * profile_size_));
   // Each signature's magnitude, from the values as stored (float), for relative distances.
   const std::size_t offset = signatureOffset(set_);
   for (std::size_t g = 0; g < magnitudes_.size(); ++g) {
@@ -184,7 +221,8 @@ void KeyframeStore::scoreAll(const StrongClassifier& classifier, const double* q
   const std::size_t n = columns_.size();
   const StumpLayout layout{n, signatureCount(set_), profilePairFeature(set_)};
   const std::size_t offset = signatureOffset(set_);
-  std::vector<float> query_profile(query + n, query + n + profile_size_);
+  const std::vector<float> query_profile(query + n, query + n + profile_size_);
+  const ProfileComparer profile_query(query_profile.data());
   std::vector<double> profile_distance(kBlock);
   double* out = scores->data();
   for (std::size_t begin = 0; begin < limit; begin += kBlock) {
@@ -209,7 +247,7 @@ void KeyframeStore::scoreAll(const StrongClassifier& classifier, const double* q
         case StumpKind::kProfile:
           if (!profile_done)
             for (std::size_t k = begin; k < end; ++k)
-              profile_distance[k - begin] = profileDistance(query_profile.data(), profiles_.data() + k * profile_size_);
+              profile_distance[k - begin] = profile_query.distance(profiles_.data() + k * profile_size_, profile_presence_[k], kProfileNoOverlap);
           profile_done = true;
           for (std::size_t k = begin; k < end; ++k) out[k] += s.votesMatch(profile_distance[k - begin]) ? s.alpha : 0.0;
           break;
@@ -238,14 +276,13 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   // (Ordering by alpha per unit of work instead, a signature stump costing 3 or 8 scalar
   // ones, measured slower in BM_QueryKeyframes: the heavy stumps prune more.)
   std::stable_sort(cheap.begin(), cheap.end(), [](const Stump& a, const Stump& b) { return a.alpha > b.alpha; });
-  double profile_alpha = 0.0, lowest_profile_threshold = kProfileNoOverlap;
-  for (const Stump& s : profile) {
-    profile_alpha += s.alpha;
-    lowest_profile_threshold = std::min(lowest_profile_threshold, s.threshold);
-  }
+  double profile_alpha = 0.0;
+  for (const Stump& s : profile) profile_alpha += s.alpha;
   // Profile stumps that vote "match" below their threshold, largest threshold first: a keyframe
   // that still needs r of their alpha needs a distance below the threshold where their
   // cumulated alpha first reaches r, so the profile distance may give up at that threshold.
+  // One that needs none still needs its votes, but every distance at or above the largest
+  // threshold gives the same ones (all "no"), so it may give up there.
   bool profile_all_below = true;
   for (const Stump& s : profile) profile_all_below = profile_all_below && s.polarity > 0;
   std::vector<Stump> profile_by_threshold = profile;
@@ -253,7 +290,8 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
             [](const Stump& a, const Stump& b) { return a.threshold > b.threshold; });
   const double alpha_margin = 1e-9 * alpha_sum;  // cumulated alpha in another order: stay safe
   auto rejectAbove = [&](double still_needed) {
-    if (!profile_all_below || still_needed <= alpha_margin) return kProfileNoOverlap;
+    if (!profile_all_below || profile.empty()) return kProfileNoOverlap;
+    if (still_needed <= alpha_margin) return std::min(profile_by_threshold.front().threshold, kProfileNoOverlap);
     double cumulated = 0.0;
     for (const Stump& s : profile_by_threshold) {
       cumulated += s.alpha;
@@ -268,14 +306,17 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   const double needed = classifier.thresholdK() * alpha_sum - 1e-9 * alpha_sum;
   constexpr std::size_t kCheckEvery = 4;
 
-  // Each thread takes a contiguous run of whole blocks, with its own work arrays.
-  auto scanRange = [&](std::size_t range_begin, std::size_t range_end, std::vector<LoopCandidate>* found) {
+  // Each thread takes the next block not yet taken until none is left, with its own work
+  // arrays: a thread slowed by the machine then simply takes fewer blocks.
+  std::atomic<std::size_t> next_block{0};
+  auto scanBlocks = [&](std::vector<LoopCandidate>* found) {
     const std::size_t signatures = signatureCount(set_);
     std::vector<double> partial(kBlock), distance(signatures * kBlock), query_magnitude(signatures);
     for (std::size_t g = 0; g < signatures; ++g) query_magnitude[g] = signatureMagnitude(query + offset + g * kSignatureLevels);
     std::vector<char> signature_ready(signatures);
     std::vector<std::size_t> alive;
-    std::vector<float> query_profile(query + n, query + n + profile_size_);
+    const std::vector<float> query_profile(query + n, query + n + profile_size_);
+    const ProfileComparer profile_query(query_profile.data());
     auto denseSignature = [&](std::size_t g, std::size_t begin, std::size_t width) {
       addSignatureDistances(columns_, offset + g * kSignatureLevels, query + offset + g * kSignatureLevels, begin,
                             width, distance.data() + g * kBlock);
@@ -286,8 +327,8 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
       return signatureFromSums(distance[g * kBlock + k], query_magnitude[g], magnitudes_[g][begin + k], layout.relative(f));
     };
 
-    for (std::size_t begin = range_begin; begin < range_end; begin += kBlock) {
-      const std::size_t width = std::min(range_end, begin + kBlock) - begin;
+    for (std::size_t block = next_block++; block * kBlock < limit; block = next_block++) {
+      const std::size_t begin = block * kBlock, width = std::min(limit, begin + kBlock) - begin;
       std::fill(partial.begin(), partial.begin() + long(width), 0.0);
       std::fill(signature_ready.begin(), signature_ready.end(), 0);
       // Dense: every keyframe of the block, while most of them are still in the race.
@@ -299,13 +340,14 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
         if (layout.kind(f) == StumpKind::kScalar) {
           addScalarStump(s, n, query[f % n], columns_[f % n].data() + begin, width, partial.data());
         } else {
-          if (!signature_ready[layout.signature(f)]) denseSignature(layout.signature(f), begin, width);
-          for (std::size_t k = 0; k < width; ++k) partial[k] += s.votesMatch(signatureOf(f, begin, k)) ? s.alpha : 0.0;
+          const std::size_t g = layout.signature(f);
+          if (!signature_ready[g]) denseSignature(g, begin, width);
+          addSignatureStump(s, layout.relative(f), distance.data() + g * kBlock, query_magnitude[g],
+                            magnitudes_[g].data() + begin, width, partial.data());
         }
         ++i;
         if (i % kCheckEvery == 0 || i == cheap.size()) {
-          std::size_t in_race = 0;
-          for (std::size_t k = 0; k < width; ++k) in_race += partial[k] + remaining[i] >= needed;
+          const std::size_t in_race = countInRace(partial.data(), width, remaining[i], needed);
           dead = in_race == 0;
           sparse = dead || in_race * 4 < width || i == cheap.size();
         }
@@ -349,9 +391,9 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
         for (std::size_t i = 0; i < alive.size(); ++i) {
           const std::size_t k = alive[i];
           if (i + kAhead < alive.size()) prefetchRow(alive[i + kAhead]);
-          // Below every profile threshold, every profile stump's vote is known: stop there.
-          const double value = profileDistance(query_profile.data(), profiles_.data() + (begin + k) * profile_size_,
-                                               lowest_profile_threshold, rejectAbove(needed - partial[k]));
+          const double value =
+              profile_query.distance(profiles_.data() + (begin + k) * profile_size_, profile_presence_[begin + k],
+                                 rejectAbove(needed - partial[k]));
           for (const Stump& s : profile) partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
           if (partial[k] >= needed) alive[kept++] = k;
         }
@@ -367,12 +409,8 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   const std::size_t workers = std::max<std::size_t>(1, std::min<std::size_t>(threads, blocks));
   std::vector<std::vector<LoopCandidate>> found(workers);
   std::vector<std::thread> pool;
-  for (std::size_t w = 0; w < workers; ++w) {
-    const std::size_t range_begin = std::min(limit, blocks * w / workers * kBlock);
-    const std::size_t range_end = std::min(limit, blocks * (w + 1) / workers * kBlock);
-    if (w + 1 == workers) scanRange(range_begin, range_end, &found[w]);  // this thread takes the last run
-    else pool.emplace_back(scanRange, range_begin, range_end, &found[w]);
-  }
+  for (std::size_t w = 0; w + 1 < workers; ++w) pool.emplace_back(scanBlocks, &found[w]);
+  scanBlocks(&found[workers - 1]);  // this thread works too
   for (std::thread& t : pool) t.join();
   for (const auto& part : found) candidates.insert(candidates.end(), part.begin(), part.end());
   const std::size_t keep = std::min(max_candidates, candidates.size());

@@ -49,76 +49,120 @@ void writeRangeProfileBySector(const std::size_t* sectors, const double* clipped
 double profileDistance(const double* a, const double* b) {
   float fa[kProfileSectors], fb[kProfileSectors];
   for (std::size_t s = 0; s < kProfileSectors; ++s) fa[s] = float(a[s]), fb[s] = float(b[s]);
-  return profileDistance(fa, fb, -1.0);
+  return profileDistance(fa, fb);
+}
+
+double profileDistance(const float* a, const float* b, double reject_at_or_above) {
+  return ProfileComparer(a).distance(b, reject_at_or_above);
+}
+
+std::uint64_t profilePresence(const float* profile) {
+  static_assert(kProfileSectors < 64, "sector masks are 64-bit words");
+  std::uint64_t bits = 0;
+  for (std::size_t s = 0; s < kProfileSectors; ++s) bits |= std::uint64_t(profile[s] != float(kProfileEmpty)) << s;
+  return bits;
+}
+
+ProfileComparer::ProfileComparer(const float* a) {
+  constexpr std::size_t n = kProfileSectors;
+  const float empty = float(kProfileEmpty);
+  bits_ = profilePresence(a);
+  count_ = __builtin_popcountll(bits_);
+  const std::uint64_t all = (std::uint64_t(1) << n) - 1;
+  for (std::size_t t = 0; t < 8 * kGroups; ++t)  // bit j of rotation t: sector j - t of a present
+    rotated_[t] = t >= n ? 0 : t == 0 ? bits_ : ((bits_ << t) | (bits_ >> (n - t))) & all;
+  for (std::size_t m = 0; m < kWindow; ++m) {
+    const std::size_t s = (n - 1 + n * 3 - m) % n;  // (n - 1 - m) mod n, m < 3n
+    const bool present = a[s] != empty;
+    values_[m] = present ? a[s] : 0.0f;
+    present_[m] = present ? 1.0f : 0.0f;
+  }
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))  // an AVX2 twin, picked on CPUs that have it
 #endif
-double profileDistance(const float* a, const float* b, double stop_below, double reject_at_or_above) {
+double ProfileComparer::distance(const float* b, std::uint64_t bits_b, double reject_at_or_above) const {
   constexpr std::size_t n = kProfileSectors;
-  constexpr float empty = float(kProfileEmpty);
-  static_assert(kProfileSectors < 64, "sector masks are 64-bit words");
-  // Eight lanes (GCC/Clang vector extension: one AVX register, or two SSE/NEON ones): lane l
-  // sums the sectors s = l mod 8, a fixed order of additions, so every caller and every CPU
-  // gets the same bits. a is padded with empty sectors to a multiple of 8; b is doubled, so
-  // every rotation is a contiguous window; masks replace tests.
+  // Eight rotations per lane group (GCC/Clang vector extension: one AVX register, or two
+  // SSE/NEON ones); lane l of group g is rotation t = 8g + l and sums over b's sectors in
+  // ascending order, so every caller and every CPU gets the same bits.
   typedef float Lanes __attribute__((vector_size(32)));
   typedef int Bits __attribute__((vector_size(32)));
-  constexpr std::size_t padded = (n + 7) / 8 * 8;
-  // Filled element by element: zero-initialising these small arrays (rep stos) cost more
-  // than the arithmetic below.
-  alignas(32) float ma[padded], va[padded], mb[n + padded], vb[n + padded];
-  std::uint64_t bits_a = 0, bits_b = 0;  // sector s present: bit s
-  for (std::size_t s = 0; s < n; ++s) {
-    const bool has_a = a[s] != empty, has_b = b[s] != empty;
-    ma[s] = has_a ? 1.0f : 0.0f;
-    va[s] = has_a ? a[s] : 0.0f;
-    mb[s] = has_b ? 1.0f : 0.0f;
-    vb[s] = has_b ? b[s] : 0.0f;
-    bits_a |= std::uint64_t(has_a) << s;
-    bits_b |= std::uint64_t(has_b) << s;
+  const int needed = std::max(1, int(std::ceil(float(kProfileMinOverlap) * float(std::min(count_, __builtin_popcountll(bits_b))))));
+  // Per rotation: sectors shared, and the float sum at or above which it cannot come under
+  // reject_at_or_above (rounded up by 2^-22: float() of a larger value is still at least the
+  // bound); rotations without enough overlap get -inf, so they never count as alive.
+  const bool prune = reject_at_or_above < kProfileNoOverlap;  // else every rotation is summed
+  // Per rotation: sectors shared (as a double: the divisor), whether it leaves enough overlap,
+  // and the float sum at or above which it cannot come under reject_at_or_above (rounded up by
+  // 2^-22: float() of a larger value is still at least the bound); a rotation without enough
+  // overlap gets -inf, so it never counts as alive.
+  alignas(32) double shared[8 * kGroups];
+  alignas(32) float limit[8 * kGroups];
+  unsigned live = 0;  // bit g: some rotation of group g may still matter
+  for (std::size_t t = 0; t < 8 * kGroups; ++t) {
+    const int common = __builtin_popcountll(rotated_[t] & bits_b);
+    const bool valid = common >= needed;
+    shared[t] = valid ? double(common) : 0.0;
+    live |= unsigned(valid) << (t / 8);
   }
-  for (std::size_t s = n; s < padded; ++s) ma[s] = 0.0f, va[s] = 0.0f;
-  for (std::size_t s = n; s < n + padded; ++s) {
-    mb[s] = s < 2 * n ? mb[s - n] : 0.0f;
-    vb[s] = s < 2 * n ? vb[s - n] : 0.0f;
-  }
-  const int count_a = __builtin_popcountll(bits_a), count_b = __builtin_popcountll(bits_b);
-  const int needed = std::max(1, int(std::ceil(float(kProfileMinOverlap) * float(std::min(count_a, count_b)))));
-  const std::uint64_t all = (std::uint64_t(1) << n) - 1;
+  const float bound = prune ? 1.0f : std::numeric_limits<float>::infinity();
+  for (std::size_t t = 0; t < 8 * kGroups; ++t)
+    limit[t] = shared[t] == 0.0 ? -std::numeric_limits<float>::infinity()
+                                : bound * float(reject_at_or_above * shared[t] * (1.0 + 0x1p-22));
   const Bits magnitude = ~(Bits)(Lanes{-0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f});
-  auto reduce = [](const Lanes& v) { return ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7])); };
-  double best = kProfileNoOverlap;
-  for (std::size_t shift = 0; shift < n; ++shift) {
-    // Sectors shared at this rotation (sector j of a against sector j + shift of b), counted
-    // from the masks first: a rotation without enough overlap costs no arithmetic.
-    const std::uint64_t rotated = shift == 0 ? bits_b : ((bits_b >> shift) | (bits_b << (n - shift))) & all;
-    const int shared = __builtin_popcountll(bits_a & rotated);
-    if (shared < needed) continue;
-    // Sums of non-negative terms only grow (rounding is monotone), so a partial sum already at
-    // the limit proves this rotation cannot go below min(best, reject_at_or_above).
-    // Rounded up: float() of a value 2^-22 larger is still at least the bound.
-    const float limit = float(std::min(best, reject_at_or_above) * double(shared) * (1.0 + 0x1p-22));
-    Lanes sum = {};
-    bool beaten = false;
-    for (std::size_t s = 0; s < padded; s += 8) {
-      Lanes xa, xm, ya, ym;
-      std::memcpy(&xa, va + s, sizeof xa);
-      std::memcpy(&xm, ma + s, sizeof xm);
-      std::memcpy(&ya, vb + s + shift, sizeof ya);
-      std::memcpy(&ym, mb + s + shift, sizeof ym);
-      const Lanes difference = (Lanes)((Bits)(xa - ya) & magnitude);  // |x| by clearing the sign bit
-      sum += (xm * ym) * difference;
-      if (s == 16 && reduce(sum) >= limit) {
-        beaten = true;
-        break;
-      }
+  Lanes sum[kGroups];
+  for (Lanes& group : sum) group = Lanes{};  // (an aggregate = {} became a slow rep stos)
+  auto stillAlive = [&](std::size_t g) {
+    Lanes bound;
+    std::memcpy(&bound, limit + 8 * g, sizeof bound);
+    // Any lane below its bound: OR of the compare masks, folded by halves.
+    Bits any = sum[g] < bound;
+    any |= __builtin_shufflevector(any, any, 4, 5, 6, 7, 0, 1, 2, 3);
+    any |= __builtin_shufflevector(any, any, 2, 3, 0, 1, 6, 7, 4, 5);
+    any |= __builtin_shufflevector(any, any, 1, 0, 3, 2, 5, 4, 7, 6);
+    return any[0] != 0;
+  };
+  for (std::size_t j = 0; j < n && live != 0; ++j) {
+    // Sums of non-negative terms only grow (rounding is monotone): a group whose every
+    // rotation is already at its limit cannot give a distance below reject_at_or_above.
+    if (prune && j % 12 == 0 && j > 0)
+      for (std::size_t g = 0; g < kGroups; ++g)
+        if ((live >> g & 1) != 0 && !stillAlive(g)) live &= ~(1u << g);
+    if ((bits_b >> j & 1) == 0) continue;
+    const float v = b[j];
+    const Lanes bv = {v, v, v, v, v, v, v, v};
+    const float* window = values_ + (n - 1 - j);
+    const float* present = present_ + (n - 1 - j);
+    for (std::size_t g = 0; g < kGroups; ++g) {
+      if ((live >> g & 1) == 0) continue;
+      Lanes av, ap;
+      std::memcpy(&av, window + 8 * g, sizeof av);
+      std::memcpy(&ap, present + 8 * g, sizeof ap);
+      sum[g] += ap * (Lanes)((Bits)(av - bv) & magnitude);  // |a - b| where a is present, else 0
     }
-    if (beaten) continue;
-    best = std::min(best, double(reduce(sum)) / double(shared));
-    if (best < stop_below) break;
   }
+  // The smallest mean over the rotations still alive: four divisions per vector, the same
+  // correctly rounded quotients a scalar loop forms; a rotation that does not count gets
+  // kProfileNoOverlap.
+  typedef double Quad __attribute__((vector_size(32)));
+  typedef long long QuadBits __attribute__((vector_size(32)));
+  alignas(32) float sums[8 * kGroups];
+  std::memcpy(sums, sum, sizeof sums);
+  const Quad none = {kProfileNoOverlap, kProfileNoOverlap, kProfileNoOverlap, kProfileNoOverlap};
+  Quad lowest = none;
+  for (std::size_t t = 0; t < 8 * kGroups; t += 4) {
+    if ((live >> (t / 8) & 1) == 0) continue;
+    Quad divisor;
+    std::memcpy(&divisor, shared + t, sizeof divisor);
+    const QuadBits counts = divisor > 0.0;
+    const Quad total = {double(sums[t]), double(sums[t + 1]), double(sums[t + 2]), double(sums[t + 3])};
+    const Quad mean = counts ? total / (counts ? divisor : none) : none;
+    lowest = mean < lowest ? mean : lowest;
+  }
+  double best = kProfileNoOverlap;
+  for (int l = 0; l < 4; ++l) best = lowest[l] < best ? lowest[l] : best;
   return best;
 }
 

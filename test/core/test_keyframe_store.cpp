@@ -32,7 +32,9 @@ std::vector<std::vector<double>> randomKeyframes(std::size_t count, std::uint64_
 }
 
 /// A classifier over every kind of pair feature: scalar, relative, signature, profile.
-llc::StrongClassifier mixedClassifier(llc::Random& random, double k) {
+/// With profile_below, every profile stump votes "match" below its threshold (the case in which
+/// the query may stop a profile distance at the largest threshold).
+llc::StrongClassifier mixedClassifier(llc::Random& random, double k, bool profile_below = false) {
   const llc::FeatureSet set = llc::FeatureSet::kExtended;
   const std::size_t pairs = llc::pairFeatureCount(set);
   std::vector<llc::Stump> stumps;
@@ -40,7 +42,9 @@ llc::StrongClassifier mixedClassifier(llc::Random& random, double k) {
     const int feature = t % 10 == 0 ? int(llc::profilePairFeature(set))
                         : t % 7 == 0 ? int(pairs - 2 - random.index(6))
                                      : int(random.index(2 * llc::scalarFeatureCount(set)));
-    stumps.push_back({feature, random.uniform() < 0.5 ? 1 : -1, random.uniform(0, 1), random.uniform(0.1, 2)});
+    const bool profile = feature == int(llc::profilePairFeature(set));
+    const int polarity = random.uniform() < 0.5 || (profile && profile_below) ? 1 : -1;
+    stumps.push_back({feature, polarity, random.uniform(0, 1), random.uniform(0.1, 2)});
   }
   return llc::StrongClassifier(stumps, k);
 }
@@ -70,8 +74,9 @@ TEST(KeyframeStore, QueryFindsExactlyTheKeyframesScoringAtLeastK) {
   const auto rows = randomKeyframes(count, 4);
   llc::KeyframeStore store(set);
   for (const auto& row : rows) store.add(row.data());
-  for (double k : {0.3, 0.5, 0.7, 0.9}) {
-    const llc::StrongClassifier classifier = mixedClassifier(random, k);
+  for (double k : {0.3, 0.5, 0.7, 0.9, 0.3, 0.5, 0.7, 0.9}) {
+    static int round = 0;
+    const llc::StrongClassifier classifier = mixedClassifier(random, k, round++ >= 4);
     for (std::size_t q : {std::size_t(0), std::size_t(123), count - 1}) {
       std::vector<double> scores;
       store.scoreAll(classifier, rows[q].data(), count, &scores);

@@ -1,6 +1,7 @@
 // The range profile and its distance at the best rotation, by hand and as invariants.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "laser_loop_closure/core/features.hpp"
@@ -116,7 +117,7 @@ TEST(RangeProfile, GivingUpAtALimitNeverChangesADistanceBelowIt) {
     }
     const double full = llc::profileDistance(a, b);
     const double limit = random.uniform(0.2, 1.6);
-    const double limited = llc::profileDistance(a, b, -1.0, limit);
+    const double limited = llc::profileDistance(a, b, limit);
     if (full < limit) {
       ++below;
       EXPECT_EQ(limited, full) << "trial " << trial;
@@ -130,3 +131,50 @@ TEST(RangeProfile, GivingUpAtALimitNeverChangesADistanceBelowIt) {
 }
 
 }  // namespace
+
+namespace {
+
+/// The definition, plainly: for every rotation t (sector s of a against sector s + t of b),
+/// the absolute differences over the sectors both cover, summed in float in ascending order
+/// of b's sector, divided in double by their number; the least over rotations with enough
+/// overlap.
+double referenceProfileDistance(const float* a, const float* b) {
+  const std::size_t n = kProfileSectors;
+  const float empty = float(llc::kProfileEmpty);
+  int count_a = 0, count_b = 0;
+  for (std::size_t s = 0; s < n; ++s) count_a += a[s] != empty, count_b += b[s] != empty;
+  const int needed = std::max(1, int(std::ceil(float(llc::kProfileMinOverlap) * float(std::min(count_a, count_b)))));
+  double best = llc::kProfileNoOverlap;
+  for (std::size_t t = 0; t < n; ++t) {
+    float sum = 0.0f;
+    int shared = 0;
+    for (std::size_t j = 0; j < n; ++j) {
+      const float x = a[(j + n - t) % n], y = b[j];
+      if (x == empty || y == empty) continue;
+      sum += std::fabs(x - y);
+      ++shared;
+    }
+    if (shared >= needed) best = std::min(best, double(sum) / double(shared));
+  }
+  return best;
+}
+
+TEST(RangeProfile, ComparerMatchesThePlainDefinitionBitForBit) {
+  llc::Random random(33);
+  for (int trial = 0; trial < 2000; ++trial) {
+    float a[kProfileSectors], b[kProfileSectors];
+    const double gaps_a = trial % 4 == 0 ? 0.0 : random.uniform(0.0, 0.7), gaps_b = random.uniform(0.0, 0.7);
+    for (std::size_t s = 0; s < kProfileSectors; ++s) {
+      a[s] = random.uniform() < gaps_a ? float(llc::kProfileEmpty) : float(random.uniform(0.0, 4.0));
+      b[s] = random.uniform() < gaps_b ? float(llc::kProfileEmpty) : float(random.uniform(0.0, 4.0));
+    }
+    if (trial % 5 == 0) std::fill(b + kProfileSectors / 2, b + kProfileSectors, float(llc::kProfileEmpty));  // 180 degrees
+    const double expected = referenceProfileDistance(a, b);
+    const llc::ProfileComparer comparer(a);
+    EXPECT_EQ(comparer.distance(b), expected) << "trial " << trial;
+    EXPECT_EQ(llc::profileDistance(a, b), expected) << "trial " << trial;
+  }
+}
+
+}  // namespace
+

@@ -95,8 +95,9 @@ TEST(VectorKernels, DistancesAndTurnsEqualTheScalarFormulasBitForBit) {
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (x[i] - 1.5) - 0.25, v = (y[i] + 2.0) - 0.5;
     ASSERT_EQ(centred[i], std::sqrt(u * u + v * v));
-    if (i + 2 < n)
+    if (i + 2 < n) {
       ASSERT_EQ(turns[i], llc::angleBetween(x[i + 1] - x[i], y[i + 1] - y[i], x[i + 2] - x[i + 1], y[i + 2] - y[i + 1]));
+    }
   }
   EXPECT_EQ(turns[n - 2], -7.0);
   EXPECT_EQ(turns[n - 1], -7.0);

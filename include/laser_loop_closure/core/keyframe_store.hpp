@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "laser_loop_closure/core/adaboost.hpp"
@@ -56,6 +57,7 @@ class KeyframeStore {
   std::vector<std::vector<float>> columns_;  ///< scalar features, one array each
   std::size_t profile_size_;                 ///< range-profile values per keyframe
   std::vector<float> profiles_;              ///< range profiles, keyframe after keyframe
+  std::vector<std::uint64_t> profile_presence_;  ///< profilePresence of each keyframe's profile
   std::vector<std::vector<double>> magnitudes_;  ///< per signature: signatureMagnitude of each keyframe's stored values
   std::size_t size_ = 0;
 };

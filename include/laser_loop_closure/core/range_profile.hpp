@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace llc {
 
@@ -36,14 +37,39 @@ void writeRangeProfileBySector(const std::size_t* sectors, const double* clipped
 /// 0 for a profile and any whole-sector rotation of it; kProfileNoOverlap when no rotation
 /// leaves enough overlap.
 /// Computed in single precision: profiles are coarse, and the keyframe store keeps them so.
+/// For the rotation t (sector s of a against sector s + t of b) the differences are summed in
+/// float in ascending order of b's sector, then divided (in double) by the sectors shared.
 double profileDistance(const double* a, const double* b);
-/// The same; with stop_below > 0 it may stop at the first rotation closer than stop_below and
-/// return that distance (which is then below stop_below, as the minimum is): enough for a
-/// classifier whose profile thresholds are all at or above stop_below, and cheaper.
-/// With reject_at_or_above finite it may also give up on a pair whose distance is at least
-/// that, and then returns some value >= reject_at_or_above (for a classifier that drops the
-/// pair whenever the distance is that large).
-double profileDistance(const float* a, const float* b, double stop_below = -1.0,
-                       double reject_at_or_above = kProfileNoOverlap);
+/// The same. With reject_at_or_above below kProfileNoOverlap it may give up on a pair whose
+/// distance is at least that, and then returns some value >= reject_at_or_above (for a
+/// classifier that drops the pair whenever the distance is that large); any distance below it
+/// is returned bit for bit.
+double profileDistance(const float* a, const float* b, double reject_at_or_above = kProfileNoOverlap);
+
+/// Bit s set when sector s of the profile is not kProfileEmpty.
+std::uint64_t profilePresence(const float* profile);
+
+/// The first profile of profileDistance prepared once, for comparing one profile (a query)
+/// with many (the keyframes): its every rotation laid out so that one vector loop serves
+/// eight rotations at once. distance(b, r) == profileDistance(a, b, r), bit for bit.
+class ProfileComparer {
+ public:
+  explicit ProfileComparer(const float* a);
+  double distance(const float* b, double reject_at_or_above = kProfileNoOverlap) const {
+    return distance(b, profilePresence(b), reject_at_or_above);
+  }
+  /// The same with b's profilePresence(b) computed beforehand (a keyframe store keeps it).
+  double distance(const float* b, std::uint64_t present_b, double reject_at_or_above) const;
+
+ private:
+  static constexpr std::size_t kGroups = (kProfileSectors + 7) / 8;  ///< rotations, eight per group
+  static constexpr std::size_t kWindow = kProfileSectors + 8 * kGroups;
+  /// values_[m] = a[(n - 1 - m) mod n] (0 when that sector is empty), present_[m] its 1/0:
+  /// rotations t..t+7 against b's sector j read m = n - 1 - j + t onwards, contiguously.
+  alignas(32) float values_[kWindow], present_[kWindow];
+  std::uint64_t bits_ = 0;  ///< bit s: sector s of a present
+  std::uint64_t rotated_[8 * kGroups] = {};  ///< rotation t of bits_ (bit j: sector j - t present), 0 past n
+  int count_ = 0;
+};
 
 }  // namespace llc
