@@ -90,9 +90,6 @@ double ProfileComparer::distance(const float* b, std::uint64_t bits_b, double re
   typedef float Lanes __attribute__((vector_size(32)));
   typedef int Bits __attribute__((vector_size(32)));
   const int needed = std::max(1, int(std::ceil(float(kProfileMinOverlap) * float(std::min(count_, __builtin_popcountll(bits_b))))));
-  // Per rotation: sectors shared, and the float sum at or above which it cannot come under
-  // reject_at_or_above (rounded up by 2^-22: float() of a larger value is still at least the
-  // bound); rotations without enough overlap get -inf, so they never count as alive.
   const bool prune = reject_at_or_above < kProfileNoOverlap;  // else every rotation is summed
   // Per rotation: sectors shared (as a double: the divisor), whether it leaves enough overlap,
   // and the float sum at or above which it cannot come under reject_at_or_above (rounded up by
@@ -113,12 +110,12 @@ double ProfileComparer::distance(const float* b, std::uint64_t bits_b, double re
                                 : bound * float(reject_at_or_above * shared[t] * (1.0 + 0x1p-22));
   const Bits magnitude = ~(Bits)(Lanes{-0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f, -0.0f});
   Lanes sum[kGroups];
-  for (Lanes& group : sum) group = Lanes{};  // (an aggregate = {} became a slow rep stos)
+  for (Lanes& group : sum) group = Lanes{};
   auto stillAlive = [&](std::size_t g) {
-    Lanes bound;
-    std::memcpy(&bound, limit + 8 * g, sizeof bound);
-    // Any lane below its bound: OR of the compare masks, folded by halves.
-    Bits any = sum[g] < bound;
+    Lanes limits;
+    std::memcpy(&limits, limit + 8 * g, sizeof limits);
+    // Any lane below its limit: OR of the compare masks, folded by halves.
+    Bits any = sum[g] < limits;
     any |= __builtin_shufflevector(any, any, 4, 5, 6, 7, 0, 1, 2, 3);
     any |= __builtin_shufflevector(any, any, 2, 3, 0, 1, 6, 7, 4, 5);
     any |= __builtin_shufflevector(any, any, 1, 0, 3, 2, 5, 4, 7, 6);
