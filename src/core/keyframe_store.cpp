@@ -127,24 +127,6 @@ void addSignatureDistances(const std::vector<std::vector<float>>& columns, std::
   }
 }
 
-/// Adds alpha to out[k] for every keyframe k of [0, width) whose signature stump votes
-/// "match", from the distance sums d and the magnitudes (as signatureFromSums forms the value).
-LLC_VECTOR_CLONES
-void addSignatureStump(const Stump& s, bool relative, const double* d, double query_magnitude,
-                       const double* keyframe_magnitude, std::size_t width, double* out) {
-  const double polarity = s.polarity, bound = s.polarity * s.threshold, alpha = s.alpha;
-  if (!relative) {
-    for (std::size_t k = 0; k < width; ++k)
-      out[k] += polarity * (d[k] / double(kSignatureLevels)) < bound ? alpha : 0.0;
-    return;
-  }
-  for (std::size_t k = 0; k < width; ++k) {
-    const double scale = query_magnitude + keyframe_magnitude[k];
-    const double value = scale > 0.0 ? d[k] / scale : 0.0;
-    out[k] += polarity * value < bound ? alpha : 0.0;
-  }
-}
-
 /// How many of partial[0..width) can still reach `needed` with `remaining` more alpha.
 LLC_VECTOR_CLONES
 std::size_t countInRace(const double* partial, std::size_t width, double remaining, double needed) {
@@ -158,6 +140,15 @@ inline double signatureFromSums(double d, double query_magnitude, double keyfram
   if (!relative) return d / double(kSignatureLevels);
   const double scale = query_magnitude + keyframe_magnitude;
   return scale > 0.0 ? d / scale : 0.0;
+}
+
+/// Adds alpha to out[k] for every keyframe k of [0, width) whose signature stump votes
+/// "match", from the distance sums d and the keyframes' magnitudes.
+LLC_VECTOR_CLONES
+void addSignatureStump(const Stump& s, bool relative, const double* d, double query_magnitude,
+                       const double* keyframe_magnitude, std::size_t width, double* out) {
+  for (std::size_t k = 0; k < width; ++k)
+    out[k] += s.votesMatch(signatureFromSums(d[k], query_magnitude, keyframe_magnitude[k], relative)) ? s.alpha : 0.0;
 }
 
 /// Signature distance sum of the query to keyframe `k`, as signatureDistance forms it.
