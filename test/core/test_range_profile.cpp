@@ -178,3 +178,24 @@ TEST(RangeProfile, ComparerMatchesThePlainDefinitionBitForBit) {
 
 }  // namespace
 
+
+namespace {
+
+TEST(RangeProfile, NonFiniteSectorsGiveAValueNotACrash) {
+  // Profiles from writeRangeProfile are finite; a corrupt stored row must still give a number
+  // in [0, kProfileNoOverlap] (NaN differences never win the minimum), never a crash.
+  float a[kProfileSectors], b[kProfileSectors];
+  for (std::size_t s = 0; s < kProfileSectors; ++s) a[s] = b[s] = 1.0f + 0.1f * float(s);
+  b[3] = NAN;
+  b[7] = INFINITY;
+  b[11] = -INFINITY;
+  for (const double limit : {0.5, llc::kProfileNoOverlap}) {
+    const double d = llc::ProfileComparer(a).distance(b, limit);
+    EXPECT_GE(d, 0.0);
+    EXPECT_LE(d, llc::kProfileNoOverlap);
+  }
+  // Against itself: the same value as the plain definition, NaN and inf sums included.
+  EXPECT_EQ(llc::ProfileComparer(b).distance(b), referenceProfileDistance(b, b));
+}
+
+}  // namespace
