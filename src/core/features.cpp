@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/features.hpp"
 
+#include "laser_loop_closure/core/feature_kernels.hpp"
 #include "laser_loop_closure/core/outline.hpp"
 #include "laser_loop_closure/core/range_profile.hpp"
 #include "laser_loop_closure/core/rank_selection.hpp"
@@ -12,50 +13,7 @@
 namespace llc {
 namespace {
 
-const std::vector<std::string> kPaperNames = {
-    "area",              "average_range",    "centroid",          "close_area",
-    "close_distance",    "circle_radius",    "circle_residual",   "curvature_mean",
-    "curvature_std",     "distance",         "far_distance",      "group_count",
-    "group_size_mean",   "max_range_count",  "angular_difference", "mean_deviation",
-    "regularity",        "size",             "deviation_std",     "range_std"};
-
-// The project's additions. Counts are normalised by the beam count so that a model carries
-// over between scanners of different resolution; the rest are distributions and shape.
-const std::vector<std::string> kExtraNames = {
-    "valid_fraction",      "max_range_fraction",  "group_size_fraction",
-    "range_q10",           "range_q25",           "range_q50",
-    "range_q75",           "range_q90",           "principal_sigma_major",
-    "principal_sigma_minor", "anisotropy",        "gap_count",
-    "widest_gap_angle",    "longest_group_length", "group_length_mean",
-    "range_hist_0_1",      "range_hist_1_2",      "range_hist_2_4",
-    "range_hist_4_8",      "range_hist_8_16",     "range_hist_16_max"};
-
-std::vector<std::string> concat(const std::vector<std::string>& a,
-                                const std::vector<std::string>& b) {
-  std::vector<std::string> all = a;
-  all.insert(all.end(), b.begin(), b.end());
-  return all;
-}
-
-// Signatures: distributions kept as kSignatureLevels quantiles, compared as distributions.
-const char* const kSignatureNames[kSignatureCount] = {"range_distribution", "centroid_distance_distribution",
-                                                       "chord_distribution", "outline_d2_distribution",
-                                                       "outline_centroid_distance_distribution"};
-
-std::vector<std::string> signatureValueNames() {
-  std::vector<std::string> names;
-  for (const char* signature : kSignatureNames)
-    for (std::size_t q = 0; q < kSignatureLevels; ++q) names.push_back(std::string(signature) + "_" + std::to_string(q));
-  return names;
-}
-
-std::vector<std::string> profileValueNames() {
-  std::vector<std::string> names;
-  for (std::size_t s = 0; s < kProfileSectors; ++s) names.push_back("range_profile_" + std::to_string(s));
-  return names;
-}
-
-/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels) of the selector's values; zeros when empty.
+/// Writes kSignatureLevels quantiles (at (q + 0.5) / levels, nearest rank) of the selector's values; zeros when empty.
 void writeQuantiles(RankSelector& values, double* out) {
   const std::size_t m = values.size();
   for (std::size_t q = 0; q < kSignatureLevels; ++q)
@@ -76,51 +34,6 @@ double sampleStd(double sum_sq_dev, std::size_t n) {
 
 }  // namespace
 
-const char* toString(FeatureSet set) { return set == FeatureSet::kPaper ? "paper" : "extended"; }
-
-bool parseFeatureSet(const std::string& text, FeatureSet* set) {
-  if (text == "paper") *set = FeatureSet::kPaper;
-  else if (text == "extended") *set = FeatureSet::kExtended;
-  else return false;
-  return true;
-}
-
-std::string FeatureOptions::validate() const {
-  if (!(std::isfinite(r_max) && r_max > 0.0)) return "r_max must be a positive number of metres";
-  if (!(std::isfinite(g_max_dist) && g_max_dist > 0.0))
-    return "g_max_dist must be a positive number of metres";
-  if (g_min_size < 0) return "g_min_size must be zero or more points";
-  return {};
-}
-
-bool FeatureOptions::operator==(const FeatureOptions& o) const {
-  return r_max == o.r_max && g_max_dist == o.g_max_dist && g_min_size == o.g_min_size &&
-         closed_ring == o.closed_ring && feature_set == o.feature_set;
-}
-
-std::size_t scalarFeatureCount(FeatureSet set) {
-  return set == FeatureSet::kPaper ? kPaperNames.size()
-                                   : kPaperNames.size() + kExtraNames.size() + kSignatureCount * kSignatureLevels;
-}
-
-std::size_t featureCount(FeatureSet set) {
-  return scalarFeatureCount(set) + (set == FeatureSet::kPaper ? 0 : kProfileSectors);
-}
-
-std::size_t profileOffset(FeatureSet set) { return scalarFeatureCount(set); }
-
-std::size_t signatureOffset(FeatureSet set) {
-  return set == FeatureSet::kPaper ? scalarFeatureCount(set) : kPaperNames.size() + kExtraNames.size();
-}
-
-std::size_t signatureCount(FeatureSet set) { return set == FeatureSet::kPaper ? 0 : kSignatureCount; }
-
-const std::vector<std::string>& featureNames(FeatureSet set) {
-  static const std::vector<std::string> extended =
-      concat(concat(concat(kPaperNames, kExtraNames), signatureValueNames()), profileValueNames());
-  return set == FeatureSet::kPaper ? kPaperNames : extended;
-}
-
 FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(options) {
   const std::string error = options_.validate();
   if (!error.empty()) throw std::invalid_argument("feature options: " + error);
@@ -135,12 +48,15 @@ void FeatureExtractor::updateTrigonometry(const std::vector<double>& bearings) {
   half_sin_.assign(n, 0.0);
   sector_.resize(n);
   for (std::size_t i = 0; i < n; ++i) sector_[i] = profileSector(bearings[i]);
+  // A beam whose bearing is NaN or infinite gets cosine and sine 0, which prepareBeams takes as
+  // no return (they are never both 0 otherwise); sines of half steps next to it are 0 too.
+  auto finiteOrZero = [](double value) { return std::isfinite(value) ? value : 0.0; };
   for (std::size_t i = 0; i < n; ++i) {
-    cos_[i] = std::cos(bearings[i]);
-    sin_[i] = std::sin(bearings[i]);
-    if (i + 1 < n) half_sin_[i] = std::sin(0.5 * (bearings[i + 1] - bearings[i]));
+    cos_[i] = finiteOrZero(std::cos(bearings[i]));
+    sin_[i] = finiteOrZero(std::sin(bearings[i]));
+    if (i + 1 < n) half_sin_[i] = finiteOrZero(std::sin(0.5 * (bearings[i + 1] - bearings[i])));
   }
-  seam_half_sin_ = n > 0 ? std::sin(0.5 * (bearings[0] + 2.0 * M_PI - bearings[n - 1])) : 0.0;
+  seam_half_sin_ = n > 0 ? finiteOrZero(std::sin(0.5 * (bearings[0] + 2.0 * M_PI - bearings[n - 1]))) : 0.0;
 }
 
 std::vector<double> FeatureExtractor::extract(const Scan& scan) {
@@ -150,39 +66,30 @@ std::vector<double> FeatureExtractor::extract(const Scan& scan) {
 }
 
 void FeatureExtractor::extract(const Scan& scan, double* out) {
-  const double r_max = options_.r_max;
   const double gate = options_.g_max_dist;
   const std::size_t n = std::min(scan.ranges.size(), scan.bearings.size());
   std::fill(out, out + size(), 0.0);
   if (n == 0) return;
   updateTrigonometry(scan.bearings);
   const bool closed = options_.closed_ring && scan.full_circle && n >= 3;
-  const std::size_t pair_count = closed ? n : n - 1;  // neighbour pairs (i, i+1 mod n)
   auto next = [n](std::size_t i) { return i + 1 == n ? 0 : i + 1; };
+  // Angular step of the scanner for #4 and the gaps: the mean spacing of the beams.
+  double angle_step = 0.0;
+  if (closed) angle_step = 2.0 * M_PI / double(n);
+  else if (n > 1) angle_step = (scan.bearings[n - 1] - scan.bearings[0]) / double(n - 1);
 
   // Beams: valid = finite return nearer than r_max; everything else counts as max-range and
-  // is clipped to r_max where a feature needs a range (#1, #2, #11).
-  clipped_.resize(n); x_.resize(n); y_.resize(n); valid_.resize(n);
-  std::size_t valid_count = 0;
-  double sum_x = 0.0, sum_y = 0.0, sum_r = 0.0, sum_clipped = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double r = scan.ranges[i];
-    const bool valid = std::isfinite(r) && r > 0.0 && r < r_max;
-    valid_[i] = valid;
-    clipped_[i] = valid ? r : r_max;
-    x_[i] = clipped_[i] * cos_[i];
-    y_[i] = clipped_[i] * sin_[i];
-    sum_clipped += clipped_[i];
-    if (valid) {
-      ++valid_count;
-      sum_x += x_[i];
-      sum_y += y_[i];
-      sum_r += r;
-    }
-  }
-  const double mean_x = safeDiv(sum_x, double(valid_count));
-  const double mean_y = safeDiv(sum_y, double(valid_count));
-  const double mean_r = safeDiv(sum_r, double(valid_count));
+  // is clipped to r_max where a feature needs a range (#1, #2, #11). The points get room after
+  // them for a closed ring's first half again (the chords below).
+  const std::size_t padded = n + n / 2 + 1;
+  clipped_.resize(n); x_.resize(padded); y_.resize(padded); valid_.resize(padded); valid_weight_.resize(n);
+  const BeamSums beams = prepareBeams(scan.ranges.data(), cos_.data(), sin_.data(), n, options_.r_max,
+                                      valid_weight_.data(), clipped_.data(), x_.data(), y_.data());
+  for (std::size_t i = 0; i < n; ++i) valid_[i] = valid_weight_[i] != 0.0;
+  const std::size_t valid_count = beams.valid;
+  const double mean_x = safeDiv(beams.x, double(valid_count));
+  const double mean_y = safeDiv(beams.y, double(valid_count));
+  const double mean_r = safeDiv(beams.range, double(valid_count));
 
   // Distances between neighbours, computed once: step_[i] = |p[i+1] - p[i]| (the seam's too
   // on a closed ring), for #11 over every pair and for the segments between valid points.
@@ -190,195 +97,135 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   distancesAhead(x_.data(), y_.data(), n, 1, step_.data());
   step_[n - 1] = closed ? pointDistance(x_[n - 1], y_[n - 1], x_[0], y_[0]) : 0.0;
 
-  // #1 area and #11 far distance run over every neighbour pair.
-  double area = 0.0, far_distance = 0.0;
-  for (std::size_t i = 0; i < pair_count; ++i) {
-    const std::size_t j = next(i);
-    area += clipped_[i] * clipped_[j] * (j == 0 ? seam_half_sin_ : half_sin_[i]);
-    far_distance += step_[i];
-  }
-
-  // Segments between neighbouring valid points (-1 where either end is not valid).
+  // #1 area, #11 far distance over every neighbour pair; #5 #10 #17 over the segments between
+  // neighbouring valid points (segment_[i] = -1 where either end is not valid).
   segment_.resize(n);
-  double distance = 0.0, close_distance = 0.0, sum_seg_sq = 0.0;
-  std::size_t segment_count = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t j = next(i);
-    if (i < pair_count && valid_[i] && valid_[j]) {
-      const double d = step_[i];
-      segment_[i] = d;
-      distance += d;
-      if (d < gate) close_distance += d;
-      ++segment_count;
-    } else {
-      segment_[i] = -1.0;
+  NeighbourSums pairs = sumNeighbours(clipped_.data(), half_sin_.data(), step_.data(), valid_weight_.data(), n, gate,
+                                      segment_.data());
+  segment_[n - 1] = -1.0;
+  if (closed) {  // the seam's pair (n - 1, 0)
+    const double d = step_[n - 1];
+    pairs.area += clipped_[n - 1] * clipped_[0] * seam_half_sin_;
+    pairs.far_distance += d;
+    if (valid_[n - 1] && valid_[0]) {
+      segment_[n - 1] = d;
+      pairs.distance += d;
+      if (d < gate) pairs.close_distance += d;
+      ++pairs.segments;
     }
   }
-  const double segment_mean = safeDiv(distance, double(segment_count));
-  for (std::size_t i = 0; i < n; ++i)
-    if (segment_[i] >= 0.0) sum_seg_sq += (segment_[i] - segment_mean) * (segment_[i] - segment_mean);
+  const double segment_mean = safeDiv(pairs.distance, double(pairs.segments));
+  const double segment_std = sampleStd(sumSquaredDeviations(segment_.data(), n, segment_mean), pairs.segments);
 
   // #8 #9 curvature and #15 angular difference over triples of neighbouring valid points.
-  double sum_k = 0.0, angular = 0.0;
-    const std::size_t triple_count = closed ? n : (n >= 2 ? n - 2 : 0);
-  // |p[a+2] - p[a]|, with the two wrapped triples of a closed ring.
-  skip2_.resize(n);
+  skip2_.resize(n);  // |p[a+2] - p[a]|
   distancesAhead(x_.data(), y_.data(), n, 2, skip2_.data());
-  // The turn at every interior point (#15), likewise.
-  turn_.resize(n);
+  turn_.resize(n);  // the turn at every interior point
   turnAngles(x_.data(), y_.data(), n, turn_.data());
-  if (closed) {
+  curvature_.resize(n);
+  TripleSums triples = sumTriples(x_.data(), y_.data(), segment_.data(), skip2_.data(), turn_.data(), n,
+                                  curvature_.data());
+  if (closed) {  // the two triples through the seam
     for (std::size_t a = n - 2; a < n; ++a) {
       const std::size_t b = next(a), c = next(b);
       skip2_[a] = pointDistance(x_[a], y_[a], x_[c], y_[c]);
       turn_[a] = angleBetween(x_[b] - x_[a], y_[b] - y_[a], x_[c] - x_[b], y_[c] - y_[b]);
+      if (segment_[a] > 0.0 && segment_[b] > 0.0) triples.turn += turn_[a];
+      curvature_[a] = tripleCurvature(x_[a], y_[a], x_[b], y_[b], x_[c], y_[c], segment_[a], segment_[b], skip2_[a]);
+      if (curvature_[a] >= 0.0) triples.curvature += curvature_[a], ++triples.curved;
     }
   }
-  curvature_.resize(n);
-  std::size_t curvature_count = 0;
-  for (std::size_t a = 0; a < triple_count; ++a) {
-    const std::size_t b = next(a), c = next(b);
-    const double da = segment_[a], db = segment_[b];
-    if (da <= 0.0 || db <= 0.0) continue;  // an end not valid, or a zero-length segment
-    const double ux = x_[b] - x_[a], uy = y_[b] - y_[a];
-    const double vx = x_[c] - x_[b], vy = y_[c] - y_[b];
-    const double cross = ux * vy - uy * vx;
-    angular += turn_[a];
-    const double dc = skip2_[a];
-    if (dc <= 0.0) continue;
-    const double k = 2.0 * std::abs(cross) / (da * db * dc);  // 4 * triangle area / sides
-    sum_k += k;
-    curvature_[curvature_count++] = k;
-  }
-  const double k_mean = safeDiv(sum_k, double(curvature_count));
-  double sum_k_sq_dev = 0.0;
-  for (std::size_t i = 0; i < curvature_count; ++i) sum_k_sq_dev += (curvature_[i] - k_mean) * (curvature_[i] - k_mean);
-  const double k_std = sampleStd(sum_k_sq_dev, curvature_count);
+  const std::size_t triple_count = closed ? n : (n >= 2 ? n - 2 : 0);
+  const double k_mean = safeDiv(triples.curvature, double(triples.curved));
+  const double k_std = sampleStd(sumSquaredDeviations(curvature_.data(), triple_count, k_mean), triples.curved);
 
   // #12 #13 groups: runs of valid neighbours closer than the gate; with a closed ring the run
   // through the seam is one group.
+  linked_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) linked_[i] = segment_[i] >= 0.0 && segment_[i] < gate;
+  run_first_.resize(n + 1);
+  run_last_.resize(n + 1);
   std::size_t group_count = 0, group_points = 0;
   double longest_group = 0.0, group_length_sum = 0.0;
-  {
-    auto linked = [&](std::size_t i) { return segment_[i] >= 0.0 && segment_[i] < gate; };
-    // Start just after a break so a run never straddles the starting point.
-    std::size_t start = 0;
-    bool any_break = true;
-    if (closed) {
-      any_break = false;
-      for (std::size_t i = 0; i < n; ++i)
-        if (!linked(i)) { start = next(i); any_break = true; break; }
-    }
-    auto close_run = [&](std::size_t points, double length) {
-      if (points > std::size_t(options_.g_min_size)) {
-        ++group_count;
-        group_points += points;
-        group_length_sum += length;
-        longest_group = std::max(longest_group, length);
-      }
-    };
-    if (!any_break) {  // every neighbour linked around the whole ring
-      close_run(n, distance);
-    } else {
-      std::size_t points = 0;
-      double length = 0.0;
-      for (std::size_t step = 0; step < n; ++step) {
-        const std::size_t i = start + step < n ? start + step : start + step - n;
-        if (!valid_[i]) { close_run(points, length); points = 0; length = 0.0; continue; }
-        ++points;
-        const bool last = step + 1 == n;
-        if (!last && linked(i)) {
-          length += segment_[i];
-        } else {
-          close_run(points, length);
-          points = 0;
-          length = 0.0;
-        }
-      }
-    }
+  auto close_run = [&](std::size_t points, double length) {
+    if (points <= std::size_t(options_.g_min_size)) return;
+    ++group_count;
+    group_points += points;
+    group_length_sum += length;
+    longest_group = std::max(longest_group, length);
+  };
+  const std::size_t runs = findRuns(valid_.data(), linked_.data(), n, closed, run_first_.data(), run_last_.data());
+  if (runs == 0 && valid_count > 0) close_run(n, pairs.distance);  // linked all round the ring
+  for (std::size_t r = 0; r < runs; ++r) {
+    const std::size_t first = run_first_[r], last = run_last_[r];
+    const std::size_t points = (last >= first ? last - first : last + n - first) + 1;
+    if (points <= std::size_t(options_.g_min_size)) continue;
+    double length = 0.0;
+    for (std::size_t i = first, k = 1; k < points; ++k, i = next(i)) length += segment_[i];
+    close_run(points, length);
   }
 
   // Moments about the mean of the valid points: #3 #6 #7 #16 #19 #20 and principal axes.
-  double suu = 0.0, svv = 0.0, suv = 0.0, suuu = 0.0, svvv = 0.0, suvv = 0.0, svuu = 0.0;
-  double sum_dev = 0.0, sum_r_sq_dev = 0.0, close_area = 0.0;
   centre_distance_.resize(n);
   distancesFromCentred(x_.data(), y_.data(), n, mean_x, mean_y, 0.0, 0.0, centre_distance_.data());
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!valid_[i]) continue;
-    const double u = x_[i] - mean_x, v = y_[i] - mean_y;
-    suu += u * u; svv += v * v; suv += u * v;
-    suuu += u * u * u; svvv += v * v * v; suvv += u * v * v; svuu += v * u * u;
-    sum_dev += centre_distance_[i];
-    sum_r_sq_dev += (clipped_[i] - mean_r) * (clipped_[i] - mean_r);
-    close_area += clipped_[i] * clipped_[i];
-  }
-  const double mean_dev = safeDiv(sum_dev, double(valid_count));
+  const MomentSums moments = sumMoments(x_.data(), y_.data(), clipped_.data(), centre_distance_.data(),
+                                        valid_weight_.data(), n, mean_x, mean_y, mean_r);
+  const double mean_dev = safeDiv(moments.distance, double(valid_count));
   // Least-squares (Kasa) circle in centred coordinates; degenerate (fewer than three points,
   // or collinear) gives radius 0 and residual 0.
   double circle_radius = 0.0, circle_residual = 0.0, cu = 0.0, cv = 0.0;
+  const double suu = moments.uu, svv = moments.vv, suv = moments.uv;
   const double det = suu * svv - suv * suv;
   const double trace = suu + svv;
   if (valid_count >= 3 && trace > 0.0 && det > 1e-12 * trace * trace) {
-    const double bu = 0.5 * (suuu + suvv), bv = 0.5 * (svvv + svuu);
+    const double bu = 0.5 * (moments.uuu + moments.uvv), bv = 0.5 * (moments.vvv + moments.vuu);
     cu = (bu * svv - bv * suv) / det;
     cv = (suu * bv - suv * bu) / det;
     circle_radius = std::sqrt(cu * cu + cv * cv + trace / double(valid_count));
   }
-  double sum_dev_sq = 0.0;
   if (circle_radius > 0.0) {
     circle_distance_.resize(n);
     distancesFromCentred(x_.data(), y_.data(), n, mean_x, mean_y, cu, cv, circle_distance_.data());
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!valid_[i]) continue;
-    const double d = centre_distance_[i] - mean_dev;
-    sum_dev_sq += d * d;
-    if (circle_radius > 0.0) {
-      const double e = circle_radius - circle_distance_[i];
-      circle_residual += e * e;
-    }
-  }
-  // Angular step of the scanner for #4: the mean spacing of the beams.
-  double angle_step = 0.0;
-  if (closed) angle_step = 2.0 * M_PI / double(n);
-  else if (n > 1) angle_step = (scan.bearings[n - 1] - scan.bearings[0]) / double(n - 1);
+  double sum_dev_sq = 0.0;
+  sumDeviations(centre_distance_.data(), circle_radius > 0.0 ? circle_distance_.data() : nullptr,
+                valid_weight_.data(), n, mean_dev, circle_radius, &sum_dev_sq, &circle_residual);
 
-  out[0] = area;
-  out[1] = sum_clipped / double(n);
+  out[0] = pairs.area;
+  out[1] = beams.clipped / double(n);
   out[2] = std::hypot(mean_x, mean_y);
-  out[3] = close_area * std::sin(0.5 * angle_step);
-  out[4] = close_distance;
+  out[3] = moments.squared_range * std::sin(0.5 * angle_step);
+  out[4] = pairs.close_distance;
   out[5] = circle_radius;
   out[6] = circle_residual;
   out[7] = k_mean;
   out[8] = k_std;
-  out[9] = distance;
-  out[10] = far_distance;
+  out[9] = pairs.distance;
+  out[10] = pairs.far_distance;
   out[11] = double(group_count);
   out[12] = safeDiv(double(group_points), double(group_count));
   out[13] = double(n - valid_count);
-  out[14] = angular;
+  out[14] = triples.turn;
   out[15] = mean_dev;
-  out[16] = sampleStd(sum_seg_sq, segment_count);
+  out[16] = segment_std;
   out[17] = double(valid_count);
   out[18] = sampleStd(sum_dev_sq, valid_count);
-  out[19] = sampleStd(sum_r_sq_dev, valid_count);
+  out[19] = sampleStd(moments.range_deviation, valid_count);
   if (options_.feature_set == FeatureSet::kPaper) return;
 
-  double* extra = out + kPaperNames.size();
-  const double beams = double(n);
-  extra[0] = double(valid_count) / beams;
-  extra[1] = double(n - valid_count) / beams;
-  extra[2] = out[12] / beams;
-  // The valid ranges, bucketed once for the quantiles below and the range signature.
+  double* extra = out + featureCount(FeatureSet::kPaper);
+  const double beam_count = double(n);
+  extra[0] = double(valid_count) / beam_count;
+  extra[1] = double(n - valid_count) / beam_count;
+  extra[2] = out[12] / beam_count;
+  // The valid ranges, for their quantiles and the range signature (selected together below).
   std::size_t m = 0;
   work_.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i) {  // branch-free compaction
     work_[m] = clipped_[i];
     m += valid_[i];
   }
-  ranks_.assign(work_.data(), m);
-  // Quantiles of the valid ranges by nearest rank.
+  ranks_.assign(work_.data(), m);  // for the quantiles below and the range signature
   if (m > 0) {
     auto rank = [m](double q) { return std::min(m - 1, std::size_t(q * double(m - 1) + 0.5)); };
     extra[3] = ranks_.at(rank(0.10));
@@ -389,8 +236,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   }
   // Principal axes of the valid points: square roots of the covariance eigenvalues.
   if (valid_count > 1) {
-    const double a = suu / double(valid_count), b = suv / double(valid_count),
-                 c = svv / double(valid_count);
+    const double a = suu / double(valid_count), b = suv / double(valid_count), c = svv / double(valid_count);
     const double half_trace = 0.5 * (a + c);
     const double root = std::sqrt(std::max(0.0, 0.25 * (a - c) * (a - c) + b * b));
     const double major = std::sqrt(std::max(0.0, half_trace + root));
@@ -401,26 +247,17 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   }
   // Gaps: runs of beams without a valid return, and the widest one's angle.
   {
-    std::size_t gaps = 0;
-    double widest = 0.0;
-    std::size_t i = 0;
-    // On a closed ring start after a valid beam so the run through the seam is counted once.
-    std::size_t start = 0;
-    if (closed && valid_count > 0 && valid_count < n) {
-      while (valid_[start]) start = next(start);
-      while (!valid_[start]) start = next(start);
+    linked_.resize(n);  // reused: 1 where a beam has no valid return
+    for (std::size_t i = 0; i < n; ++i) linked_[i] = !valid_[i];
+    std::size_t gaps = findRuns(linked_.data(), nullptr, n, closed, run_first_.data(), run_last_.data());
+    std::size_t widest = 0;
+    for (std::size_t r = 0; r < gaps; ++r) {
+      const std::size_t first = run_first_[r], last = run_last_[r];
+      widest = std::max(widest, (last >= first ? last - first : last + n - first) + 1);
     }
-    const double step = angle_step;
-    std::size_t run = 0;
-    for (i = 0; i < n; ++i) {
-      const std::size_t k = start + i < n ? start + i : start + i - n;
-      if (!valid_[k]) { ++run; continue; }
-      if (run > 0) { ++gaps; widest = std::max(widest, double(run) * step); }
-      run = 0;
-    }
-    if (run > 0) { ++gaps; widest = std::max(widest, double(run) * step); }
+    if (gaps == 0 && valid_count == 0) gaps = 1, widest = n;  // a closed ring with no return at all
     extra[11] = double(gaps);
-    extra[12] = widest;
+    extra[12] = double(widest) * angle_step;
   }
   extra[13] = longest_group;
   extra[14] = safeDiv(group_length_sum, double(group_count));
@@ -443,7 +280,7 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
                             double(below[3] - below[2]),
                             double(below[4] - below[3]),
                             double(valid_count - below[4])};
-    for (int b = 0; b < 6; ++b) extra[15 + b] = hist[b] / beams;
+    for (int b = 0; b < 6; ++b) extra[15 + b] = hist[b] / beam_count;
   }
   // Signatures: distributions of the ranges, of the distances to the centroid of the valid
   // points, and of chords (a cheap, shift-invariant cousin of Osada's D2 shape distribution).
@@ -457,19 +294,21 @@ void FeatureExtractor::extract(const Scan& scan, double* out) {
   ranks_.assign(work_.data(), m);
   writeQuantiles(ranks_, signature + kSignatureLevels);
   // Chords: distances between valid points an eighth, a quarter and a half of the beams
-  // apart, over every beam (cyclically on a closed ring, so a shift changes nothing).
+  // apart, over every beam (cyclically on a closed ring, so a shift changes nothing: the
+  // points are followed by the first half of them again).
+  if (closed) {
+    std::copy(x_.begin(), x_.begin() + long(n / 2), x_.begin() + long(n));
+    std::copy(y_.begin(), y_.begin() + long(n / 2), y_.begin() + long(n));
+    std::copy(valid_.begin(), valid_.begin() + long(n / 2), valid_.begin() + long(n));
+  }
   m = 0;
   for (const std::size_t separation : {n / 8, n / 4, n / 2}) {
     if (separation == 0) continue;
-    distancesAhead(x_.data(), y_.data(), n, separation, skip2_.data());
-    for (std::size_t i = 0; i + separation < n; ++i) {  // branch-free compaction
+    const std::size_t count = closed ? n : n - separation;
+    distancesAhead(x_.data(), y_.data(), count + separation, separation, skip2_.data());
+    for (std::size_t i = 0; i < count; ++i) {  // branch-free compaction
       work_[m] = skip2_[i];
       m += valid_[i] & valid_[i + separation];
-    }
-    if (!closed) continue;
-    for (std::size_t i = n - separation; i < n; ++i) {
-      const std::size_t j = i + separation - n;
-      if (valid_[i] && valid_[j]) work_[m++] = pointDistance(x_[i], y_[i], x_[j], y_[j]);
     }
   }
   ranks_.assign(work_.data(), m);
@@ -507,63 +346,6 @@ void FeatureExtractor::writeOutlineSignatures(bool closed, std::size_t n, double
   distancesFromCentred(px, py, k, cx, cy, 0.0, 0.0, outline_work_.data());
   ranks_.assign(outline_work_.data(), k);
   writeQuantiles(ranks_, out + kSignatureLevels);
-}
-
-std::size_t pairFeatureCount(FeatureSet set) {
-  return set == FeatureSet::kPaper ? scalarFeatureCount(set)
-                                   : 2 * scalarFeatureCount(set) + 2 * signatureCount(set) + 1;
-}
-
-std::size_t profilePairFeature(FeatureSet set) {
-  return set == FeatureSet::kPaper ? pairFeatureCount(set) : pairFeatureCount(set) - 1;
-}
-
-const std::vector<std::string>& pairFeatureNames(FeatureSet set) {
-  static const std::vector<std::string> extended = [] {
-    const std::vector<std::string>& all = featureNames(FeatureSet::kExtended);
-    std::vector<std::string> names(all.begin(), all.begin() + long(scalarFeatureCount(FeatureSet::kExtended)));
-    for (std::size_t i = 0, n = names.size(); i < n; ++i) names.push_back(names[i] + "_relative");
-    for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1");
-    for (const char* signature : kSignatureNames) names.push_back(std::string(signature) + "_w1_relative");
-    names.push_back("range_profile_distance");
-    return names;
-  }();
-  return set == FeatureSet::kPaper ? featureNames(set) : extended;
-}
-
-double signatureMagnitude(const double* signature) {
-  double sum = 0.0;
-  for (std::size_t q = 0; q < kSignatureLevels; ++q) sum += signature[q] < 0 ? -signature[q] : signature[q];
-  return sum;
-}
-
-double signatureDistance(std::size_t index, const double* a, const double* b) {
-  double distance = 0.0;
-  for (std::size_t q = 0; q < kSignatureLevels; ++q) distance += a[q] > b[q] ? a[q] - b[q] : b[q] - a[q];
-  if (index == 0) return distance / double(kSignatureLevels);
-  const double scale = signatureMagnitude(a) + signatureMagnitude(b);
-  return scale > 0.0 ? distance / scale : 0.0;
-}
-
-void pairFeatures(FeatureSet set, const double* a, const double* b, double* out) {
-  const std::size_t n = scalarFeatureCount(set);
-  for (std::size_t i = 0; i < 2 * n && i < pairFeatureCount(set); ++i) out[i] = pairFeatureValue(i, n, a[i % n], b[i % n]);
-  const std::size_t signatures = signatureCount(set), offset = signatureOffset(set);
-  for (std::size_t k = 0; k < signatures; ++k) {
-    const std::size_t at = offset + k * kSignatureLevels;
-    out[2 * n + k] = signatureDistance(0, a + at, b + at);
-    out[2 * n + signatures + k] = signatureDistance(1, a + at, b + at);
-  }
-  if (set != FeatureSet::kPaper)
-    out[profilePairFeature(set)] = profileDistance(a + profileOffset(set), b + profileOffset(set));
-}
-
-std::vector<double> pairFeatures(FeatureSet set, const std::vector<double>& a, const std::vector<double>& b) {
-  if (a.size() != featureCount(set) || b.size() != featureCount(set))
-    throw std::invalid_argument("pairFeatures: feature vectors of the wrong size");
-  std::vector<double> out(pairFeatureCount(set));
-  pairFeatures(set, a.data(), b.data(), out.data());
-  return out;
 }
 
 }  // namespace llc

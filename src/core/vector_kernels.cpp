@@ -2,12 +2,6 @@
 
 #include <cmath>
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define LLC_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define LLC_VECTOR_CLONES
-#endif
-
 namespace llc {
 
 LLC_VECTOR_CLONES

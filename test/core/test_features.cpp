@@ -189,6 +189,15 @@ TEST(Features, BadRangesGiveFiniteValues) {
   const std::vector<double> f = paperFeatures(llc_test::ringScan({1.0, nan, -kInf, -2.0, 0.0, 1.0}));
   EXPECT_EQ(f[17], 2.0);
   EXPECT_EQ(f[13], 4.0);
+  // Nor are beams whose bearing is NaN or infinite; everything stays finite.
+  llc::Scan bad_bearings = llc_test::ringScan(std::vector<double>(40, 3.0));
+  bad_bearings.bearings[5] = nan;
+  bad_bearings.bearings[17] = kInf;
+  const std::vector<double> g = extractor.extract(bad_bearings);
+  for (std::size_t i = 0; i < g.size(); ++i)
+    EXPECT_TRUE(std::isfinite(g[i])) << "feature " << llc::featureNames(FeatureSet::kExtended)[i];
+  EXPECT_EQ(g[17], 38.0);
+  EXPECT_EQ(g[13], 2.0);
 }
 
 llc::Scan randomRoomScan(std::uint64_t seed, std::size_t n) {

@@ -119,7 +119,9 @@ TEST(Outline, SignaturesOfACircleAreItsRadiusAndItsChordDistribution) {
     // to within half the step between the odd separations (2 R 2 pi / 75 / 2 = 0.25 m).
     const double p = (double(q) + 0.5) / double(llc::kSignatureLevels);
     EXPECT_NEAR(f[d2 + q], 6.0 * std::sin(M_PI * p / 2.0), 0.3) << q;
-    if (q > 0) EXPECT_GE(f[d2 + q], f[d2 + q - 1]);
+    if (q > 0) {
+      EXPECT_GE(f[d2 + q], f[d2 + q - 1]);
+    }
   }
 }
 

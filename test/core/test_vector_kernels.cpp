@@ -1,7 +1,7 @@
 // The fast kernels behind the features against the plain formulas they replace: the rank
-// selector against a full sort, the branch-free angle against std::atan2, the vectorised
-// distance loops against scalar ones (bit for bit), and the per-sector product of the range
-// profile against a sum of logarithms.
+// selector against a full sort, the run finder by hand, the branch-free angle against
+// std::atan2, the vectorised distance loops against scalar ones (bit for bit), and the
+// per-sector product of the range profile against a sum of logarithms.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "laser_loop_closure/core/feature_kernels.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/range_profile.hpp"
 #include "laser_loop_closure/core/rank_selection.hpp"
@@ -50,6 +51,31 @@ TEST(RankSelector, RefusesARankBeyondTheValuesAndHandlesNone) {
   selector.assign(&one, 1);
   EXPECT_EQ(selector.at(0), 2.5);
   EXPECT_THROW(selector.at(1), std::out_of_range);
+}
+
+TEST(FindRuns, OpenAndClosedSequencesByHand) {
+  std::uint32_t first[16], last[16];
+  //                                 0  1  2  3  4  5  6  7
+  const std::uint8_t flags[8] = {1, 1, 0, 1, 1, 1, 0, 1};
+  ASSERT_EQ(llc::findRuns(flags, nullptr, 8, false, first, last), 3u);  // open: [0,1] [3,5] [7,7]
+  EXPECT_EQ(first[0], 0u); EXPECT_EQ(last[0], 1u);
+  EXPECT_EQ(first[1], 3u); EXPECT_EQ(last[1], 5u);
+  EXPECT_EQ(first[2], 7u); EXPECT_EQ(last[2], 7u);
+  ASSERT_EQ(llc::findRuns(flags, nullptr, 8, true, first, last), 2u);  // closed: [3,5] and [7,1] through the seam
+  EXPECT_EQ(first[0], 3u); EXPECT_EQ(last[0], 5u);
+  EXPECT_EQ(first[1], 7u); EXPECT_EQ(last[1], 1u);
+  // A missing link breaks a run of set flags: 3-4 not linked.
+  const std::uint8_t links[8] = {1, 1, 1, 0, 1, 1, 1, 1};
+  ASSERT_EQ(llc::findRuns(flags, links, 8, true, first, last), 3u);
+  EXPECT_EQ(first[0], 3u); EXPECT_EQ(last[0], 3u);
+  EXPECT_EQ(first[1], 4u); EXPECT_EQ(last[1], 5u);
+  EXPECT_EQ(first[2], 7u); EXPECT_EQ(last[2], 1u);
+  const std::uint8_t all[3] = {1, 1, 1}, none[3] = {0, 0, 0};
+  EXPECT_EQ(llc::findRuns(all, nullptr, 3, true, first, last), 0u);  // one ring with no ends: the caller's case
+  ASSERT_EQ(llc::findRuns(all, nullptr, 3, false, first, last), 1u);
+  EXPECT_EQ(first[0], 0u); EXPECT_EQ(last[0], 2u);
+  EXPECT_EQ(llc::findRuns(none, nullptr, 3, true, first, last), 0u);
+  EXPECT_EQ(llc::findRuns(none, nullptr, 0, true, first, last), 0u);
 }
 
 TEST(AngleBetween, MatchesAtan2ToAFewUlpsIncludingNearParallelAndOpposite) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -84,9 +85,12 @@ class FeatureExtractor {
   // Work arrays, kept to avoid allocating per scan.
   std::vector<double> clipped_, x_, y_, step_, skip2_, segment_, centre_distance_, circle_distance_, work_, turn_, curvature_;
   std::vector<double> outline_x_, outline_y_, outline_work_;
+  std::vector<std::uint8_t> linked_;  ///< per beam: joined to the next into a group (then reused for the gaps)
+  std::vector<std::uint32_t> run_first_, run_last_;  ///< runs found by findRuns
   RankSelector ranks_;
   std::vector<std::size_t> sector_;  ///< range-profile sector of each beam (cached with the trigonometry)
   std::vector<unsigned char> valid_;
+  std::vector<double> valid_weight_;  ///< valid_ as 1.0 / 0.0, for the vectorised sums
 };
 
 /// The pair feature vector the classifier sees, from two scans' feature vectors a and b of

@@ -6,6 +6,13 @@
 
 #include <cstddef>
 
+/// Marks a function that gets an AVX2 twin, picked by the loader on CPUs that have it.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define LLC_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define LLC_VECTOR_CLONES
+#endif
+
 namespace llc {
 
 /// out[i] = |p[i + separation] - p[i]| = sqrt((x[i+s] - x[i])^2 + (y[i+s] - y[i])^2) for
