@@ -13,8 +13,11 @@ std::string ScanAlignerOptions::validate() const {
   if (!(max_range > 0.0)) return "max_range must be > 0";
   if (!(selection_distance > 0.0)) return "selection_distance must be > 0";
   if (!(reverse_below >= 0.0 && reverse_below <= 1.0)) return "reverse_below must be in [0, 1]";
+  if (!(global_search_below >= 0.0 && global_search_below <= 1.0)) return "global_search_below must be in [0, 1]";
   std::string error = crf.validate();
   if (!error.empty()) return "crf: " + error;
+  error = global.validate();
+  if (!error.empty()) return "global: " + error;
   error = icp.validate();
   if (!error.empty()) return "icp: " + error;
   error = validation.validate();
@@ -23,7 +26,9 @@ std::string ScanAlignerOptions::validate() const {
 }
 
 PreparedScan::PreparedScan(Points2 points_in, const ScanAlignerOptions& options, const FieldOfView& view_in)
-    : points(std::move(points_in)), view(view_in), crf(describeForCrf(points, options.crf)), icp_target(points, options.icp) {}
+    : points(std::move(points_in)), view(view_in), crf(describeForCrf(points, options.crf)),
+      icp_target(points, options.icp),
+      global(describeForGlobalSearch(points, icp_target.normals, options.global)) {}
 
 ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) {
   const std::string error = options_.validate();
@@ -48,13 +53,18 @@ struct StartResults {
   bool any_failure = false;
 };
 
-StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::vector<Pose2>& starts,
-                       const ScanAlignerOptions& options) {
-  // The fit is the share of points within selection_distance (tighter than validation's d, so
-  // that a result shifted along a corridor loses to the right one), both ways: such a result
-  // also leaves the ends of the other scan unmatched.
+/// The share of points within selection_distance (tighter than validation's d, so that a
+/// result shifted along a corridor loses to the right one), both ways: such a result also
+/// leaves the ends of the other scan unmatched.
+double twoWayShare(const PreparedScan& a, const PreparedScan& b, const Pose2& pose, const ScanAlignerOptions& options) {
   ShapeValidationOptions tight = options.validation;
   tight.max_distance = options.selection_distance;
+  return 0.5 * (validateShape(b.points, a.icp_target.tree, pose, tight).inlier_share +
+                validateShape(a.points, b.icp_target.tree, inverse(pose), tight).inlier_share);
+}
+
+StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::vector<Pose2>& starts,
+                       const ScanAlignerOptions& options) {
   StartResults out;
   for (const Pose2& start_pose : starts) {
     IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options.icp, &b.icp_target.normals);
@@ -62,8 +72,7 @@ StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::
       if (!out.any_failure) out.first_failure = std::move(icp), out.any_failure = true;
       continue;
     }
-    out.fits.push_back(0.5 * (validateShape(b.points, a.icp_target.tree, icp.pose, tight).inlier_share +
-                              validateShape(a.points, b.icp_target.tree, inverse(icp.pose), tight).inlier_share));
+    out.fits.push_back(twoWayShare(a, b, icp.pose, options));
     out.converged.push_back(std::move(icp));
   }
   return out;
@@ -86,6 +95,10 @@ ReverseMatch matchReverse(const PreparedScan& a, const PreparedScan& b, const Sc
 }
 
 }  // namespace
+
+double ScanAligner::fit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose) const {
+  return twoWayShare(a, b, pose, options_);
+}
 
 ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
   const auto start = std::chrono::steady_clock::now();
@@ -115,6 +128,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
       }
     }
   };
+  bool crf_found_none = false;
   // ICP from the CRF's transform and from its runners-up; the best fit wins.
   result.crf = matchCrf(b.crf, a.crf, options_.crf);
   if (result.crf.ok) {
@@ -126,8 +140,15 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   if (best_fit < options_.reverse_below) {
     ReverseMatch reverse = options_.parallel ? reverse_ahead.get() : matchReverse(a, b, options_);
     if (reverse.crf.ok) take(std::move(reverse.starts));
-    if (!result.crf.ok && !reverse.crf.ok) return finish("crf: " + result.crf.reject_reason);
+    crf_found_none = !result.crf.ok && !reverse.crf.ok;
   }
+  // Nothing, or still poor: starts that do not depend on matching descriptors along contours.
+  if (!any || best_fit < options_.global_search_below) {
+    result.global = searchGlobally(a.global, b.global, options_.global);
+    take(tryStarts(a, b, result.global.poses, options_));
+  }
+  if (!any && crf_found_none && result.global.poses.empty())
+    return finish("crf: " + result.crf.reject_reason + "; global search: " + result.global.reject_reason);
   if (!any) return finish("icp: " + result.icp.reject_reason);
   result.pose = result.icp.pose;
   result.covariance = result.icp.covariance;

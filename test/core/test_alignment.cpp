@@ -9,6 +9,7 @@
 #include "laser_loop_closure/core/crf_training.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
+#include "synthetic_room.hpp"
 #include "test_util.hpp"
 
 namespace {
@@ -17,56 +18,9 @@ using llc::Point2;
 using llc::Points2;
 using llc::Pose2;
 
-struct Wall {
-  Point2 a, b;
-};
-
-/// An irregular room (12 x 8 m with an alcove and a slanted corner) with two square pillars:
-/// no symmetry, so every pose is determined.
-std::vector<Wall> room() {
-  const std::vector<Point2> outline = {{-6, -4}, {3, -4}, {6, -1.5}, {6, 4}, {1, 4}, {1, 5.5},
-                                       {-1.5, 5.5}, {-1.5, 4}, {-6, 4}};
-  std::vector<Wall> walls;
-  for (std::size_t i = 0; i < outline.size(); ++i) walls.push_back({outline[i], outline[(i + 1) % outline.size()]});
-  auto box = [&](Point2 c, double h) {
-    const Point2 p[4] = {c + Point2(-h, -h), c + Point2(h, -h), c + Point2(h, h), c + Point2(-h, h)};
-    for (int k = 0; k < 4; ++k) walls.push_back({p[k], p[(k + 1) % 4]});
-  };
-  box({-3.0, 1.5}, 0.3);
-  box({2.5, -1.0}, 0.2);
-  return walls;
-}
-
-/// Two parallel walls 3 m apart and 200 m long: nothing fixes the position along them.
-std::vector<Wall> corridor() { return {{{-100, -1.5}, {100, -1.5}}, {{-100, 1.5}, {100, 1.5}}}; }
-
-double castRay(const std::vector<Wall>& walls, const Point2& origin, double angle) {
-  const Point2 d(std::cos(angle), std::sin(angle));
-  double best = std::numeric_limits<double>::infinity();
-  for (const Wall& w : walls) {
-    const Point2 e = w.b - w.a;
-    const double denom = d.x() * e.y() - d.y() * e.x();
-    if (std::abs(denom) < 1e-12) continue;
-    const Point2 o = w.a - origin;
-    const double t = (o.x() * e.y() - o.y() * e.x()) / denom;
-    const double u = (o.x() * d.y() - o.y() * d.x()) / denom;
-    if (t > 0.0 && u >= 0.0 && u <= 1.0) best = std::min(best, t);
-  }
-  return best;
-}
-
-/// A 360-degree scan of `beams` beams taken at `pose`, with Gaussian range noise.
-llc::Scan scanAt(const std::vector<Wall>& walls, const Pose2& pose, std::size_t beams = 720, double noise = 0.0,
-                 std::uint64_t seed = 1) {
-  std::vector<double> ranges(beams);
-  llc::Random random(seed);
-  for (std::size_t i = 0; i < beams; ++i) {
-    const double bearing = -M_PI + 2.0 * M_PI * double(i) / double(beams);
-    ranges[i] = castRay(walls, {pose.x, pose.y}, pose.theta + bearing);
-    if (std::isfinite(ranges[i]) && noise > 0.0) ranges[i] += random.normal(0.0, noise);
-  }
-  return llc_test::ringScan(ranges);
-}
+using llc_test::corridor;
+using llc_test::room;
+using llc_test::scanAt;
 
 void expectPoseNear(const Pose2& actual, const Pose2& expected, double metres, double radians) {
   EXPECT_NEAR(actual.x, expected.x, metres);
@@ -378,6 +332,12 @@ TEST(Aligner, RefusesBadOptions) {
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
   options = {};
   options.reverse_below = 2.0;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.global_search_below = 1.5;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.global.rotations = 0;  // the global search's options are validated with the rest
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
 }
 

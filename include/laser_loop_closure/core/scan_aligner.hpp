@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/crf_match.hpp"
+#include "laser_loop_closure/core/global_search.hpp"
 #include "laser_loop_closure/core/icp.hpp"
 #include "laser_loop_closure/core/shape_validation.hpp"
 
@@ -17,7 +18,13 @@ struct ScanAlignerOptions {
   double selection_distance = 0.1;  ///< m; of several ICP results, the one with most points this near (both ways) wins
   double reverse_below = 0.6;  ///< best such share below this: CRF-match b to a as well, for more starts (1 = always)
   bool parallel = true;  ///< match the other way round on a second thread meanwhile (same result, less wall time)
+  /// ICP also from the starts of the global search (orientation histograms and translation
+  /// votes) when no start so far converged, or the best share is still below this after
+  /// CRF-match both ways (0 = only when none converged, 1 = always). More starts align more
+  /// true matches but also let more false ones pass validation: see the README.
+  double global_search_below = 0.0;
   CrfMatchOptions crf{};
+  GlobalSearchOptions global{};
   IcpOptions icp{};
   ShapeValidationOptions validation{};
   std::string validate() const;  ///< names the stage whose option is wrong
@@ -29,7 +36,8 @@ struct PreparedScan {
   Points2 points;
   FieldOfView view;  ///< what its scanner could see (for shape validation)
   CrfScan crf;
-  IcpTarget icp_target;  ///< its k-d tree also serves shape validation
+  IcpTarget icp_target;     ///< its k-d tree also serves shape validation
+  GlobalSearchScan global;  ///< thinned points and normal directions (from icp_target's normals)
   FreeSpace free_space;  ///< where its beams ended (prepare() fills it when the seen-through test is on)
 };
 
@@ -38,6 +46,7 @@ struct ScanAlignmentResult {
   Pose2 pose;                ///< scan b in the frame of scan a (valid when icp.converged)
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose, from ICP
   CrfMatchResult crf;
+  GlobalSearchResult global;  ///< empty unless the global search ran
   IcpResult icp;
   ShapeValidationResult validation;
   /// Every converged ICP result (one per start) and its share of points within
@@ -57,6 +66,10 @@ class ScanAligner {
   std::shared_ptr<const PreparedScan> prepare(const Scan& scan) const;
   /// Aligns b to a with no initial guess.
   ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b) const;
+  /// How well b placed at `pose` in a's frame fits a, as align() ranks its ICP results: the
+  /// mean of the shares of b's points near a's and of a's points near b's (within
+  /// selection_distance).
+  double fit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose) const;
 
  private:
   ScanAlignerOptions options_;

@@ -66,6 +66,15 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("aligner/selection_distance", aligner.selection_distance);
   visit("aligner/reverse_below", aligner.reverse_below);
   visit("aligner/parallel", aligner.parallel);
+  visit("aligner/global_search_below", aligner.global_search_below);
+  visit("aligner/global/sample_spacing", aligner.global.sample_spacing);
+  visit("aligner/global/angle_bin", aligner.global.angle_bin);
+  visit("aligner/global/rotations", aligner.global.rotations);
+  visit("aligner/global/cell", aligner.global.cell);
+  visit("aligner/global/max_translation", aligner.global.max_translation);
+  visit("aligner/global/max_normal_angle", aligner.global.max_normal_angle);
+  visit("aligner/global/hypotheses", aligner.global.hypotheses);
+  visit("aligner/global/distinct_distance", aligner.global.distinct_distance);
   visit("aligner/crf/node_spacing", aligner.crf.node_spacing);
   visit("aligner/crf/max_nodes", aligner.crf.max_nodes);
   visit("aligner/crf/break_distance", aligner.crf.break_distance);
