@@ -38,9 +38,19 @@ struct MethodStats {
   }
 };
 
+/// Why a positive pair was not aligned within tolerance, judged by ICP started from the
+/// ground truth itself (--truth-check).
+struct TruthCheck {
+  std::size_t failed = 0;
+  std::size_t no_start_near_truth = 0;   ///< ICP stays at the truth, which fits better than our result: the starts missed it
+  std::size_t better_fit_elsewhere = 0;  ///< ICP stays at the truth, but our (wrong) result fits at least as well
+  std::size_t truth_moves = 0;           ///< ICP from the truth converges out of tolerance: the truth is not a fit optimum
+  std::size_t icp_fails_at_truth = 0;    ///< ICP from the truth does not converge (e.g. degenerate geometry)
+};
+
 }  // namespace
 
-const std::vector<std::string> kAlignerFlags = {"max-range", "validation-distance", "validation-share",
+const std::vector<std::string> kAlignerFlags = {"max-range", "global-search-below", "validation-distance", "validation-share",
                                                 "validation-only-in-view", "validation-seen-through",
                                                 "free-space-margin", "crf-weights"};
 
@@ -53,6 +63,7 @@ std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t inde
 llc::ScanAlignerOptions alignerOptions(const Args& args) {
   llc::ScanAlignerOptions options;
   options.max_range = args.number("max-range", options.max_range);
+  options.global_search_below = args.number("global-search-below", options.global_search_below);
   options.validation.max_distance = args.number("validation-distance", options.validation.max_distance);
   options.validation.min_inlier_share = args.number("validation-share", options.validation.min_inlier_share);
   options.validation.max_seen_through_share =
@@ -91,7 +102,11 @@ int runAlign(const Args& args) {
   const bool compare = args.has("compare-pcl");
   std::ofstream out(out_path);
   if (!out) throw ToolError(out_path + ": cannot write");
-  out << "a,b,label,x,y,theta,inlier_share,accepted,ms\n" << std::setprecision(9);
+  const bool truth_check = args.has("truth-check");
+  out << "a,b,label,x,y,theta,inlier_share,accepted,ms";
+  if (truth_check) out << ",fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg";
+  out << '\n' << std::setprecision(9);
+  TruthCheck check;
 
   MethodStats ours, pcl_icp, pcl_gicp;
   std::map<std::string, std::size_t> reasons;
@@ -116,7 +131,26 @@ int runAlign(const Args& args) {
       out << p.a << ',' << p.b << ',' << p.label << ',';
       if (aligned) out << r.pose.x << ',' << r.pose.y << ',' << r.pose.theta;
       else out << "nan,nan,nan";
-      out << ',' << r.validation.inlier_share << ',' << int(r.accepted) << ',' << 1e3 * r.seconds << '\n';
+      out << ',' << r.validation.inlier_share << ',' << int(r.accepted) << ',' << 1e3 * r.seconds;
+      if (truth_check) {
+        const llc::IcpResult from_truth =
+            llc::alignIcp(b->points, a->icp_target, truth, aligner.options().icp, &b->icp_target.normals);
+        const llc::Pose2 moved = llc::between(truth, from_truth.pose);
+        const double moved_m = std::hypot(moved.x, moved.y), moved_rad = std::abs(moved.theta);
+        const double fit = aligned ? aligner.fit(*a, *b, r.pose) : 0.0;
+        const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
+        out << ',' << fit << ',' << aligner.fit(*a, *b, truth) << ',' << int(from_truth.converged) << ',' << truth_fit
+            << ',' << moved_m << ',' << moved_rad * 180.0 / M_PI;
+        const llc::Pose2 error = llc::between(truth, r.pose);
+        if (p.label == 1 && !(aligned && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation)) {
+          ++check.failed;
+          if (!from_truth.converged) ++check.icp_fails_at_truth;
+          else if (moved_m > max_translation || moved_rad > max_rotation) ++check.truth_moves;
+          else if (!aligned || truth_fit > fit) ++check.no_start_near_truth;
+          else ++check.better_fit_elsewhere;
+        }
+      }
+      out << '\n';
       if (compare) {
         const PclAlignment icp = alignPcl(PclMethod::kIcp, b->points, a->points, aligner.options().icp);
         pcl_icp.add(p.label == 1, icp.pose, truth, icp.converged, icp.ms, max_translation, max_rotation);
@@ -140,6 +174,10 @@ int runAlign(const Args& args) {
     line("pcl_icp_identity", pcl_icp);
     line("pcl_gicp_identity", pcl_gicp);
   }
+  if (truth_check)
+    std::cout << "failed_positives=" << check.failed << " no_start_near_truth=" << check.no_start_near_truth
+              << " better_fit_elsewhere=" << check.better_fit_elsewhere << " truth_moves_under_icp=" << check.truth_moves
+              << " icp_fails_at_truth=" << check.icp_fails_at_truth << "\n";
   std::cout << "positives_accepted=" << (positives ? double(positives_accepted) / double(positives) : 0.0) << "\n";
   std::cout << "negatives_refused=" << (negatives_classified ? double(negatives_refused) / double(negatives_classified) : 0.0)
             << " (" << negatives_refused << "/" << negatives_classified << ")\n";

@@ -60,8 +60,8 @@ const std::vector<Command>& commands() {
        "      [--parking-mean-s 1800]"},
       {"align", llc_tool::runAlign,
        with(with({"data", "out", "model", "tolerance-m", "tolerance-deg"}, llc_tool::kAlignerFlags), kInputFlags),
-       {"compare-pcl"},
-       "align --data LOG:PAIRS [...] --out ALIGN.csv [--model MODEL.yaml] [--compare-pcl]\n"
+       {"compare-pcl", "truth-check"},
+       "align --data LOG:PAIRS [...] --out ALIGN.csv [--model MODEL.yaml] [--compare-pcl] [--truth-check]\n"
        "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
       {"graph", llc_tool::runGraph,
        {"g2o", "out", "relinearize-translation", "relinearize-rotation", "max-relinearizations", "loop-chi2"},

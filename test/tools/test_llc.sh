@@ -74,6 +74,9 @@ check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.ba
 check "align on sim.bag" 0 "pcl_gicp_identity: within_tolerance=" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/align.csv" --compare-pcl
 check "align csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms$" -- head -1 "$TMP/sim/align.csv"
 check "align: >= 90% of positives within 0.2 m / 2 deg" 0 "^ok$" -- bash -c "'$LLC' align --data '$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv' --out '$TMP/sim/a2.csv' | awk -F'[= ]' '/^crf_icp/ {print (\$3 >= 0.9 ? \"ok\" : \"low \" \$3)}'"
+check "align --truth-check sorts the failures" 0 "^failed_positives=[0-9]+ no_start_near_truth=[0-9]+ better_fit_elsewhere=[0-9]+ truth_moves_under_icp=[0-9]+ icp_fails_at_truth=[0-9]+$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv" --truth-check --global-search-below 1
+check "align --truth-check csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms,fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg$" -- head -1 "$TMP/sim/a6.csv"
+check "align: global-search-below out of range" 1 "global_search_below must be in \[0, 1\]" -- "$LLC" align --global-search-below 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
 check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/crf.yaml" --epochs 2
 check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
