@@ -183,6 +183,26 @@ void BM_AlignPair(benchmark::State& state) {
 }
 BENCHMARK(BM_AlignPair)->Unit(benchmark::kMillisecond);
 
+/// The global search alone on the same pair (what it adds to an alignment when it runs,
+/// before ICP from its starts); counts whether its best pose is within 0.3 m and 3 degrees
+/// of the pose the whole aligner finds.
+void BM_GlobalSearch(benchmark::State& state) {
+  const llc::ScanAligner aligner;
+  const auto& scans = simulatedScans().scans;
+  const auto a = aligner.prepare(scans[100].scan);
+  const auto b = aligner.prepare(llc::rotateScan(scans[102].scan, 150.0 * M_PI / 180.0));
+  const llc::Pose2 aligned = aligner.align(*a, *b).pose;
+  llc::GlobalSearchResult r;
+  for (auto _ : state) {
+    r = llc::searchGlobally(a->global, b->global, aligner.options().global);
+    benchmark::DoNotOptimize(r.poses.data());
+  }
+  const llc::Pose2 error = r.poses.empty() ? llc::Pose2{1e9, 0, 0} : llc::between(aligned, r.poses[0]);
+  state.counters["points"] = double(a->global.points.size() + b->global.points.size());
+  state.counters["best_near"] = std::hypot(error.x, error.y) < 0.3 && std::abs(error.theta) < 3.0 * M_PI / 180.0;
+}
+BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
+
 /// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a
 /// pose 25..1000 steps back, solved once (the state a long-running robot reaches).
 std::unique_ptr<llc::Esdf> esdfOf(std::size_t n) {

@@ -84,22 +84,24 @@ std::vector<Candidate> voteTranslations(const GlobalSearchScan& a, const GlobalS
     return std::min(bucket_count - 1, std::size_t(std::max(0.0, (angle + M_PI) / bucket_width)));
   };
   std::vector<std::vector<std::size_t>> buckets(bucket_count);
-  Points2 turned(b.points.size());
-  std::vector<double> turned_angles(b.points.size());
+  Points2 turned(b.points.size()), turned_normals(b.points.size());
   for (std::size_t j = 0; j < b.points.size(); ++j) {
     const Point2& p = b.points[j];
     turned[j] = Point2(c * p.x() - s * p.y(), s * p.x() + c * p.y());
-    turned_angles[j] = wrapAngle(b.normal_angles[j] + rotation);
-    buckets[bucketOf(turned_angles[j])].push_back(j);
+    const double angle = wrapAngle(b.normal_angles[j] + rotation);
+    turned_normals[j] = Point2(std::cos(angle), std::sin(angle));
+    buckets[bucketOf(angle)].push_back(j);
   }
+  const double min_cos = std::cos(options.max_normal_angle);
   const long side = long(std::ceil(2.0 * options.max_translation / options.cell));
   std::vector<float> grid(std::size_t(side * side), 0.0f);
   const double origin = -0.5 * double(side) * options.cell;
   for (std::size_t i = 0; i < a.points.size(); ++i) {
     const std::size_t home = bucketOf(a.normal_angles[i]);
+    const Point2 normal(std::cos(a.normal_angles[i]), std::sin(a.normal_angles[i]));
     for (const std::size_t bucket : {(home + bucket_count - 1) % bucket_count, home, (home + 1) % bucket_count}) {
       for (const std::size_t j : buckets[bucket]) {
-        if (std::abs(wrapAngle(a.normal_angles[i] - turned_angles[j])) > options.max_normal_angle) continue;
+        if (normal.dot(turned_normals[j]) < min_cos) continue;  // surfaces facing apart
         const long ix = long(std::floor((a.points[i].x() - turned[j].x() - origin) / options.cell));
         const long iy = long(std::floor((a.points[i].y() - turned[j].y() - origin) / options.cell));
         if (ix < 0 || iy < 0 || ix >= side || iy >= side) continue;
