@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "laser_loop_closure/core/global_search.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
@@ -29,6 +30,9 @@ TEST(GlobalSearch, NormalsAreTurnedTowardsTheScannerAndPointsThinned) {
   Points2 points, normals;
   for (int i = 0; i < 21; ++i) points.emplace_back(2.0, -0.5 + 0.05 * i), normals.emplace_back(1.0, 0.0);
   points.emplace_back(1.0, 1.0), normals.emplace_back(0.0, 0.0);  // no surface: left out
+  points.emplace_back(std::nan(""), 1.0), normals.emplace_back(1.0, 0.0);  // bad point: left out
+  points.emplace_back(1.0, 2.0), normals.emplace_back(std::nan(""), 0.0);  // bad normal: left out
+  points.emplace_back(std::numeric_limits<double>::infinity(), 0.0), normals.emplace_back(0.0, 1.0);
   llc::GlobalSearchOptions options;
   options.sample_spacing = 0.15;
   const llc::GlobalSearchScan scan = llc::describeForGlobalSearch(points, normals, options);
