@@ -21,8 +21,6 @@ std::string GlobalSearchOptions::validate() const {
 
 namespace {
 
-double wrapAngle(double angle) { return std::atan2(std::sin(angle), std::cos(angle)); }
-
 /// Histogram of the normal directions over `bins` bins of [-pi, pi), each normal shared
 /// between its two nearest bin centres so that a small turn changes the histogram smoothly.
 std::vector<double> orientationHistogram(const std::vector<double>& angles, std::size_t bins) {
@@ -57,7 +55,7 @@ std::vector<double> likelyRotations(const std::vector<double>& a, const std::vec
     if (!(centre > left && centre >= right)) continue;
     const double curvature = left - 2.0 * centre + right;
     const double offset = curvature < 0.0 ? 0.5 * (left - right) / curvature : 0.0;
-    peaks.emplace_back(centre, wrapAngle((double(s) + offset) * width));
+    peaks.emplace_back(centre, normalizeAngle((double(s) + offset) * width));
   }
   std::sort(peaks.begin(), peaks.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
   std::vector<double> rotations;
@@ -75,7 +73,7 @@ struct Candidate {
 /// them together. Returns the distinct peaks of the vote grid summed over 3 x 3 cells.
 std::vector<Candidate> voteTranslations(const GlobalSearchScan& a, const GlobalSearchScan& b, double rotation,
                                         const GlobalSearchOptions& options) {
-  const double c = std::cos(rotation), s = std::sin(rotation);
+  const RigidMotion2 turn(Pose2{0.0, 0.0, rotation});
   // b's points and normals turned, bucketed by normal direction: buckets at least
   // max_normal_angle wide, so a normal's partners lie in its own bucket or the two beside it.
   const std::size_t bucket_count = std::max<std::size_t>(3, std::size_t(2.0 * M_PI / options.max_normal_angle));
@@ -86,9 +84,8 @@ std::vector<Candidate> voteTranslations(const GlobalSearchScan& a, const GlobalS
   std::vector<std::vector<std::size_t>> buckets(bucket_count);
   Points2 turned(b.points.size()), turned_normals(b.points.size());
   for (std::size_t j = 0; j < b.points.size(); ++j) {
-    const Point2& p = b.points[j];
-    turned[j] = Point2(c * p.x() - s * p.y(), s * p.x() + c * p.y());
-    const double angle = wrapAngle(b.normal_angles[j] + rotation);
+    turned[j] = turn(b.points[j]);
+    const double angle = normalizeAngle(b.normal_angles[j] + rotation);
     turned_normals[j] = Point2(std::cos(angle), std::sin(angle));
     buckets[bucketOf(angle)].push_back(j);
   }
@@ -109,8 +106,9 @@ std::vector<Candidate> voteTranslations(const GlobalSearchScan& a, const GlobalS
       }
     }
   }
-  // Peaks of the 3 x 3 sums (a vote lands in one of four cells around the true translation);
-  // the translation is the vote-weighted mean of those nine cells' centres.
+  // Peaks of the 3 x 3 sums (a vote lands in one of four cells around the true translation),
+  // taken only at cells with votes of their own; the translation is the vote-weighted mean of
+  // the nine cells' centres.
   std::vector<Candidate> peaks;
   auto cellAt = [&](long x, long y) { return x < 0 || y < 0 || x >= side || y >= side ? 0.0 : double(grid[std::size_t(y * side + x)]); };
   std::vector<double> summed(grid.size(), 0.0);

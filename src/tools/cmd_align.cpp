@@ -137,7 +137,8 @@ int runAlign(const Args& args) {
             llc::alignIcp(b->points, a->icp_target, truth, aligner.options().icp, &b->icp_target.normals);
         const llc::Pose2 moved = llc::between(truth, from_truth.pose);
         const double moved_m = std::hypot(moved.x, moved.y), moved_rad = std::abs(moved.theta);
-        const double fit = aligned ? aligner.fit(*a, *b, r.pose) : 0.0;
+        // The winner's share, as align() ranked it (the largest of the converged starts').
+        const double fit = r.icp_shares.empty() ? 0.0 : *std::max_element(r.icp_shares.begin(), r.icp_shares.end());
         const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
         out << ',' << fit << ',' << aligner.fit(*a, *b, truth) << ',' << int(from_truth.converged) << ',' << truth_fit
             << ',' << moved_m << ',' << moved_rad * 180.0 / M_PI;
