@@ -17,6 +17,9 @@ namespace llc {
 
 std::string EsdfOptions::validate() const {
   if (!(relinearize_translation > 0.0) || !(relinearize_rotation > 0.0)) return "relinearize thresholds must be > 0";
+  if (!(relinearize_chi2 >= 0.0) || !std::isfinite(relinearize_chi2)) return "relinearize_chi2 must be finite and >= 0";
+  if (max_edges_relinearized_in_place < 0) return "max_edges_relinearized_in_place must be >= 0";
+  if (!(reorder_fill_ratio >= 1.0) || !std::isfinite(reorder_fill_ratio)) return "reorder_fill_ratio must be finite and >= 1";
   if (max_relinearizations < 0) return "max_relinearizations must be >= 0";
   if (!(loop_chi2_threshold > 0.0)) return "loop_chi2_threshold must be > 0";
   if (!(prior_information > 0.0) || !std::isfinite(prior_information)) return "prior_information must be finite and > 0";
@@ -49,6 +52,14 @@ struct Esdf::Impl {
   std::vector<LeafState> leaf_states;  // per leaf from leaf_start on, filled as far as asked
   std::size_t leaf_states_start = std::string::npos;  // the leaf_start they were made for
   std::vector<int> inverse_permutation;  // original variable -> row of the factor
+  std::size_t factored_nonzeros = 0;     // entries of L when it was last factorised afresh
+  /// Entries of L now: rank updates add fill under the ordering chosen before them.
+  std::size_t factorNonzeros() const {
+    const int* nz = static_cast<const int*>(factor->nz);
+    std::size_t sum = 0;
+    for (std::size_t j = 0; j < factor->n; ++j) sum += std::size_t(nz[j]);
+    return sum;
+  }
   Impl() {
     cholmod_start(&common);
     common.supernodal = CHOLMOD_SIMPLICIAL;  // LDL', which cholmod_updown works on
@@ -108,12 +119,25 @@ Eigen::Matrix3d errorInformation(const Pose2& z, const Eigen::Matrix3d& covarian
 }
 
 Pose2 plus(const Pose2& p, const double* step) { return {p.x + step[0], p.y + step[1], normalizeAngle(p.theta + step[2])}; }
+/// The step from q to p in the system's coordinates (x, y, theta added; theta wrapped).
+Eigen::Vector3d minus(const Pose2& p, const Pose2& q) { return {p.x - q.x, p.y - q.y, normalizeAngle(p.theta - q.theta)}; }
 }  // namespace
 
-void Esdf::addToSystem(const PoseEdge& e) {
+Eigen::Vector3d Esdf::edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) const {
+  const PoseEdge& e = edges_[k];
+  const auto& [at_from, at_to] = edge_points_[k];
+  // e(x) ~ r + Ja (x_from - at_from) + Jb (x_to - at_to), and the unknowns are the steps
+  // from linearization_: move r there so that every edge speaks of the same steps.
+  return linearize(e, at_from, at_to, ja, jb) + *ja * minus(linearization_[e.from], at_from) +
+         *jb * minus(linearization_[e.to], at_to);
+}
+
+void Esdf::addToSystem(std::size_t k, double sign) {
+  const PoseEdge& e = edges_[k];
   Eigen::Matrix3d ja, jb;
-  const Eigen::Vector3d r = linearize(e, linearization_[e.from], linearization_[e.to], &ja, &jb);
-  const Eigen::Matrix3d wa = ja.transpose() * e.information, wb = jb.transpose() * e.information;
+  const Eigen::Vector3d r = edgeTerms(k, &ja, &jb);
+  if (sign > 0.0) edge_models_[k] = {r, ja, jb};
+  const Eigen::Matrix3d wa = sign * ja.transpose() * e.information, wb = sign * jb.transpose() * e.information;
   impl_->block(e.from, e.from) += wa * ja;
   impl_->block(e.to, e.to) += wb * jb;
   if (e.from < e.to) impl_->block(e.from, e.to) += wa * jb;
@@ -121,6 +145,17 @@ void Esdf::addToSystem(const PoseEdge& e) {
   impl_->gradient.segment<3>(3 * long(e.from)) -= wa * r;
   impl_->gradient.segment<3>(3 * long(e.to)) -= wb * r;
   impl_->current = false;
+}
+
+void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point) {
+  // Largest eigenvalue of the translation block, for linearizationErrorBound.
+  const Eigen::Matrix2d xy = edge.information.topLeftCorner<2, 2>();
+  const double half_trace = 0.5 * xy.trace();
+  largest_information_.push_back(half_trace + std::sqrt(std::max(0.0, half_trace * half_trace - xy.determinant())));
+  edge_models_.emplace_back();
+  edges_.push_back(edge);
+  edge_points_.push_back({from_point, to_point});
+  addToSystem(edges_.size() - 1, 1.0);
 }
 
 void Esdf::rebuildSystem() {
@@ -131,7 +166,10 @@ void Esdf::rebuildSystem() {
   impl_->gradient.setZero();
   impl_->block(0, 0) += options_.prior_information * Eigen::Matrix3d::Identity();
   // The prior holds pose 0 where it started (mean_ may have moved it by rounding only).
-  for (const PoseEdge& e : edges_) addToSystem(e);
+  for (std::size_t k = 0; k < edges_.size(); ++k) {
+    edge_points_[k] = {linearization_[edges_[k].from], linearization_[edges_[k].to]};
+    addToSystem(k, 1.0);
+  }
   // Same blocks as before: the symbolic analysis (ordering, pattern of L) still holds.
 }
 
@@ -172,6 +210,7 @@ void Esdf::factorAndSolve() {
   cholmod_free_sparse(&a, &m.common);
   ++factorizations_;
   if (m.common.status == CHOLMOD_NOT_POSDEF) throw std::runtime_error("esdf: information matrix not positive definite");
+  m.factored_nonzeros = m.factorNonzeros();
   m.factor_valid = true;
   solveMean();
 }
@@ -183,14 +222,15 @@ void Esdf::solveMean() {
   impl_->leaf_start = std::string::npos;
 }
 
-bool Esdf::rankUpdate(const PoseEdge& e) {
+bool Esdf::rankUpdate(std::size_t k, bool update) {
   Impl& m = *impl_;
   const std::size_t n = 3 * size();
   if (!m.factor_valid || !m.factor || m.factor->n != n) return false;
   // The constraint adds J^T Omega J = C C^T with C = J^T W, Omega = W W^T (Cholesky): a rank-3
-  // update of the factor, its rows in the factor's (permuted) order.
+  // update (or, to take it out, downdate) of the factor, its rows in the factor's order.
+  const PoseEdge& e = edges_[k];
   Eigen::Matrix3d ja, jb;
-  linearize(e, linearization_[e.from], linearization_[e.to], &ja, &jb);
+  edgeTerms(k, &ja, &jb);
   const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
   if (llt.info() != Eigen::Success) return false;
   const Eigen::Matrix3d w = llt.matrixL();
@@ -210,7 +250,7 @@ bool Esdf::rankUpdate(const PoseEdge& e) {
     for (int k = 0; k < 6; ++k) ci[6 * col + k] = column[std::size_t(k)].first, cx[6 * col + k] = column[std::size_t(k)].second;
   }
   cp[3] = 18;
-  const int ok = cholmod_updown(1, c, m.factor, &m.common);
+  const int ok = cholmod_updown(update ? 1 : 0, c, m.factor, &m.common);
   cholmod_free_sparse(&c, &m.common);
   if (!ok || m.common.status != CHOLMOD_OK) {
     m.factor_valid = false;
@@ -221,19 +261,105 @@ bool Esdf::rankUpdate(const PoseEdge& e) {
   return true;
 }
 
-int Esdf::relinearizeUntilSteady() {
+double Esdf::linearizationError(std::size_t k) const {
+  const PoseEdge& e = edges_[k];
+  const EdgeModel& model = edge_models_[k];
+  const Pose2 &a = mean_[e.from], &b = mean_[e.to];
+  const Eigen::Vector3d predicted = model.residual + model.ja * minus(a, linearization_[e.from]) +
+                                    model.jb * minus(b, linearization_[e.to]);
+  // The true error t2v(Z^-1 (A^-1 B)), written out: one sine and cosine per check.
+  const double ca = std::cos(a.theta), sa = std::sin(a.theta);
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double px = ca * dx + sa * dy - e.measurement.x, py = -sa * dx + ca * dy - e.measurement.y;
+  const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
+  Eigen::Vector3d miss(cz * px + sz * py, -sz * px + cz * py, b.theta - a.theta - e.measurement.theta);
+  miss -= predicted;
+  miss[2] = normalizeAngle(miss[2]);
+  return miss.dot(e.information * miss);
+}
+
+namespace {
+/// a - b wrapped to [-pi, pi) without fmod: one step for the normalised angles kept here.
+double angleDifference(double a, double b) {
+  double d = a - b;
+  while (d >= M_PI) d -= 2.0 * M_PI;
+  while (d < -M_PI) d += 2.0 * M_PI;
+  return d;
+}
+}  // namespace
+
+// The error's only nonlinear part is R(theta_from)^T (t_to - t_from): its angle is linear and
+// the outer rotation by Z keeps norms. The first-order model of R(theta)^T v misses by at most
+// d^2 / 2 |v| + |d| |dv| (d: the from pose's turn, v: t_to - t_from where linearised, dv: its
+// change), since R'' = -R and |R(theta + d) - R(theta)| <= |d|.
+double linearizationMissBound(const Pose2& from, const Pose2& to, const Pose2& at_from, const Pose2& at_to,
+                              double largest_information) {
+  const double turn = std::abs(angleDifference(from.theta, at_from.theta));
+  const double vx = at_to.x - at_from.x, vy = at_to.y - at_from.y;
+  const double dvx = (to.x - from.x) - vx, dvy = (to.y - from.y) - vy;
+  const double miss = 0.5 * turn * turn * std::sqrt(vx * vx + vy * vy) + turn * std::sqrt(dvx * dvx + dvy * dvy);
+  return largest_information * miss * miss;
+}
+
+std::vector<std::size_t> Esdf::staleEdges(double tau, std::size_t limit) const {
+  const double squared_limit = options_.relinearize_translation * options_.relinearize_translation;
+  auto moved = [&](const Pose2& now, const Pose2& then) {
+    const double dx = now.x - then.x, dy = now.y - then.y;
+    return dx * dx + dy * dy > squared_limit ||
+           std::abs(angleDifference(now.theta, then.theta)) > options_.relinearize_rotation;
+  };
+  const std::size_t enough = limit + 1;
+  std::vector<std::size_t> stale;
+  for (std::size_t k = 0; k < edges_.size() && stale.size() < enough; ++k) {
+    const PoseEdge& e = edges_[k];
+    const Pose2 &from = mean_[e.from], &to = mean_[e.to];
+    if (!moved(from, edge_points_[k].first) && !moved(to, edge_points_[k].second)) continue;
+    if (tau > 0.0 && (linearizationMissBound(from, to, edge_points_[k].first, edge_points_[k].second, largest_information_[k]) <= tau ||
+                      !(linearizationError(k) > tau)))
+      continue;
+    stale.push_back(k);
+  }
+  return stale;
+}
+
+bool Esdf::relinearizeInPlace(const std::vector<std::size_t>& stale) {
+  // New information in first, old out after, so that the factor stays positive definite.
+  std::vector<std::pair<Pose2, Pose2>> old_points;
+  for (const std::size_t k : stale) {
+    old_points.push_back(edge_points_[k]);
+    addToSystem(k, -1.0);
+    edge_points_[k] = {mean_[edges_[k].from], mean_[edges_[k].to]};
+    addToSystem(k, 1.0);
+    if (!rankUpdate(k, true)) return false;
+  }
+  for (std::size_t i = 0; i < stale.size(); ++i) {
+    std::swap(edge_points_[stale[i]], old_points[i]);
+    const bool ok = rankUpdate(stale[i], false);
+    std::swap(edge_points_[stale[i]], old_points[i]);
+    if (!ok) return false;
+  }
+  edges_relinearized_in_place_ += int(stale.size());
+  return true;
+}
+
+int Esdf::relinearizeUntilSteady(bool batch) {
+  // Batch: Gauss-Newton steps over the whole system while any pose moves past the thresholds.
+  const double tau = batch ? 0.0 : options_.relinearize_chi2;
+  const std::size_t in_place = batch ? 0 : std::size_t(options_.max_edges_relinearized_in_place);
   int count = 0;
   while (count < options_.max_relinearizations) {
-    bool moved = false;
-    for (std::size_t p = 0; p < size() && !moved; ++p)
-      moved = std::hypot(mean_[p].x - linearization_[p].x, mean_[p].y - linearization_[p].y) > options_.relinearize_translation ||
-              std::abs(normalizeAngle(mean_[p].theta - linearization_[p].theta)) > options_.relinearize_rotation;
-    if (!moved) break;
+    const std::vector<std::size_t> stale = staleEdges(tau, in_place);
+    if (stale.empty()) break;
+    ++count;
+    ++relinearizations_;
+    // A few stale edges are swapped in the factor; many, or a failed downdate, rebuild it all.
+    if (stale.size() <= in_place && relinearizeInPlace(stale)) {
+      solveMean();
+      continue;
+    }
     linearization_ = mean_;
     rebuildSystem();
     factorAndSolve();
-    ++count;
-    ++relinearizations_;
   }
   return count;
 }
@@ -259,8 +385,7 @@ std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
   impl_->upper.emplace_back();
   impl_->gradient.conservativeResize(3 * long(size()));
   impl_->gradient.tail<3>().setZero();
-  edges_.push_back(e);
-  addToSystem(e);
+  addEdge(e, mean_[e.from], mean_.back());
   // Only the new pose is constrained by this edge, and it can satisfy it exactly: every other
   // mean is unchanged and the new one is the composition (so nothing is solved here).
   return e.to;
@@ -297,17 +422,18 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
       return result;
     }
   }
-  edges_.push_back(e);
   impl_->leaf_start = std::string::npos;  // no longer a run of leaves: the next covariance needs a factor
   const bool factor_was_valid = impl_->factor_valid;
-  addToSystem(e);
+  addEdge(e, mean_[e.from], mean_[e.to]);  // linearised where the poses are now
   impl_->factor_valid = false;
   result.applied = true;
   if (!solve) return result;
   // The factor is updated in place when it covers every pose (no pose added since it was
   // made); otherwise, or if the update fails, it is made again.
   impl_->factor_valid = factor_was_valid;
-  if (rankUpdate(e)) solveMean();
+  // Reordered (analysed afresh) once the updates' fill has made L much denser than a new
+  // ordering would: the solves' cost follows L's size.
+  if (rankUpdate(edges_.size() - 1, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
   else factorAndSolve();
   result.relinearizations = relinearizeUntilSteady();
   return result;
@@ -318,7 +444,7 @@ int Esdf::solveFrom(const std::vector<Pose2>& poses) {
   mean_ = linearization_ = poses;
   rebuildSystem();
   factorAndSolve();
-  return relinearizeUntilSteady();
+  return relinearizeUntilSteady(true);
 }
 
 Eigen::Matrix<double, 6, 6> Esdf::factoredJointCovariance(std::size_t a, std::size_t b) {
@@ -344,7 +470,7 @@ const Esdf::LeafState& Esdf::leafState(std::size_t leaf) {
     const std::size_t p = m.leaf_start + m.leaf_states.size();
     const PoseEdge& e = edges_[m.augmentation_edge[p]];
     Eigen::Matrix3d jq, jp;
-    linearize(e, linearization_[e.from], linearization_[p], &jq, &jp);
+    edgeTerms(m.augmentation_edge[p], &jq, &jp);
     const Eigen::Matrix3d jp_inverse = jp.inverse();
     const Eigen::Matrix3d a = -jp_inverse * jq;
     const Eigen::Matrix3d w = jp_inverse * e.information.inverse() * jp_inverse.transpose();
@@ -400,7 +526,7 @@ Eigen::Matrix<double, 6, 6> Esdf::leafJointCovariance(std::size_t a, std::size_t
     if (const auto found = memo.find(key); found != memo.end()) return found->second;
     const PoseEdge& e = edges_[impl_->augmentation_edge[j]];
     Eigen::Matrix3d jq, jp;
-    linearize(e, linearization_[e.from], linearization_[j], &jq, &jp);
+    edgeTerms(impl_->augmentation_edge[j], &jq, &jp);
     const Eigen::Matrix3d jp_inverse = jp.inverse();
     const Eigen::Matrix3d propagate = -jp_inverse * jq;
     Eigen::Matrix3d result;

@@ -15,11 +15,21 @@
 namespace llc {
 
 struct EsdfOptions {
-  /// Relinearise (rebuild the information at the current mean and refactor) when a pose's
-  /// mean has moved more than this from where its constraints were linearised ...
+  /// A constraint is relinearised (its information taken again at the current means) when one
+  /// of its poses has moved more than this from where the constraint was linearised ...
   double relinearize_translation = 0.05;  ///< m
   double relinearize_rotation = 0.02;     ///< rad
-  int max_relinearizations = 20;          ///< ... at most this many times per update
+  /// ... and its linear model misses its true error at the current means by more than this
+  /// (squared Mahalanobis distance in the constraint's information; 0: whenever it moved).
+  /// A pose graph moved rigidly keeps its linear model, so this spares most relinearisations.
+  double relinearize_chi2 = 0.001;
+  /// Up to this many constraints are relinearised in place (a rank-3 update and downdate of
+  /// the factor each); more, and the whole system is rebuilt at the current means and refactored.
+  int max_edges_relinearized_in_place = 32;
+  int max_relinearizations = 20;          ///< relinearisation rounds (each then solved) per update
+  /// Rank updates add fill to L under the ordering chosen before them; once L has grown past
+  /// this many times its size when last factorised, the next update reorders and refactors.
+  double reorder_fill_ratio = 1.5;
   /// 3-DoF chi-square threshold of a loop closure's innovation (99.9%: 16.27); larger is refused.
   double loop_chi2_threshold = 16.27;
   double prior_information = 1e8;         ///< anchors the first pose (information per unit)
@@ -33,6 +43,13 @@ struct EsdfUpdateResult {
   int relinearizations = 0;
   std::string reject_reason;     ///< empty when applied
 };
+
+/// An upper bound, with no trigonometry, of how far the first-order model of a relative-pose
+/// error (g2o's t2v(Z^-1 (A^-1 B))) taken at poses (at_from, at_to) misses the true error at
+/// (from, to), as a squared Mahalanobis distance in an information whose x, y block has
+/// largest eigenvalue largest_information. Used to skip the exact test of most constraints.
+double linearizationMissBound(const Pose2& from, const Pose2& to, const Pose2& at_from, const Pose2& at_to,
+                              double largest_information);
 
 class Esdf {
  public:
@@ -59,7 +76,9 @@ class Esdf {
   /// files give it (the error lives in the frame of the measured pose).
   EsdfUpdateResult updateWithInformation(const PoseEdge& edge, bool gate, bool solve = true);
   /// Batch use: every mean set to `poses` (one per pose), the system rebuilt there and solved,
-  /// relinearising until steady (Gauss-Newton from that start). Returns the relinearisations.
+  /// rebuilt again while any pose moves past the relinearisation thresholds (Gauss-Newton from
+  /// that start; relinearize_chi2 and in-place relinearisation are for updates). Returns the
+  /// relinearisations.
   int solveFrom(const std::vector<Pose2>& poses);
 
   const std::vector<Pose2>& mean() const { return mean_; }
@@ -85,16 +104,30 @@ class Esdf {
   const std::vector<PoseEdge>& constraints() const { return edges_; }
   int factorizations() const { return factorizations_; }
   int rankUpdates() const { return rank_updates_; }
+  /// Relinearisation rounds, and how many constraints were relinearised in place by them.
   int relinearizations() const { return relinearizations_; }
+  int edgesRelinearizedInPlace() const { return edges_relinearized_in_place_; }
 
  private:
   struct Impl;
-  void addToSystem(const PoseEdge& edge);
+  /// Edge k's residual (shifted to the system's linearisation point) and Jacobians, taken at
+  /// the poses where the edge was linearised.
+  Eigen::Vector3d edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) const;
+  /// Adds (sign 1) or removes (sign -1) edge k's information and gradient.
+  void addToSystem(std::size_t k, double sign);
+  void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point);
   void rebuildSystem();
   void factorAndSolve();
   void solveMean();
-  bool rankUpdate(const PoseEdge& edge);
-  int relinearizeUntilSteady();
+  /// Edge k's information added to (update) or removed from the factor in place.
+  bool rankUpdate(std::size_t k, bool update);
+  /// How far edge k's linear model misses its error at the current means (squared Mahalanobis).
+  double linearizationError(std::size_t k) const;
+  /// The edges to relinearise now: moved past the thresholds and (tau > 0) missing their
+  /// linear model by more than tau. Stops counting past limit.
+  std::vector<std::size_t> staleEdges(double tau, std::size_t limit) const;
+  bool relinearizeInPlace(const std::vector<std::size_t>& edges);
+  int relinearizeUntilSteady(bool batch = false);
   Eigen::Matrix<double, 6, 6> factoredJointCovariance(std::size_t a, std::size_t b);
   bool leafCovariancesAvailable(std::size_t a, std::size_t b) const;
   Eigen::Matrix<double, 6, 6> leafJointCovariance(std::size_t a, std::size_t b);
@@ -103,7 +136,14 @@ class Esdf {
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
   std::vector<PoseEdge> edges_;
-  int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0;
+  std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
+  std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information
+  struct EdgeModel {  ///< an edge's linear model in the system: e ~ residual + ja dx_from + jb dx_to
+    Eigen::Vector3d residual = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d ja = Eigen::Matrix3d::Zero(), jb = Eigen::Matrix3d::Zero();
+  };
+  std::vector<EdgeModel> edge_models_;
+  int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0, edges_relinearized_in_place_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -91,7 +91,10 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   EsdfOptions& esdf = options.slam.esdf;
   visit("esdf/relinearize_translation", esdf.relinearize_translation);
   visit("esdf/relinearize_rotation", esdf.relinearize_rotation);
+  visit("esdf/relinearize_chi2", esdf.relinearize_chi2);
+  visit("esdf/max_edges_relinearized_in_place", esdf.max_edges_relinearized_in_place);
   visit("esdf/max_relinearizations", esdf.max_relinearizations);
+  visit("esdf/reorder_fill_ratio", esdf.reorder_fill_ratio);
   visit("esdf/loop_chi2_threshold", esdf.loop_chi2_threshold);
   visit("esdf/prior_information", esdf.prior_information);
   visit("esdf/gate_loops", options.slam.gate_loops);
