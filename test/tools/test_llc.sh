@@ -90,6 +90,7 @@ check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" 
 check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
 check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
 check "graph: both modes" 1 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
+check "graph: negative relinearize-chi2" 1 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --relinearize-chi2 -1
 printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
