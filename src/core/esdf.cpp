@@ -222,41 +222,48 @@ void Esdf::solveMean() {
   impl_->leaf_start = std::string::npos;
 }
 
-bool Esdf::rankUpdate(std::size_t k, bool update) {
+bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
   Impl& m = *impl_;
   const std::size_t n = 3 * size();
   if (!m.factor_valid || !m.factor || m.factor->n != n) return false;
-  // The constraint adds J^T Omega J = C C^T with C = J^T W, Omega = W W^T (Cholesky): a rank-3
-  // update (or, to take it out, downdate) of the factor, its rows in the factor's order.
-  const PoseEdge& e = edges_[k];
-  Eigen::Matrix3d ja, jb;
-  edgeTerms(k, &ja, &jb);
-  const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::Matrix3d w = llt.matrixL();
-  const Eigen::Matrix3d ca = ja.transpose() * w, cb = jb.transpose() * w;
-  cholmod_sparse* c = cholmod_allocate_sparse(n, 3, 18, 1, 1, 0, CHOLMOD_REAL, &m.common);
+  // A constraint adds J^T Omega J = C C^T with C = J^T W, Omega = W W^T (Cholesky): a rank-3
+  // update (or, to take it out, downdate) of the factor, its rows in the factor's order. All
+  // edges go in one call: CHOLMOD walks their merged paths up to eight columns at a time.
+  cholmod_sparse* c = cholmod_allocate_sparse(n, 3 * edges.size(), 18 * edges.size(), 1, 1, 0, CHOLMOD_REAL, &m.common);
   auto* cp = static_cast<int*>(c->p);
   auto* ci = static_cast<int*>(c->i);
   auto* cx = static_cast<double*>(c->x);
   std::array<std::pair<int, double>, 6> column;
-  for (int col = 0; col < 3; ++col) {
-    for (int r = 0; r < 3; ++r) {
-      column[std::size_t(r)] = {m.inverse_permutation[3 * e.from + std::size_t(r)], ca(r, col)};
-      column[std::size_t(3 + r)] = {m.inverse_permutation[3 * e.to + std::size_t(r)], cb(r, col)};
+  int col = 0;
+  for (const std::size_t k : edges) {
+    const PoseEdge& e = edges_[k];
+    Eigen::Matrix3d ja, jb;
+    edgeTerms(k, &ja, &jb);
+    const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
+    if (llt.info() != Eigen::Success) {
+      cholmod_free_sparse(&c, &m.common);
+      return false;
     }
-    std::sort(column.begin(), column.end());
-    cp[col] = 6 * col;
-    for (int k = 0; k < 6; ++k) ci[6 * col + k] = column[std::size_t(k)].first, cx[6 * col + k] = column[std::size_t(k)].second;
+    const Eigen::Matrix3d w = llt.matrixL();
+    const Eigen::Matrix3d ca = ja.transpose() * w, cb = jb.transpose() * w;
+    for (int j = 0; j < 3; ++j, ++col) {
+      for (int r = 0; r < 3; ++r) {
+        column[std::size_t(r)] = {m.inverse_permutation[3 * e.from + std::size_t(r)], ca(r, j)};
+        column[std::size_t(3 + r)] = {m.inverse_permutation[3 * e.to + std::size_t(r)], cb(r, j)};
+      }
+      std::sort(column.begin(), column.end());
+      cp[col] = 6 * col;
+      for (int i = 0; i < 6; ++i) ci[6 * col + i] = column[std::size_t(i)].first, cx[6 * col + i] = column[std::size_t(i)].second;
+    }
   }
-  cp[3] = 18;
+  cp[col] = 6 * col;
   const int ok = cholmod_updown(update ? 1 : 0, c, m.factor, &m.common);
   cholmod_free_sparse(&c, &m.common);
   if (!ok || m.common.status != CHOLMOD_OK) {
     m.factor_valid = false;
     return false;
   }
-  ++rank_updates_;
+  rank_updates_ += int(edges.size());
   m.analysed_blocks = 0;  // the update may have changed L's pattern: analyse afresh next time
   return true;
 }
@@ -330,14 +337,12 @@ bool Esdf::relinearizeInPlace(const std::vector<std::size_t>& stale) {
     addToSystem(k, -1.0);
     edge_points_[k] = {mean_[edges_[k].from], mean_[edges_[k].to]};
     addToSystem(k, 1.0);
-    if (!rankUpdate(k, true)) return false;
   }
-  for (std::size_t i = 0; i < stale.size(); ++i) {
-    std::swap(edge_points_[stale[i]], old_points[i]);
-    const bool ok = rankUpdate(stale[i], false);
-    std::swap(edge_points_[stale[i]], old_points[i]);
-    if (!ok) return false;
-  }
+  if (!rankUpdate(stale, true)) return false;
+  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  const bool ok = rankUpdate(stale, false);  // the old information, taken at the old points
+  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  if (!ok) return false;
   edges_relinearized_in_place_ += int(stale.size());
   return true;
 }
@@ -433,7 +438,7 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   impl_->factor_valid = factor_was_valid;
   // Reordered (analysed afresh) once the updates' fill has made L much denser than a new
   // ordering would: the solves' cost follows L's size.
-  if (rankUpdate(edges_.size() - 1, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
+  if (rankUpdate({edges_.size() - 1}, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
   else factorAndSolve();
   result.relinearizations = relinearizeUntilSteady();
   return result;

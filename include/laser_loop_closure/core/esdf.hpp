@@ -119,8 +119,8 @@ class Esdf {
   void rebuildSystem();
   void factorAndSolve();
   void solveMean();
-  /// Edge k's information added to (update) or removed from the factor in place.
-  bool rankUpdate(std::size_t k, bool update);
+  /// The edges' information added to (update) or removed from the factor in place.
+  bool rankUpdate(const std::vector<std::size_t>& edges, bool update);
   /// How far edge k's linear model misses its error at the current means (squared Mahalanobis).
   double linearizationError(std::size_t k) const;
   /// The edges to relinearise now: moved past the thresholds and (tau > 0) missing their
