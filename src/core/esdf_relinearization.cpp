@@ -1,0 +1,115 @@
+// The ESDF's relinearisation policy: which constraints are stale (their linear model misses
+// their true error at the current means), and how they are brought up to date (swapped inside
+// the factor when few, the whole system rebuilt when many). The factor itself is esdf.cpp's.
+#include <cmath>
+
+#include "laser_loop_closure/core/esdf.hpp"
+
+namespace llc {
+namespace {
+/// The step from q to p in the system's coordinates (x, y, theta added; theta wrapped).
+Eigen::Vector3d minus(const Pose2& p, const Pose2& q) { return {p.x - q.x, p.y - q.y, normalizeAngle(p.theta - q.theta)}; }
+}  // namespace
+
+double Esdf::linearizationError(std::size_t k) const {
+  const PoseEdge& e = edges_[k];
+  const EdgeModel& model = edge_models_[k];
+  const Pose2 &a = mean_[e.from], &b = mean_[e.to];
+  const Eigen::Vector3d predicted = model.residual + model.ja * minus(a, linearization_[e.from]) +
+                                    model.jb * minus(b, linearization_[e.to]);
+  // The true error t2v(Z^-1 (A^-1 B)), written out: one sine and cosine per check.
+  const double ca = std::cos(a.theta), sa = std::sin(a.theta);
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double px = ca * dx + sa * dy - e.measurement.x, py = -sa * dx + ca * dy - e.measurement.y;
+  const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
+  Eigen::Vector3d miss(cz * px + sz * py, -sz * px + cz * py, b.theta - a.theta - e.measurement.theta);
+  miss -= predicted;
+  miss[2] = normalizeAngle(miss[2]);
+  return miss.dot(e.information * miss);
+}
+
+namespace {
+/// a - b wrapped to [-pi, pi) without fmod: one step for the normalised angles kept here.
+double angleDifference(double a, double b) {
+  double d = a - b;
+  while (d >= M_PI) d -= 2.0 * M_PI;
+  while (d < -M_PI) d += 2.0 * M_PI;
+  return d;
+}
+}  // namespace
+
+// The error's only nonlinear part is R(theta_from)^T (t_to - t_from): its angle is linear and
+// the outer rotation by Z keeps norms. The first-order model of R(theta)^T v misses by at most
+// d^2 / 2 |v| + |d| |dv| (d: the from pose's turn, v: t_to - t_from where linearised, dv: its
+// change), since R'' = -R and |R(theta + d) - R(theta)| <= |d|.
+double linearizationMissBound(const Pose2& from, const Pose2& to, const Pose2& at_from, const Pose2& at_to,
+                              double largest_information) {
+  const double turn = std::abs(angleDifference(from.theta, at_from.theta));
+  const double vx = at_to.x - at_from.x, vy = at_to.y - at_from.y;
+  const double dvx = (to.x - from.x) - vx, dvy = (to.y - from.y) - vy;
+  const double miss = 0.5 * turn * turn * std::sqrt(vx * vx + vy * vy) + turn * std::sqrt(dvx * dvx + dvy * dvy);
+  return largest_information * miss * miss;
+}
+
+std::vector<std::size_t> Esdf::staleEdges(double tau, std::size_t limit) const {
+  const double squared_limit = options_.relinearize_translation * options_.relinearize_translation;
+  auto moved = [&](const Pose2& now, const Pose2& then) {
+    const double dx = now.x - then.x, dy = now.y - then.y;
+    return dx * dx + dy * dy > squared_limit ||
+           std::abs(angleDifference(now.theta, then.theta)) > options_.relinearize_rotation;
+  };
+  const std::size_t enough = limit + 1;
+  std::vector<std::size_t> stale;
+  for (std::size_t k = 0; k < edges_.size() && stale.size() < enough; ++k) {
+    const PoseEdge& e = edges_[k];
+    const Pose2 &from = mean_[e.from], &to = mean_[e.to];
+    if (!moved(from, edge_points_[k].first) && !moved(to, edge_points_[k].second)) continue;
+    if (tau > 0.0 && (linearizationMissBound(from, to, edge_points_[k].first, edge_points_[k].second, largest_information_[k]) <= tau ||
+                      !(linearizationError(k) > tau)))
+      continue;
+    stale.push_back(k);
+  }
+  return stale;
+}
+
+bool Esdf::relinearizeInPlace(const std::vector<std::size_t>& stale) {
+  // New information in first, old out after, so that the factor stays positive definite.
+  std::vector<std::pair<Pose2, Pose2>> old_points;
+  for (const std::size_t k : stale) {
+    old_points.push_back(edge_points_[k]);
+    addToSystem(k, -1.0);
+    edge_points_[k] = {mean_[edges_[k].from], mean_[edges_[k].to]};
+    addToSystem(k, 1.0);
+  }
+  if (!rankUpdate(stale, true)) return false;
+  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  const bool ok = rankUpdate(stale, false);  // the old information, taken at the old points
+  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  if (!ok) return false;
+  edges_relinearized_in_place_ += int(stale.size());
+  return true;
+}
+
+int Esdf::relinearizeUntilSteady(bool batch) {
+  // Batch: Gauss-Newton steps over the whole system while any pose moves past the thresholds.
+  const double tau = batch ? 0.0 : options_.relinearize_chi2;
+  const std::size_t in_place = batch ? 0 : std::size_t(options_.max_edges_relinearized_in_place);
+  int count = 0;
+  while (count < options_.max_relinearizations) {
+    const std::vector<std::size_t> stale = staleEdges(tau, in_place);
+    if (stale.empty()) break;
+    ++count;
+    ++relinearizations_;
+    // A few stale edges are swapped in the factor; many, or a failed downdate, rebuild it all.
+    if (stale.size() <= in_place && relinearizeInPlace(stale)) {
+      solveMean();
+      continue;
+    }
+    linearization_ = mean_;
+    rebuildSystem();
+    factorAndSolve();
+  }
+  return count;
+}
+
+}  // namespace llc
