@@ -119,8 +119,6 @@ Eigen::Matrix3d errorInformation(const Pose2& z, const Eigen::Matrix3d& covarian
 }
 
 Pose2 plus(const Pose2& p, const double* step) { return {p.x + step[0], p.y + step[1], normalizeAngle(p.theta + step[2])}; }
-/// The step from q to p in the system's coordinates (x, y, theta added; theta wrapped).
-Eigen::Vector3d minus(const Pose2& p, const Pose2& q) { return {p.x - q.x, p.y - q.y, normalizeAngle(p.theta - q.theta)}; }
 }  // namespace
 
 Eigen::Vector3d Esdf::edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) const {
@@ -128,8 +126,8 @@ Eigen::Vector3d Esdf::edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matri
   const auto& [at_from, at_to] = edge_points_[k];
   // e(x) ~ r + Ja (x_from - at_from) + Jb (x_to - at_to), and the unknowns are the steps
   // from linearization_: move r there so that every edge speaks of the same steps.
-  return linearize(e, at_from, at_to, ja, jb) + *ja * minus(linearization_[e.from], at_from) +
-         *jb * minus(linearization_[e.to], at_to);
+  return linearize(e, at_from, at_to, ja, jb) + *ja * poseDifference(linearization_[e.from], at_from) +
+         *jb * poseDifference(linearization_[e.to], at_to);
 }
 
 void Esdf::addToSystem(std::size_t k, double sign) {

@@ -4,19 +4,16 @@
 #include <cmath>
 
 #include "laser_loop_closure/core/esdf.hpp"
+#include "laser_loop_closure/core/se2_jacobians.hpp"
 
 namespace llc {
-namespace {
-/// The step from q to p in the system's coordinates (x, y, theta added; theta wrapped).
-Eigen::Vector3d minus(const Pose2& p, const Pose2& q) { return {p.x - q.x, p.y - q.y, normalizeAngle(p.theta - q.theta)}; }
-}  // namespace
 
 double Esdf::linearizationError(std::size_t k) const {
   const PoseEdge& e = edges_[k];
   const EdgeModel& model = edge_models_[k];
   const Pose2 &a = mean_[e.from], &b = mean_[e.to];
-  const Eigen::Vector3d predicted = model.residual + model.ja * minus(a, linearization_[e.from]) +
-                                    model.jb * minus(b, linearization_[e.to]);
+  const Eigen::Vector3d predicted = model.residual + model.ja * poseDifference(a, linearization_[e.from]) +
+                                    model.jb * poseDifference(b, linearization_[e.to]);
   // The true error t2v(Z^-1 (A^-1 B)), written out: one sine and cosine per check.
   const double ca = std::cos(a.theta), sa = std::sin(a.theta);
   const double dx = b.x - a.x, dy = b.y - a.y;
@@ -29,12 +26,13 @@ double Esdf::linearizationError(std::size_t k) const {
 }
 
 namespace {
-/// a - b wrapped to [-pi, pi) without fmod: one step for the normalised angles kept here.
+/// a - b wrapped to [-pi, pi): one step, without fmod, for the normalised angles kept here
+/// (their difference lies in (-2 pi, 2 pi)); anything else goes through normalizeAngle.
 double angleDifference(double a, double b) {
-  double d = a - b;
-  while (d >= M_PI) d -= 2.0 * M_PI;
-  while (d < -M_PI) d += 2.0 * M_PI;
-  return d;
+  const double d = a - b;
+  if (d >= M_PI && d < 3.0 * M_PI) return d - 2.0 * M_PI;
+  if (d < -M_PI && d >= -3.0 * M_PI) return d + 2.0 * M_PI;
+  return d >= -M_PI && d < M_PI ? d : normalizeAngle(d);
 }
 }  // namespace
 

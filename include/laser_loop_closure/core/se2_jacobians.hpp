@@ -10,6 +10,11 @@ namespace llc {
 
 inline Eigen::Vector3d toVector(const Pose2& p) { return {p.x, p.y, p.theta}; }
 inline Pose2 toPose(const Eigen::Vector3d& v) { return {v.x(), v.y(), normalizeAngle(v.z())}; }
+/// The additive step from q to p (x, y subtracted, theta subtracted and wrapped): the
+/// coordinates in which a linearised pose graph's unknowns live.
+inline Eigen::Vector3d poseDifference(const Pose2& p, const Pose2& q) {
+  return {p.x - q.x, p.y - q.y, normalizeAngle(p.theta - q.theta)};
+}
 
 /// d(a (+) b)/da and d(a (+) b)/db.
 inline void composeJacobians(const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
