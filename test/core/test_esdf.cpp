@@ -4,6 +4,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 
 #include "laser_loop_closure/core/esdf.hpp"
 #include "laser_loop_closure/core/g2o_io.hpp"
@@ -207,6 +208,39 @@ TEST(Esdf, DefaultRelinearisationReachesTheOptimumWithFewerFactorisations) {
     EXPECT_LE(llc::chiSquared(g.edges, by_default.mean()), optimum * 1.005) << "seed " << seed;  // issue 5: within 1%
     EXPECT_LE(by_default.factorizations(), whenever_moved.factorizations()) << "seed " << seed;
   }
+}
+
+TEST(Esdf, BadRelinearisationOptionsAreRefusedByName) {
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  for (const double bad : {-1e-3, nan, inf}) {
+    llc::EsdfOptions options;
+    options.relinearize_chi2 = bad;
+    EXPECT_NE(options.validate().find("relinearize_chi2"), std::string::npos) << bad;
+    EXPECT_THROW(llc::Esdf(Pose2{}, options), std::invalid_argument);
+  }
+  for (const double bad : {0.5, nan, inf}) {
+    llc::EsdfOptions options;
+    options.reorder_fill_ratio = bad;
+    EXPECT_NE(options.validate().find("reorder_fill_ratio"), std::string::npos) << bad;
+  }
+  llc::EsdfOptions options;
+  options.max_edges_relinearized_in_place = -1;
+  EXPECT_NE(options.validate().find("max_edges_relinearized_in_place"), std::string::npos);
+  options = {};
+  options.relinearize_chi2 = 0.0;  // allowed: relinearise whatever moved
+  options.max_edges_relinearized_in_place = 0;  // allowed: always rebuild
+  options.reorder_fill_ratio = 1.0;  // allowed: reorder at any fill
+  EXPECT_EQ(options.validate(), "");
+}
+
+TEST(Esdf, LinearizationMissBoundOfOddAnglesEndsAndIsNotBelowZero) {
+  // Angles outside [-pi, pi) and infinite ones: an answer (no endless wrapping), never negative.
+  const Pose2 at_a{0, 0, 0}, at_b{1, 0, 0};
+  EXPECT_GE(llc::linearizationMissBound(Pose2{0, 0, 7.0}, Pose2{1, 0, 0}, at_a, at_b, 10.0), 0.0);
+  EXPECT_GE(llc::linearizationMissBound(Pose2{0, 0, -40.0}, Pose2{1, 0, 0}, at_a, at_b, 10.0), 0.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(llc::linearizationMissBound(Pose2{0, 0, inf}, Pose2{1, 0, 0}, at_a, at_b, 10.0) < 0.0);
+  EXPECT_EQ(llc::linearizationMissBound(at_a, at_b, at_a, at_b, 10.0), 0.0) << "no move, no miss";
 }
 
 TEST(Esdf, LinearizationMissBoundIsNeverBelowTheTrueMiss) {
