@@ -103,6 +103,7 @@ int Esdf::relinearizeUntilSteady(bool batch) {
       solveMean();
       continue;
     }
+    ++rebuilds_;
     linearization_ = mean_;
     rebuildSystem();
     factorAndSolve();

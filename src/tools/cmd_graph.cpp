@@ -19,6 +19,9 @@ int runGraph(const Args& args) {
   options.relinearize_translation = args.number("relinearize-translation", options.relinearize_translation);
   options.relinearize_rotation = args.number("relinearize-rotation", options.relinearize_rotation);
   options.relinearize_chi2 = args.number("relinearize-chi2", options.relinearize_chi2);
+  options.max_edges_relinearized_in_place =
+      int(args.integer("max-edges-in-place", options.max_edges_relinearized_in_place));
+  options.reorder_fill_ratio = args.number("reorder-fill-ratio", options.reorder_fill_ratio);
   options.max_relinearizations = int(args.integer("max-relinearizations", options.max_relinearizations));
   options.loop_chi2_threshold = args.number("loop-chi2", options.loop_chi2_threshold);
   const std::string invalid = options.validate();
@@ -75,7 +78,8 @@ int runGraph(const Args& args) {
             << " refused=" << refused << " factorizations=" << filter.factorizations()
             << " rank_updates=" << filter.rankUpdates()
             << " relinearizations=" << filter.relinearizations()
-            << " edges_relinearized_in_place=" << filter.edgesRelinearizedInPlace() << " initial_chi2=" << std::setprecision(10)
+            << " edges_relinearized_in_place=" << filter.edgesRelinearizedInPlace()
+            << " rebuilds=" << filter.rebuilds() << " initial_chi2=" << std::setprecision(10)
             << llc::chiSquared(graph.edges, graph.poses) << " -> " << out_path << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
   std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";

@@ -64,10 +64,12 @@ const std::vector<Command>& commands() {
        "align --data LOG:PAIRS [...] --out ALIGN.csv [--model MODEL.yaml] [--compare-pcl] [--truth-check]\n"
        "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
       {"graph", llc_tool::runGraph,
-       {"g2o", "out", "relinearize-translation", "relinearize-rotation", "relinearize-chi2", "max-relinearizations", "loop-chi2"},
+       {"g2o", "out", "relinearize-translation", "relinearize-rotation", "relinearize-chi2", "max-edges-in-place", "reorder-fill-ratio",
+        "max-relinearizations", "loop-chi2"},
        {"incremental", "batch", "gate"},
        "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--loop-chi2 16.27]\n"
-       "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--relinearize-chi2 0.01]\n      [--max-relinearizations 20]"},
+       "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--relinearize-chi2 0.001]\n"
+       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20]"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset"},

@@ -107,6 +107,9 @@ class Esdf {
   /// Relinearisation rounds, and how many constraints were relinearised in place by them.
   int relinearizations() const { return relinearizations_; }
   int edgesRelinearizedInPlace() const { return edges_relinearized_in_place_; }
+  /// Rounds that rebuilt and refactored the whole system (too many stale constraints, or a
+  /// factor that did not cover every pose) instead of swapping constraints in place.
+  int rebuilds() const { return rebuilds_; }
 
  private:
   struct Impl;
@@ -143,7 +146,7 @@ class Esdf {
     Eigen::Matrix3d ja = Eigen::Matrix3d::Zero(), jb = Eigen::Matrix3d::Zero();
   };
   std::vector<EdgeModel> edge_models_;
-  int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0, edges_relinearized_in_place_ = 0;
+  int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0, edges_relinearized_in_place_ = 0, rebuilds_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 
