@@ -327,16 +327,19 @@ void FeatureExtractor::writeOutlineSignatures(bool closed, std::size_t n, double
   const std::size_t k = resampleOutline(x_.data(), y_.data(), valid_.data(), step_.data(), n, closed, px, py);
   // D2: distances between points s apart along the outline (cyclically) for every odd s up to
   // k / 2: about a quarter of all pairs, an even sample of them whatever the outline's shape.
+  // Their squares are ranked and only the chosen ones rooted: the root is monotone, so this
+  // is bit for bit the quantiles of the distances, without thousands of square roots.
   std::copy(px, px + k / 2, px + k);
   std::copy(py, py + k / 2, py + k);
   std::size_t m = 0;
   outline_work_.resize(k * ((k / 2 + 1) / 2));
   for (std::size_t s = 1; s <= k / 2; s += 2) {
-    distancesAhead(px, py, k + s, s, outline_work_.data() + m);
+    squaredDistancesAhead(px, py, k + s, s, outline_work_.data() + m);
     m += k;
   }
-  ranks_.assign(outline_work_.data(), m);
+  ranks_.assign(outline_work_.data(), m, RankSelector::Scale::kSquaredDistances);
   writeQuantiles(ranks_, out);
+  for (std::size_t q = 0; q < kSignatureLevels; ++q) out[q] = std::sqrt(out[q]);
   // Distances of the outline's points to their centroid.
   double cx = 0.0, cy = 0.0;
   for (std::size_t i = 0; i < k; ++i) cx += px[i], cy += py[i];

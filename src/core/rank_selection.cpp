@@ -7,23 +7,40 @@
 namespace llc {
 namespace {
 
-/// Bucket of a value: 5 mantissa bits and the exponent of its float form, over 16 octaves
-/// from 2^-8 (everything smaller, zero and negatives in bucket 0) to 2^8 (everything larger in
-/// the last bucket). Rounding to float is monotone, so the key never orders two values wrongly.
-inline std::uint32_t bucketOf(double value) {
-  const float f = value > 0.0 ? float(value) : 0.0f;
-  std::uint32_t bits;
-  std::memcpy(&bits, &f, sizeof bits);
-  constexpr std::uint32_t kFirst = (127u - 8u) << 5;  // 2^-8: exponent 119, mantissa bits 0
-  const std::uint32_t key = bits >> 18;
-  return key <= kFirst ? 0u : std::min<std::uint32_t>(key - kFirst, RankSelector::kBuckets - 1);
+/// Bucket of a value: the exponent and the leading mantissa bits of its float form, counted
+/// from the first bucket's float bits `kFirst` (everything smaller, zero and negatives in
+/// bucket 0; everything beyond the span in the last bucket). Rounding to float is monotone, so
+/// the key never orders two values wrongly.
+template <unsigned kShift, std::uint32_t kFirst>
+void writeKeys(const double* values, std::size_t count, std::uint16_t* keys) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const float f = values[i] > 0.0 ? float(values[i]) : 0.0f;
+    std::uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    const std::uint32_t key = bits >> kShift;
+    keys[i] = std::uint16_t(key <= kFirst ? 0u : std::min<std::uint32_t>(key - kFirst, RankSelector::kBuckets - 1));
+  }
 }
 
 }  // namespace
 
-void RankSelector::assign(const double* values, std::size_t count) {
+void RankSelector::assign(const double* values, std::size_t count, Scale scale) {
   key_.resize(count);
-  for (std::size_t i = 0; i < count; ++i) key_[i] = bucketOf(values[i]);
+  if (scale == Scale::kDistances) writeKeys<18, (127u - 8u) << 5>(values, count, key_.data());  // 5 mantissa bits
+  else writeKeys<19, (127u - 16u) << 4>(values, count, key_.data());                           // 4 mantissa bits
+  values_.resize(count);
+  if (count < kFewValues) {
+    // Few values: one histogram and one scatter; four lanes' set-up would cost more than it saves.
+    std::uint32_t next[kBuckets] = {};
+    for (std::size_t i = 0; i < count; ++i) ++next[key_[i]];
+    start_[0] = 0;
+    for (std::size_t b = 0; b < kBuckets; ++b) {
+      start_[b + 1] = start_[b] + next[b];
+      next[b] = start_[b];
+    }
+    for (std::size_t i = 0; i < count; ++i) values_[next[key_[i]]++] = values[i];
+    return;
+  }
   // Four interleaved histograms: runs of equal keys (a wall at one distance) would otherwise
   // chain every increment on the one before through memory.
   std::uint32_t partial[4][kBuckets] = {};
@@ -45,7 +62,6 @@ void RankSelector::assign(const double* values, std::size_t count) {
     next[3][b] = next[2][b] + partial[2][b];
     start_[b + 1] = next[3][b] + partial[3][b];
   }
-  values_.resize(count);
   std::size_t k = 0;
   for (; k + 4 <= count; k += 4) {
     values_[next[0][key_[k]]++] = values[k];

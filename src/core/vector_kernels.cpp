@@ -17,6 +17,18 @@ void distancesAhead(const double* x, const double* y, std::size_t count, std::si
 }
 
 LLC_VECTOR_CLONES
+void squaredDistancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out) {
+  if (separation >= count) return;
+  const std::size_t m = count - separation;
+  const double* x2 = x + separation;
+  const double* y2 = y + separation;
+  for (std::size_t i = 0; i < m; ++i) {
+    const double ddx = x2[i] - x[i], ddy = y2[i] - y[i];
+    out[i] = ddx * ddx + ddy * ddy;
+  }
+}
+
+LLC_VECTOR_CLONES
 void distancesFromCentred(const double* x, const double* y, std::size_t count, double cx, double cy, double dx,
                           double dy, double* out) {
   for (std::size_t i = 0; i < count; ++i) {

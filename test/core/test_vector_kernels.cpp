@@ -19,21 +19,24 @@ namespace {
 
 TEST(RankSelector, EveryRankEqualsTheFullSortOnSpreadAndClusteredValues) {
   llc::Random random(7);
-  for (int trial = 0; trial < 40; ++trial) {
+  // Counts from 1 to 3000 cover both the one-lane (< kFewValues) and the four-lane path.
+  for (int trial = 0; trial < 80; ++trial) {
+    const auto scale = trial % 2 ? llc::RankSelector::Scale::kSquaredDistances : llc::RankSelector::Scale::kDistances;
     const std::size_t count = 1 + std::size_t(random.uniform() * 3000);
     std::vector<double> values(count);
     for (double& v : values) {
       const double kind = random.uniform();
       if (kind < 0.3) v = 5.0 + 0.001 * std::floor(random.uniform() * 20);  // a wall: many equal or close values
       else if (kind < 0.4) v = 0.0;
-      else if (kind < 0.45) v = 1e-5 * random.uniform();      // below the first bucket
-      else if (kind < 0.5) v = 300.0 + 1e4 * random.uniform();  // beyond the last bucket
+      else if (kind < 0.45) v = 1e-9 * random.uniform();      // below the first bucket of either scale
+      else if (kind < 0.5) v = 1e5 + 1e6 * random.uniform();  // beyond the last bucket of either scale
+      else if (kind < 0.52) v = -random.uniform();            // negative: the first bucket, still exact
       else v = 80.0 * random.uniform();
     }
     std::vector<double> sorted = values;
     std::sort(sorted.begin(), sorted.end());
     llc::RankSelector selector;
-    selector.assign(values.data(), count);
+    selector.assign(values.data(), count, scale);
     ASSERT_EQ(selector.size(), count);
     // Ranks in a scrambled order, several per bucket.
     for (std::size_t k = 0; k < count; k += 1 + count / 37) EXPECT_EQ(selector.at((k * 7919) % count), sorted[(k * 7919) % count]);
@@ -51,6 +54,20 @@ TEST(RankSelector, RefusesARankBeyondTheValuesAndHandlesNone) {
   selector.assign(&one, 1);
   EXPECT_EQ(selector.at(0), 2.5);
   EXPECT_THROW(selector.at(1), std::out_of_range);
+}
+
+TEST(SquaredDistancesAhead, RootIsBitForBitTheDistance) {
+  llc::Random random(11);
+  std::vector<double> x(300), y(300);
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = 40.0 * random.uniform() - 20.0, y[i] = 40.0 * random.uniform() - 20.0;
+  for (const std::size_t separation : {1u, 7u, 150u}) {
+    std::vector<double> distances(x.size()), squares(x.size());
+    llc::distancesAhead(x.data(), y.data(), x.size(), separation, distances.data());
+    llc::squaredDistancesAhead(x.data(), y.data(), x.size(), separation, squares.data());
+    for (std::size_t i = 0; i + separation < x.size(); ++i) ASSERT_EQ(std::sqrt(squares[i]), distances[i]);
+    const double dx = x[separation] - x[0], dy = y[separation] - y[0];
+    EXPECT_DOUBLE_EQ(squares[0], dx * dx + dy * dy);
+  }
 }
 
 TEST(FindRuns, OpenAndClosedSequencesByHand) {

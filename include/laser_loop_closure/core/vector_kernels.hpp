@@ -19,6 +19,10 @@ namespace llc {
 /// i + separation < count; out needs count - separation values (nothing when that is <= 0).
 void distancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out);
 
+/// The same without the square root: out[i] = (x[i+s] - x[i])^2 + (y[i+s] - y[i])^2, the very
+/// value distancesAhead takes the root of (so the root of a selected one is bit for bit its distance).
+void squaredDistancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out);
+
 /// out[i] = sqrt(((x[i] - cx) - dx)^2 + ((y[i] - cy) - dy)^2) for i < count: the distance to
 /// (cx + dx, cy + dy) with the centred coordinates (x - cx, y - cy) of the moment sums.
 void distancesFromCentred(const double* x, const double* y, std::size_t count, double cx, double cy, double dx,
