@@ -46,6 +46,9 @@ struct TruthCheck {
   std::size_t better_fit_elsewhere = 0;  ///< ICP stays at the truth, but our (wrong) result fits at least as well
   std::size_t truth_moves = 0;           ///< ICP from the truth converges out of tolerance: the truth is not a fit optimum
   std::size_t icp_fails_at_truth = 0;    ///< ICP from the truth does not converge (e.g. degenerate geometry)
+  // A second opinion on those last two kinds, from PCL's GICP started at the truth too:
+  std::size_t gicp_agrees_off_truth = 0;  ///< GICP also leaves the tolerance, to within it of our ICP: the reference is off
+  std::size_t gicp_stays_at_truth = 0;    ///< GICP stays within tolerance of the truth: our ICP is at fault there
 };
 
 }  // namespace
@@ -104,7 +107,9 @@ int runAlign(const Args& args) {
   if (!out) throw ToolError(out_path + ": cannot write");
   const bool truth_check = args.has("truth-check");
   out << "a,b,label,x,y,theta,inlier_share,accepted,ms";
-  if (truth_check) out << ",fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg";
+  if (truth_check)
+    out << ",fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg"
+           ",icp_from_truth_refusal,gicp_from_truth_converged,gicp_from_truth_error_m,gicp_from_truth_error_deg";
   out << '\n' << std::setprecision(9);
   TruthCheck check;
 
@@ -140,15 +145,29 @@ int runAlign(const Args& args) {
         // The winner's share, as align() ranked it (the largest of the converged starts').
         const double fit = r.icp_shares.empty() ? 0.0 : *std::max_element(r.icp_shares.begin(), r.icp_shares.end());
         const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
+        const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp, truth);
+        const llc::Pose2 gicp_moved = llc::between(truth, gicp.pose);
+        const double gicp_moved_m = std::hypot(gicp_moved.x, gicp_moved.y), gicp_moved_rad = std::abs(gicp_moved.theta);
         out << ',' << fit << ',' << aligner.fit(*a, *b, truth) << ',' << int(from_truth.converged) << ',' << truth_fit
-            << ',' << moved_m << ',' << moved_rad * 180.0 / M_PI;
+            << ',' << moved_m << ',' << moved_rad * 180.0 / M_PI << ',' << from_truth.reject_reason << ','
+            << int(gicp.converged) << ',' << gicp_moved_m
+            << ',' << gicp_moved_rad * 180.0 / M_PI;
         const llc::Pose2 error = llc::between(truth, r.pose);
         if (p.label == 1 && !(aligned && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation)) {
           ++check.failed;
+          const bool icp_moves = from_truth.converged && (moved_m > max_translation || moved_rad > max_rotation);
           if (!from_truth.converged) ++check.icp_fails_at_truth;
-          else if (moved_m > max_translation || moved_rad > max_rotation) ++check.truth_moves;
+          else if (icp_moves) ++check.truth_moves;
           else if (!aligned || truth_fit > fit) ++check.no_start_near_truth;
           else ++check.better_fit_elsewhere;
+          if (!from_truth.converged || icp_moves) {
+            const llc::Pose2 apart = llc::between(from_truth.pose, gicp.pose);
+            const bool gicp_stays = gicp.converged && gicp_moved_m <= max_translation && gicp_moved_rad <= max_rotation;
+            if (gicp_stays) ++check.gicp_stays_at_truth;
+            else if (icp_moves && gicp.converged && std::hypot(apart.x, apart.y) <= max_translation &&
+                     std::abs(apart.theta) <= max_rotation)
+              ++check.gicp_agrees_off_truth;
+          }
         }
       }
       out << '\n';
@@ -178,7 +197,9 @@ int runAlign(const Args& args) {
   if (truth_check)
     std::cout << "failed_positives=" << check.failed << " no_start_near_truth=" << check.no_start_near_truth
               << " better_fit_elsewhere=" << check.better_fit_elsewhere << " truth_moves_under_icp=" << check.truth_moves
-              << " icp_fails_at_truth=" << check.icp_fails_at_truth << "\n";
+              << " icp_fails_at_truth=" << check.icp_fails_at_truth
+              << " of_those_two_gicp_from_truth_agrees_off_truth=" << check.gicp_agrees_off_truth
+              << " gicp_from_truth_stays=" << check.gicp_stays_at_truth << "\n";
   std::cout << "positives_accepted=" << (positives ? double(positives_accepted) / double(positives) : 0.0) << "\n";
   std::cout << "negatives_refused=" << (negatives_classified ? double(negatives_refused) / double(negatives_classified) : 0.0)
             << " (" << negatives_refused << "/" << negatives_classified << ")\n";

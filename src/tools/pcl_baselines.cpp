@@ -7,6 +7,7 @@
 #include <pcl/registration/icp.h>
 
 #include <chrono>
+#include <cmath>
 
 namespace llc_tool {
 namespace {
@@ -19,7 +20,7 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const llc::Points2& points) {
 }  // namespace
 
 PclAlignment alignPcl(PclMethod method, const llc::Points2& source, const llc::Points2& target,
-                      const llc::IcpOptions& options) {
+                      const llc::IcpOptions& options, const llc::Pose2& start_pose) {
   PclAlignment result;
   if (source.size() < 3 || target.size() < 3) return result;
   // PCL prints "not enough correspondences" for every pair it cannot align; the result says so.
@@ -35,8 +36,12 @@ PclAlignment alignPcl(PclMethod method, const llc::Points2& source, const llc::P
   registration.setMaximumIterations(options.max_iterations);
   registration.setMaxCorrespondenceDistance(options.max_correspondence_distance);
   registration.setTransformationEpsilon(1e-8);
+  Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
+  const float c = float(std::cos(start_pose.theta)), s = float(std::sin(start_pose.theta));
+  guess(0, 0) = c, guess(0, 1) = -s, guess(1, 0) = s, guess(1, 1) = c;
+  guess(0, 3) = float(start_pose.x), guess(1, 3) = float(start_pose.y);
   pcl::PointCloud<pcl::PointXYZ> aligned;
-  registration.align(aligned);
+  registration.align(aligned, guess);
   result.ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.converged = registration.hasConverged();
   const Eigen::Matrix4f t = registration.getFinalTransformation();

@@ -1,5 +1,6 @@
 // PCL's IterativeClosestPoint and GeneralizedIterativeClosestPoint, started from the identity:
-// the yardsticks `llc align --compare-pcl` measures the project's alignment against.
+// the yardsticks `llc align --compare-pcl` measures the project's alignment against; GICP
+// started from the ground truth is `llc align --truth-check`'s independent second opinion.
 #pragma once
 
 #include "laser_loop_closure/core/icp.hpp"
@@ -14,8 +15,9 @@ struct PclAlignment {
   double ms = 0.0;
 };
 
-/// Same iteration limit and correspondence distance as the project's ICP.
+/// Same iteration limit and correspondence distance as the project's ICP; from `start`
+/// (source frame in the target frame), the identity unless given.
 PclAlignment alignPcl(PclMethod method, const llc::Points2& source, const llc::Points2& target,
-                      const llc::IcpOptions& options);
+                      const llc::IcpOptions& options, const llc::Pose2& start = llc::Pose2{});
 
 }  // namespace llc_tool
