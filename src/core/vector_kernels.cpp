@@ -4,28 +4,31 @@
 
 namespace llc {
 
-LLC_VECTOR_CLONES
-void distancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out) {
+namespace {
+/// The loop of both kernels below; inlined into each of their clones, so each is vectorised
+/// for its own target. The squared value is the same expression either way.
+template <bool kRoot>
+__attribute__((always_inline)) inline void differencesAhead(const double* x, const double* y, std::size_t count,
+                                                            std::size_t separation, double* out) {
   if (separation >= count) return;
   const std::size_t m = count - separation;
   const double* x2 = x + separation;
   const double* y2 = y + separation;
   for (std::size_t i = 0; i < m; ++i) {
     const double ddx = x2[i] - x[i], ddy = y2[i] - y[i];
-    out[i] = std::sqrt(ddx * ddx + ddy * ddy);
+    out[i] = kRoot ? std::sqrt(ddx * ddx + ddy * ddy) : ddx * ddx + ddy * ddy;
   }
+}
+}  // namespace
+
+LLC_VECTOR_CLONES
+void distancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out) {
+  differencesAhead<true>(x, y, count, separation, out);
 }
 
 LLC_VECTOR_CLONES
 void squaredDistancesAhead(const double* x, const double* y, std::size_t count, std::size_t separation, double* out) {
-  if (separation >= count) return;
-  const std::size_t m = count - separation;
-  const double* x2 = x + separation;
-  const double* y2 = y + separation;
-  for (std::size_t i = 0; i < m; ++i) {
-    const double ddx = x2[i] - x[i], ddy = y2[i] - y[i];
-    out[i] = ddx * ddx + ddy * ddy;
-  }
+  differencesAhead<false>(x, y, count, separation, out);
 }
 
 LLC_VECTOR_CLONES
