@@ -11,6 +11,7 @@ std::string ShapeValidationOptions::validate() const {
   if (!(min_inlier_share >= 0.0 && min_inlier_share <= 1.0)) return "min_inlier_share must be in [0, 1]";
   if (!(max_seen_through_share >= 0.0 && max_seen_through_share <= 1.0)) return "max_seen_through_share must be in [0, 1]";
   if (!(free_space_margin >= 0.0)) return "free_space_margin must be >= 0";
+  if (!(max_position_std >= 0.0) || !std::isfinite(max_position_std)) return "max_position_std must be finite and >= 0";
   return "";
 }
 

@@ -54,7 +54,7 @@ struct TruthCheck {
 }  // namespace
 
 const std::vector<std::string> kAlignerFlags = {"max-range", "global-search-below", "validation-distance", "validation-share",
-                                                "validation-only-in-view", "validation-seen-through",
+                                                "validation-only-in-view", "validation-seen-through", "validation-max-position-std",
                                                 "free-space-margin", "crf-weights"};
 
 std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t index) {
@@ -72,6 +72,7 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
   options.validation.max_seen_through_share =
       args.number("validation-seen-through", options.validation.max_seen_through_share);
   options.validation.free_space_margin = args.number("free-space-margin", options.validation.free_space_margin);
+  options.validation.max_position_std = args.number("validation-max-position-std", options.validation.max_position_std);
   const long in_view = args.integer("validation-only-in-view", options.validation.only_in_view ? 1 : 0);
   if (in_view != 0 && in_view != 1) throw ToolError("--validation-only-in-view must be 0 or 1");
   options.validation.only_in_view = in_view == 1;

@@ -91,6 +91,7 @@ void usage(std::ostream& out) {
   for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
   out << "alignment options: [--max-range 40] [--validation-distance 1] [--validation-share 0.9]\n"
          "  [--validation-only-in-view 1] [--validation-seen-through 0.1] [--free-space-margin 0.5]\n"
+         "  [--validation-max-position-std 0.015]\n"
          "  [--crf-weights CRF.yaml]\n";
   out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
          "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";

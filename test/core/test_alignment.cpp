@@ -2,6 +2,7 @@
 // the whole ScanAligner, on scans ray-cast in a small synthetic room.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <cmath>
 #include <limits>
@@ -323,6 +324,42 @@ TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {
   EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.theta));
 }
 
+TEST(Aligner, PositionStdRefusesACorridorThatOnlyItsFarEndPinsDown) {
+  // A corridor closed by one short wall 9 m ahead: ICP converges, but only that end wall's
+  // few points fix the position along the corridor, so its uncertainty there is large. The
+  // room is pinned down by walls all round.
+  std::vector<llc_test::Wall> dead_end = corridor();
+  dead_end.push_back({{9.0, -1.5}, {9.0, 1.5}});
+  const Pose2 a{0.0, 0.0, 0.0}, b{0.4, 0.2, 0.15};
+  llc::ScanAlignerOptions options;
+  options.validation.max_position_std = 0.0;  // off: measure both
+  const llc::ScanAligner measuring(options);
+  auto alignIn = [](const llc::ScanAligner& aligner, const std::vector<llc_test::Wall>& world, Pose2 pa, Pose2 pb) {
+    return aligner.align(*aligner.prepare(scanAt(world, pa, 360, 0.02, 3)), *aligner.prepare(scanAt(world, pb, 360, 0.02, 4)));
+  };
+  const llc::ScanAlignmentResult in_corridor = alignIn(measuring, dead_end, a, b);
+  const llc::ScanAlignmentResult in_room = alignIn(measuring, room(), a, b);
+  ASSERT_TRUE(in_corridor.accepted) << in_corridor.reject_reason;
+  ASSERT_TRUE(in_room.accepted) << in_room.reject_reason;
+  expectPoseNear(in_room.pose, llc::between(a, b), 0.05, 0.01);
+  // Off, the check reports nothing; the covariance says the corridor is the weaker fit.
+  EXPECT_EQ(in_corridor.validation.position_std, 0.0);
+  const auto stdAlongWeakest = [](const Eigen::Matrix3d& c) {
+    return std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(c.topLeftCorner<2, 2>()).eigenvalues()(1));
+  };
+  const double corridor_std = stdAlongWeakest(in_corridor.covariance), room_std = stdAlongWeakest(in_room.covariance);
+  EXPECT_GT(corridor_std, 2.0 * room_std) << corridor_std << " vs " << room_std;
+  // A limit between the two refuses the corridor by name and keeps the room; the default keeps the room.
+  options.validation.max_position_std = std::sqrt(corridor_std * room_std);
+  const llc::ScanAligner strict(options);
+  const llc::ScanAlignmentResult refused = alignIn(strict, dead_end, a, b);
+  EXPECT_FALSE(refused.accepted);
+  EXPECT_EQ(refused.reject_reason.rfind("validation: position std", 0), 0u) << refused.reject_reason;
+  EXPECT_NEAR(refused.validation.position_std, corridor_std, 1e-12);
+  EXPECT_TRUE(alignIn(strict, room(), a, b).accepted);
+  EXPECT_TRUE(alignIn(llc::ScanAligner{}, room(), a, b).accepted);
+}
+
 TEST(Aligner, RefusesBadOptions) {
   llc::ScanAlignerOptions options;
   options.validation.min_inlier_share = 1.5;
@@ -336,6 +373,11 @@ TEST(Aligner, RefusesBadOptions) {
   options = {};
   options.global_search_below = 1.5;
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  for (const double bad : {-0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    options = {};
+    options.validation.max_position_std = bad;
+    EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument) << bad;
+  }
   options = {};
   options.global.rotations = 0;  // the global search's options are validated with the rest
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);

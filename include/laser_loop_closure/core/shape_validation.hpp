@@ -22,6 +22,11 @@ struct ShapeValidationOptions {
   /// does (1 = the check is off, as in the paper).
   double max_seen_through_share = 0.1;
   double free_space_margin = 0.5;  ///< m
+  /// Beyond the paper: refused when ICP leaves the position this uncertain along its weakest
+  /// direction (m, the square root of the largest eigenvalue of its x-y covariance): a long
+  /// corridor fits anywhere along it, and two stretches of one look alike (0 = the check is off).
+  /// The covariance scales with the residuals and the pairs ICP uses (icp.max_source_points).
+  double max_position_std = 0.015;
   std::string validate() const;
 };
 
@@ -57,6 +62,7 @@ struct ShapeValidationResult {
   bool accepted = false;
   double inlier_share = 0.0;  ///< share of source points whose nearest target point is within d
   double seen_through_share = 0.0;  ///< the larger of the two ways round (when the check ran)
+  double position_std = 0.0;        ///< m, of the ICP result along its weakest direction (when the check ran)
   std::size_t points = 0;     ///< source points tested
   std::string reject_reason;  ///< empty when accepted
 };

@@ -87,6 +87,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("aligner/validation/only_in_view", aligner.validation.only_in_view);
   visit("aligner/validation/max_seen_through_share", aligner.validation.max_seen_through_share);
   visit("aligner/validation/free_space_margin", aligner.validation.free_space_margin);
+  visit("aligner/validation/max_position_std", aligner.validation.max_position_std);
 
   EsdfOptions& esdf = options.slam.esdf;
   visit("esdf/relinearize_translation", esdf.relinearize_translation);
