@@ -97,7 +97,8 @@ TEST(GlobalSearch, RefusesTooFewPointsAndBadOptions) {
 }
 
 TEST(Aligner, GlobalSearchAddsStartsOnlyWhenAskedAndAgrees) {
-  // A clean pair: CRF-match suffices, so by default the global search does not run; run
+  // A clean pair: CRF-match fits it well (two-way share above global_search_below), so by
+  // default the global search does not run; run
   // always (global_search_below = 1), it adds starts and the winner is the same pose.
   const Pose2 a{0.2, -0.4, 0.1}, b{1.1, 0.3, 2.0};
   llc::ScanAlignerOptions always;

@@ -21,8 +21,8 @@ struct ScanAlignerOptions {
   /// ICP also from the starts of the global search (orientation histograms and translation
   /// votes) when no start so far converged, or the best share is still below this after
   /// CRF-match both ways (0 = only when none converged, 1 = always). More starts align more
-  /// true matches but also let more false ones pass validation: see the README.
-  double global_search_below = 0.0;
+  /// true matches, and more false ones, which the position test of validation refuses: see the README.
+  double global_search_below = 0.5;
   CrfMatchOptions crf{};
   GlobalSearchOptions global{};
   IcpOptions icp{};
