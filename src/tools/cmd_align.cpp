@@ -110,13 +110,15 @@ int runAlign(const Args& args) {
   out << "a,b,label,x,y,theta,inlier_share,accepted,ms";
   if (truth_check)
     out << ",fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg"
-           ",icp_from_truth_refusal,gicp_from_truth_converged,gicp_from_truth_error_m,gicp_from_truth_error_deg";
+           ",icp_from_truth_refusal,gicp_from_truth_converged,gicp_from_truth_error_m,gicp_from_truth_error_deg"
+           ",error_m,error_deg";
   out << '\n' << std::setprecision(9);
   TruthCheck check;
 
   MethodStats ours, pcl_icp, pcl_gicp;
   std::map<std::string, std::size_t> reasons;
   std::size_t candidates = 0, negatives_classified = 0, negatives_refused = 0, positives_accepted = 0, positives = 0;
+  std::size_t accepted_within = 0;  // accepted positives within tolerance of the truth: what a map would get
   for (const PairData& item : data) {
     PreparedScanCache prepared(aligner, item.sequence);
     for (const llc::LabeledPair& p : item.pairs) {
@@ -133,6 +135,10 @@ int runAlign(const Args& args) {
       ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, max_translation, max_rotation);
       if (!r.accepted) ++reasons[r.reject_reason.substr(0, r.reject_reason.find(':'))];
       if (p.label == 1) ++positives, positives_accepted += r.accepted;
+      if (p.label == 1 && r.accepted) {
+        const llc::Pose2 e = llc::between(truth, r.pose);
+        accepted_within += std::hypot(e.x, e.y) <= max_translation && std::abs(e.theta) <= max_rotation;
+      }
       if (p.label == 0) ++negatives_classified, negatives_refused += !r.accepted;
       out << p.a << ',' << p.b << ',' << p.label << ',';
       if (aligned) out << r.pose.x << ',' << r.pose.y << ',' << r.pose.theta;
@@ -154,6 +160,8 @@ int runAlign(const Args& args) {
             << int(gicp.converged) << ',' << gicp_moved_m
             << ',' << gicp_moved_rad * 180.0 / M_PI;
         const llc::Pose2 error = llc::between(truth, r.pose);
+        if (aligned) out << ',' << std::hypot(error.x, error.y) << ',' << std::abs(error.theta) * 180.0 / M_PI;
+        else out << ",nan,nan";
         if (p.label == 1 && !(aligned && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation)) {
           ++check.failed;
           const bool icp_moves = from_truth.converged && (moved_m > max_translation || moved_rad > max_rotation);
@@ -202,6 +210,9 @@ int runAlign(const Args& args) {
               << " of_those_two_gicp_from_truth_agrees_off_truth=" << check.gicp_agrees_off_truth
               << " gicp_from_truth_stays=" << check.gicp_stays_at_truth << "\n";
   std::cout << "positives_accepted=" << (positives ? double(positives_accepted) / double(positives) : 0.0) << "\n";
+  std::cout << "accepted_positives_within_tolerance="
+            << (positives_accepted ? double(accepted_within) / double(positives_accepted) : 0.0) << " (" << accepted_within
+            << "/" << positives_accepted << ")\n";
   std::cout << "negatives_refused=" << (negatives_classified ? double(negatives_refused) / double(negatives_classified) : 0.0)
             << " (" << negatives_refused << "/" << negatives_classified << ")\n";
   return 0;
