@@ -156,32 +156,28 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation, &a.view);
   if (!result.validation.accepted) return finish("validation: " + result.validation.reject_reason);
   const ShapeValidationOptions& validation = options_.validation;
+  // The tests beyond the paper refuse the same way: `format` shows the measured value and its limit.
+  auto refuse = [&](const char* format, double value, double limit) {
+    result.validation.accepted = false;
+    char text[96];
+    std::snprintf(text, sizeof text, format, value, limit);
+    result.validation.reject_reason = text;
+    return finish(std::string("validation: ") + text);
+  };
   if (validation.max_position_std > 0.0) {
     // The largest eigenvalue of the symmetric 2x2 x-y block, in closed form.
-    const double a = result.covariance(0, 0), b = result.covariance(0, 1), c = result.covariance(1, 1);
-    const double largest = 0.5 * (a + c) + std::sqrt(0.25 * (a - c) * (a - c) + b * b);
+    const double xx = result.covariance(0, 0), xy = result.covariance(0, 1), yy = result.covariance(1, 1);
+    const double largest = 0.5 * (xx + yy) + std::sqrt(0.25 * (xx - yy) * (xx - yy) + xy * xy);
     result.validation.position_std = std::sqrt(std::max(0.0, largest));
-    if (!(result.validation.position_std <= validation.max_position_std)) {
-      result.validation.accepted = false;
-      char text[96];
-      std::snprintf(text, sizeof text, "position std %.4f m above %.4f m", result.validation.position_std,
-                    validation.max_position_std);
-      result.validation.reject_reason = text;
-      return finish(std::string("validation: ") + text);
-    }
+    if (!(result.validation.position_std <= validation.max_position_std))
+      return refuse("position std %.4f m above %.4f m", result.validation.position_std, validation.max_position_std);
   }
   if (validation.max_seen_through_share < 1.0 && !a.free_space.empty() && !b.free_space.empty()) {
     result.validation.seen_through_share =
         std::max(seenThroughShare(b.points, result.pose, a.free_space, validation.free_space_margin),
                  seenThroughShare(a.points, inverse(result.pose), b.free_space, validation.free_space_margin));
-    if (result.validation.seen_through_share > validation.max_seen_through_share) {
-      result.validation.accepted = false;
-      char text[96];
-      std::snprintf(text, sizeof text, "seen-through share %.3f above %.3f", result.validation.seen_through_share,
-                    validation.max_seen_through_share);
-      result.validation.reject_reason = text;
-      return finish(std::string("validation: ") + text);
-    }
+    if (result.validation.seen_through_share > validation.max_seen_through_share)
+      return refuse("seen-through share %.3f above %.3f", result.validation.seen_through_share, validation.max_seen_through_share);
   }
   result.accepted = true;
   return finish("");

@@ -18,17 +18,27 @@
 namespace llc_tool {
 namespace {
 
+/// How far an estimate may lie from the ground truth (--tolerance-m, --tolerance-deg).
+struct Tolerance {
+  double translation = 0.2;        ///< m
+  double rotation = 2.0 * M_PI / 180.0;  ///< rad
+  /// Pose b within tolerance of pose a.
+  bool near(const llc::Pose2& a, const llc::Pose2& b) const {
+    const llc::Pose2 d = llc::between(a, b);
+    return std::hypot(d.x, d.y) <= translation && std::abs(d.theta) <= rotation;
+  }
+};
+
 /// Share of the positive pairs aligned within tolerance, and timing, for one method.
 struct MethodStats {
   std::size_t positives = 0, within = 0;
   std::vector<double> ms;
   void add(bool positive, const llc::Pose2& estimate, const llc::Pose2& truth, bool ok, double milliseconds,
-           double max_translation, double max_rotation) {
+           const Tolerance& tolerance) {
     ms.push_back(milliseconds);
     if (!positive) return;
     ++positives;
-    const llc::Pose2 error = llc::between(truth, estimate);
-    within += ok && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation;
+    within += ok && tolerance.near(truth, estimate);
   }
   double median() const {
     if (ms.empty()) return 0.0;
@@ -91,8 +101,9 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
 int runAlign(const Args& args) {
   const std::string out_path = args.required("out");
   const llc::ScanAligner aligner(alignerOptions(args));
-  const double max_translation = args.number("tolerance-m", 0.2);
-  const double max_rotation = args.number("tolerance-deg", 2.0) * M_PI / 180.0;
+  Tolerance tolerance;
+  tolerance.translation = args.number("tolerance-m", 0.2);
+  tolerance.rotation = args.number("tolerance-deg", 2.0) * M_PI / 180.0;
   std::unique_ptr<llc::ClassifierModel> model;
   if (args.has("model")) {
     try {
@@ -132,13 +143,11 @@ int runAlign(const Args& args) {
       const auto a = prepared.get(p.a), b = prepared.get(p.b);
       const llc::ScanAlignmentResult r = aligner.align(*a, *b);
       const bool aligned = r.icp.converged;
-      ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, max_translation, max_rotation);
+      ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, tolerance);
+      const bool within = aligned && tolerance.near(truth, r.pose);
       if (!r.accepted) ++reasons[r.reject_reason.substr(0, r.reject_reason.find(':'))];
       if (p.label == 1) ++positives, positives_accepted += r.accepted;
-      if (p.label == 1 && r.accepted) {
-        const llc::Pose2 e = llc::between(truth, r.pose);
-        accepted_within += std::hypot(e.x, e.y) <= max_translation && std::abs(e.theta) <= max_rotation;
-      }
+      if (p.label == 1 && r.accepted) accepted_within += within;
       if (p.label == 0) ++negatives_classified, negatives_refused += !r.accepted;
       out << p.a << ',' << p.b << ',' << p.label << ',';
       if (aligned) out << r.pose.x << ',' << r.pose.y << ',' << r.pose.theta;
@@ -147,44 +156,39 @@ int runAlign(const Args& args) {
       if (truth_check) {
         const llc::IcpResult from_truth =
             llc::alignIcp(b->points, a->icp_target, truth, aligner.options().icp, &b->icp_target.normals);
-        const llc::Pose2 moved = llc::between(truth, from_truth.pose);
-        const double moved_m = std::hypot(moved.x, moved.y), moved_rad = std::abs(moved.theta);
         // The winner's share, as align() ranked it (the largest of the converged starts').
         const double fit = r.icp_shares.empty() ? 0.0 : *std::max_element(r.icp_shares.begin(), r.icp_shares.end());
         const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
         const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp, truth);
-        const llc::Pose2 gicp_moved = llc::between(truth, gicp.pose);
-        const double gicp_moved_m = std::hypot(gicp_moved.x, gicp_moved.y), gicp_moved_rad = std::abs(gicp_moved.theta);
-        out << ',' << fit << ',' << aligner.fit(*a, *b, truth) << ',' << int(from_truth.converged) << ',' << truth_fit
-            << ',' << moved_m << ',' << moved_rad * 180.0 / M_PI << ',' << from_truth.reject_reason << ','
-            << int(gicp.converged) << ',' << gicp_moved_m
-            << ',' << gicp_moved_rad * 180.0 / M_PI;
-        const llc::Pose2 error = llc::between(truth, r.pose);
-        if (aligned) out << ',' << std::hypot(error.x, error.y) << ',' << std::abs(error.theta) * 180.0 / M_PI;
+        auto writeOffset = [&out, &truth](const llc::Pose2& pose) {  // ",metres,degrees" of pose from the truth
+          const llc::Pose2 d = llc::between(truth, pose);
+          out << ',' << std::hypot(d.x, d.y) << ',' << std::abs(d.theta) * 180.0 / M_PI;
+        };
+        out << ',' << fit << ',' << aligner.fit(*a, *b, truth) << ',' << int(from_truth.converged) << ',' << truth_fit;
+        writeOffset(from_truth.pose);
+        out << ',' << from_truth.reject_reason << ',' << int(gicp.converged);
+        writeOffset(gicp.pose);
+        if (aligned) writeOffset(r.pose);
         else out << ",nan,nan";
-        if (p.label == 1 && !(aligned && std::hypot(error.x, error.y) <= max_translation && std::abs(error.theta) <= max_rotation)) {
+        if (p.label == 1 && !within) {
           ++check.failed;
-          const bool icp_moves = from_truth.converged && (moved_m > max_translation || moved_rad > max_rotation);
+          const bool icp_moves = from_truth.converged && !tolerance.near(truth, from_truth.pose);
           if (!from_truth.converged) ++check.icp_fails_at_truth;
           else if (icp_moves) ++check.truth_moves;
           else if (!aligned || truth_fit > fit) ++check.no_start_near_truth;
           else ++check.better_fit_elsewhere;
           if (!from_truth.converged || icp_moves) {
-            const llc::Pose2 apart = llc::between(from_truth.pose, gicp.pose);
-            const bool gicp_stays = gicp.converged && gicp_moved_m <= max_translation && gicp_moved_rad <= max_rotation;
-            if (gicp_stays) ++check.gicp_stays_at_truth;
-            else if (icp_moves && gicp.converged && std::hypot(apart.x, apart.y) <= max_translation &&
-                     std::abs(apart.theta) <= max_rotation)
-              ++check.gicp_agrees_off_truth;
+            if (gicp.converged && tolerance.near(truth, gicp.pose)) ++check.gicp_stays_at_truth;
+            else if (icp_moves && gicp.converged && tolerance.near(from_truth.pose, gicp.pose)) ++check.gicp_agrees_off_truth;
           }
         }
       }
       out << '\n';
       if (compare) {
         const PclAlignment icp = alignPcl(PclMethod::kIcp, b->points, a->points, aligner.options().icp);
-        pcl_icp.add(p.label == 1, icp.pose, truth, icp.converged, icp.ms, max_translation, max_rotation);
+        pcl_icp.add(p.label == 1, icp.pose, truth, icp.converged, icp.ms, tolerance);
         const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp);
-        pcl_gicp.add(p.label == 1, gicp.pose, truth, gicp.converged, gicp.ms, max_translation, max_rotation);
+        pcl_gicp.add(p.label == 1, gicp.pose, truth, gicp.converged, gicp.ms, tolerance);
       }
     }
   }
@@ -193,7 +197,7 @@ int runAlign(const Args& args) {
   std::cout << "pairs=" << candidates << (model ? " (accepted by the classifier)" : "") << " positives=" << positives
             << " -> " << out_path << "\n";
   for (const auto& [reason, count] : reasons) std::cout << "refused_by_" << reason << "=" << count << "\n";
-  std::cout << "tolerance: " << max_translation << " m, " << max_rotation * 180.0 / M_PI << " deg\n";
+  std::cout << "tolerance: " << tolerance.translation << " m, " << tolerance.rotation * 180.0 / M_PI << " deg\n";
   auto line = [&](const char* name, const MethodStats& s) {
     std::cout << name << ": within_tolerance=" << (s.positives ? double(s.within) / double(s.positives) : 0.0)
               << " (" << s.within << "/" << s.positives << ") median_ms=" << s.median() << "\n";
