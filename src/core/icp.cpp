@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/icp.hpp"
 
+#include "laser_loop_closure/core/shape_validation.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -19,6 +21,7 @@ std::string IcpOptions::validate() const {
   if (normal_neighbours < 2) return "normal_neighbours must be >= 2";
   if (!(normal_radius > 0.0)) return "normal_radius must be > 0";
   if (!(max_normal_angle > 0.0 && max_normal_angle <= M_PI / 2)) return "max_normal_angle must be in (0, pi/2]";
+  if (fixed_pairs_after < 1) return "fixed_pairs_after must be >= 1";
   return "";
 }
 
@@ -31,11 +34,48 @@ struct Pair {
   Point2 normal;  // target normal
   double residual;
   double distance_sq;
+  std::size_t source_index, target_index;
 };
+
+/// Pairs every stride-th source point (moved by motion) with its nearest target point, then
+/// keeps the nearest trim_fraction of the pairs.
+void findPairs(const Points2& source, const IcpTarget& target, const RigidMotion2& motion, const IcpOptions& options,
+               std::size_t stride, const Points2* source_normals, const FieldOfView* target_view,
+               std::vector<Pair>* pairs) {
+  pairs->clear();
+  const double gate_sq = options.max_correspondence_distance * options.max_correspondence_distance;
+  const double min_normal_cos = std::cos(options.max_normal_angle);
+  for (std::size_t k = 0; k < source.size(); k += stride) {
+    const Point2 moved = motion(source[k]);
+    if (target_view && !target_view->contains(moved)) continue;
+    std::size_t index;
+    double distance_sq;
+    if (!target.tree.nearest(moved, &index, &distance_sq, gate_sq) || distance_sq > gate_sq) continue;
+    const Point2& normal = target.normals[index];
+    if (normal.isZero()) continue;
+    if (source_normals) {
+      // Normals are unsigned (PCA), so compare |cos| of the angle between them.
+      const Point2& n = (*source_normals)[k];
+      if (!n.isZero() && std::abs(n.x() * (motion.c * normal.x() + motion.s * normal.y()) +
+                                  n.y() * (-motion.s * normal.x() + motion.c * normal.y())) < min_normal_cos)
+        continue;
+    }
+    pairs->push_back({moved, normal, normal.dot(moved - target.tree.points()[index]), distance_sq, k, index});
+  }
+  // Trimmed: only the nearest share of the pairs, which drops the parts one scan sees and
+  // the other does not.
+  const std::size_t keep = std::size_t(std::ceil(options.trim_fraction * double(pairs->size())));
+  if (keep < pairs->size()) {
+    std::nth_element(pairs->begin(), pairs->begin() + long(keep), pairs->end(),
+                     [](const Pair& a, const Pair& b) { return a.distance_sq < b.distance_sq; });
+    pairs->resize(keep);
+  }
+}
+
 }  // namespace
 
 IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
-                   const Points2* source_normals) {
+                   const Points2* source_normals, const FieldOfView* target_view) {
   const auto start = std::chrono::steady_clock::now();
   IcpResult result;
   result.pose = initial;
@@ -48,41 +88,23 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
     return finish("too few points");
   if (!(std::isfinite(initial.x) && std::isfinite(initial.y) && std::isfinite(initial.theta)))
     return finish("initial pose not finite");
-  const double gate_sq = options.max_correspondence_distance * options.max_correspondence_distance;
   // Every stride-th source point: enough to constrain three parameters, and cheaper.
   const std::size_t stride = options.max_source_points > 0 ? (source.size() + options.max_source_points - 1) / options.max_source_points : 1;
   std::vector<Pair> pairs;
   pairs.reserve(source.size());
-  const double min_normal_cos = std::cos(options.max_normal_angle);
   Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
   double weighted_sq = 0.0, weight_sum = 0.0;
   for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
     result.iterations = iteration;
-    pairs.clear();
     const RigidMotion2 motion(result.pose);
-    for (std::size_t k = 0; k < source.size(); k += stride) {
-      const Point2 moved = motion(source[k]);
-      std::size_t index;
-      double distance_sq;
-      if (!target.tree.nearest(moved, &index, &distance_sq, gate_sq) || distance_sq > gate_sq) continue;
-      const Point2& normal = target.normals[index];
-      if (normal.isZero()) continue;
-      if (source_normals) {
-        // Normals are unsigned (PCA), so compare |cos| of the angle between them.
-        const Point2& n = (*source_normals)[k];
-        if (!n.isZero() && std::abs(n.x() * (motion.c * normal.x() + motion.s * normal.y()) +
-                                    n.y() * (-motion.s * normal.x() + motion.c * normal.y())) < min_normal_cos)
-          continue;
+    if (iteration > options.fixed_pairs_after) {
+      for (Pair& pair : pairs) {  // the same pairs, moved with the pose
+        const Point2& partner = target.tree.points()[pair.target_index];
+        pair.moved = motion(source[pair.source_index]);
+        pair.residual = pair.normal.dot(pair.moved - partner);
       }
-      pairs.push_back({moved, normal, normal.dot(moved - target.tree.points()[index]), distance_sq});
-    }
-    // Trimmed: only the nearest share of the pairs, which drops the parts one scan sees and
-    // the other does not.
-    std::size_t keep = std::size_t(std::ceil(options.trim_fraction * double(pairs.size())));
-    if (keep < pairs.size()) {
-      std::nth_element(pairs.begin(), pairs.begin() + keep, pairs.end(),
-                       [](const Pair& a, const Pair& b) { return a.distance_sq < b.distance_sq; });
-      pairs.resize(keep);
+    } else {
+      findPairs(source, target, motion, options, stride, source_normals, target_view, &pairs);
     }
     result.correspondences = pairs.size();
     if (pairs.size() < std::size_t(options.min_correspondences)) return finish("too few correspondences");

@@ -15,6 +15,10 @@ std::string ScanAlignerOptions::validate() const {
   if (!(selection_distance > 0.0)) return "selection_distance must be > 0";
   if (!(reverse_below >= 0.0 && reverse_below <= 1.0)) return "reverse_below must be in [0, 1]";
   if (!(global_search_below >= 0.0 && global_search_below <= 1.0)) return "global_search_below must be in [0, 1]";
+  if (!(min_relative_overlap >= 0.0 && min_relative_overlap <= 1.0)) return "min_relative_overlap must be in [0, 1]";
+  if (!(weak_direction_shift > 0.0) || !std::isfinite(weak_direction_shift)) return "weak_direction_shift must be finite and > 0";
+  if (weak_direction_restarts < 0 || weak_direction_restarts > 8) return "weak_direction_restarts must be in [0, 8]";
+  if (!(weak_direction_above >= 0.0 && weak_direction_above <= 1.0)) return "weak_direction_above must be in [0, 1]";
   std::string error = crf.validate();
   if (!error.empty()) return "crf: " + error;
   error = global.validate();
@@ -45,38 +49,79 @@ std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const
 
 namespace {
 
+/// How well one ICP result fits (see twoWayFit).
+struct Fit {
+  double share = 0.0;        ///< mean of the two ways' shares of points within selection_distance
+  std::size_t overlap = 0;   ///< points counted, both ways: those the other scanner could have seen
+};
+
 /// ICP from each start, in order: every converged result with its fit, and the reason of the
 /// first start that did not converge.
 struct StartResults {
   std::vector<IcpResult> converged;
-  std::vector<double> fits;
+  std::vector<Fit> fits;
   IcpResult first_failure;
   bool any_failure = false;
 };
 
 /// The share of points within selection_distance (tighter than validation's d, so that a
-/// result shifted along a corridor loses to the right one), both ways: such a result also
-/// leaves the ends of the other scan unmatched.
-double twoWayShare(const PreparedScan& a, const PreparedScan& b, const Pose2& pose, const ScanAlignerOptions& options) {
+/// result shifted along a corridor loses to the right one), both ways, among the points the
+/// other scanner could have seen (as validation counts them). Counting every point instead
+/// favoured a result that puts the two scanners at one spot: from there both see the same
+/// stretch of a corridor, while at the truth each sees a little the other cannot.
+Fit twoWayFit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose, const ScanAlignerOptions& options) {
   ShapeValidationOptions tight = options.validation;
   tight.max_distance = options.selection_distance;
-  return 0.5 * (validateShape(b.points, a.icp_target.tree, pose, tight).inlier_share +
-                validateShape(a.points, b.icp_target.tree, inverse(pose), tight).inlier_share);
+  const ShapeValidationResult forward = validateShape(b.points, a.icp_target.tree, pose, tight, &a.view);
+  const ShapeValidationResult backward = validateShape(a.points, b.icp_target.tree, inverse(pose), tight, &b.view);
+  return {0.5 * (forward.inlier_share + backward.inlier_share), forward.points + backward.points};
+}
+
+IcpResult refineFrom(const PreparedScan& a, const PreparedScan& b, const Pose2& start, const ScanAlignerOptions& options) {
+  return alignIcp(b.points, a.icp_target, start, options.icp, &b.icp_target.normals, &a.view);
 }
 
 StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::vector<Pose2>& starts,
                        const ScanAlignerOptions& options) {
   StartResults out;
   for (const Pose2& start_pose : starts) {
-    IcpResult icp = alignIcp(b.points, a.icp_target, start_pose, options.icp, &b.icp_target.normals);
+    IcpResult icp = refineFrom(a, b, start_pose, options);
     if (!icp.converged) {
       if (!out.any_failure) out.first_failure = std::move(icp), out.any_failure = true;
       continue;
     }
-    out.fits.push_back(twoWayShare(a, b, icp.pose, options));
+    out.fits.push_back(twoWayFit(a, b, icp.pose, options));
     out.converged.push_back(std::move(icp));
   }
   return out;
+}
+
+/// The result with the best share among those whose overlap is at least min_relative_overlap
+/// of the largest: a pose that leaves few points in the other's view can fit those few well
+/// (a 180-degree scan turned round, seeing only the other's side walls).
+std::size_t pickWinner(const std::vector<Fit>& fits, double min_relative_overlap) {
+  std::size_t largest = 0;
+  for (const Fit& f : fits) largest = std::max(largest, f.overlap);
+  std::size_t winner = 0;
+  double best = -1.0;
+  for (std::size_t k = 0; k < fits.size(); ++k)
+    if (double(fits[k].overlap) >= min_relative_overlap * double(largest) && fits[k].share > best)
+      best = fits[k].share, winner = k;
+  return winner;
+}
+
+/// The pose shifted both ways along the larger axis of its position covariance by shift,
+/// 2 shift, 4 shift, ... (count of each sign).
+std::vector<Pose2> weakDirectionStarts(const IcpResult& icp, double shift, int count) {
+  const double xx = icp.covariance(0, 0), xy = icp.covariance(0, 1), yy = icp.covariance(1, 1);
+  const double angle = 0.5 * std::atan2(2.0 * xy, xx - yy);  // of the larger eigenvalue's axis
+  std::vector<Pose2> starts;
+  for (int k = 0; k < count; ++k)
+    for (const double sign : {-1.0, 1.0}) {
+      const double d = sign * shift * double(1 << k);
+      starts.push_back({icp.pose.x + d * std::cos(angle), icp.pose.y + d * std::sin(angle), icp.pose.theta});
+    }
+  return starts;
 }
 
 /// CRF-match of a's contour as the chain (b to a the other way round), and ICP from its starts.
@@ -98,7 +143,11 @@ ReverseMatch matchReverse(const PreparedScan& a, const PreparedScan& b, const Sc
 }  // namespace
 
 double ScanAligner::fit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose) const {
-  return twoWayShare(a, b, pose, options_);
+  return twoWayFit(a, b, pose, options_).share;
+}
+
+IcpResult ScanAligner::refine(const PreparedScan& a, const PreparedScan& b, const Pose2& start) const {
+  return refineFrom(a, b, start, options_);
 }
 
 ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
@@ -115,22 +164,22 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   std::future<ReverseMatch> reverse_ahead;
   if (options_.parallel) reverse_ahead = std::async(std::launch::async, matchReverse, std::cref(a), std::cref(b), std::cref(options_));
 
-  bool any = false;
-  double best_fit = -1.0;
+  std::vector<IcpResult> converged;
+  std::vector<Fit> fits;
+  double best_share = -1.0;  // of every converged result so far: do more starts pay?
   auto take = [&](StartResults&& starts) {
-    if (starts.any_failure && !any && result.icp.reject_reason.empty()) result.icp = std::move(starts.first_failure);
+    if (starts.any_failure && converged.empty() && result.icp.reject_reason.empty())
+      result.icp = std::move(starts.first_failure);
     for (std::size_t k = 0; k < starts.converged.size(); ++k) {
       result.icp_poses.push_back(starts.converged[k].pose);
-      result.icp_shares.push_back(starts.fits[k]);
-      if (!any || starts.fits[k] > best_fit) {
-        result.icp = std::move(starts.converged[k]);
-        best_fit = starts.fits[k];
-        any = true;
-      }
+      result.icp_shares.push_back(starts.fits[k].share);
+      best_share = std::max(best_share, starts.fits[k].share);
+      converged.push_back(std::move(starts.converged[k]));
+      fits.push_back(starts.fits[k]);
     }
   };
   bool crf_found_none = false;
-  // ICP from the CRF's transform and from its runners-up; the best fit wins.
+  // ICP from the CRF's transform and from its runners-up.
   result.crf = matchCrf(b.crf, a.crf, options_.crf);
   if (result.crf.ok) {
     std::vector<Pose2> starts = {result.crf.pose};
@@ -138,19 +187,28 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
     take(tryStarts(a, b, starts, options_));
   }
   // A poor best fit: CRF-match the other way round (a's contour as the chain) for more starts.
-  if (best_fit < options_.reverse_below) {
+  if (best_share < options_.reverse_below) {
     ReverseMatch reverse = options_.parallel ? reverse_ahead.get() : matchReverse(a, b, options_);
     if (reverse.crf.ok) take(std::move(reverse.starts));
     crf_found_none = !result.crf.ok && !reverse.crf.ok;
   }
   // Nothing, or still poor: starts that do not depend on matching descriptors along contours.
-  if (!any || best_fit < options_.global_search_below) {
+  if (converged.empty() || best_share < options_.global_search_below) {
     result.global = searchGlobally(a.global, b.global, options_.global);
     take(tryStarts(a, b, result.global.poses, options_));
   }
-  if (!any && crf_found_none && result.global.poses.empty())
+  if (converged.empty() && crf_found_none && result.global.poses.empty())
     return finish("crf: " + result.crf.reject_reason + "; global search: " + result.global.reject_reason);
-  if (!any) return finish("icp: " + result.icp.reject_reason);
+  if (converged.empty()) return finish("icp: " + result.icp.reject_reason);
+  std::size_t winner = pickWinner(fits, options_.min_relative_overlap);
+  // The local optima of a corridor line up along it: restart from the winner shifted that way
+  // (unless it fits so poorly that the pair is most likely two places, as most candidates are).
+  if (options_.weak_direction_restarts > 0 && fits[winner].share >= options_.weak_direction_above) {
+    take(tryStarts(a, b, weakDirectionStarts(converged[winner], options_.weak_direction_shift,
+                                             options_.weak_direction_restarts), options_));
+    winner = pickWinner(fits, options_.min_relative_overlap);
+  }
+  result.icp = std::move(converged[winner]);
   result.pose = result.icp.pose;
   result.covariance = result.icp.covariance;
   result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation, &a.view);

@@ -63,7 +63,8 @@ struct TruthCheck {
 
 }  // namespace
 
-const std::vector<std::string> kAlignerFlags = {"max-range", "global-search-below", "validation-distance", "validation-share",
+const std::vector<std::string> kAlignerFlags = {"max-range", "global-search-below", "min-relative-overlap", "weak-direction-restarts", "weak-direction-above",
+                                                "icp-fixed-pairs-after", "validation-distance", "validation-share",
                                                 "validation-only-in-view", "validation-seen-through", "validation-max-position-std",
                                                 "free-space-margin", "crf-weights"};
 
@@ -77,6 +78,10 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
   llc::ScanAlignerOptions options;
   options.max_range = args.number("max-range", options.max_range);
   options.global_search_below = args.number("global-search-below", options.global_search_below);
+  options.min_relative_overlap = args.number("min-relative-overlap", options.min_relative_overlap);
+  options.weak_direction_restarts = int(args.integer("weak-direction-restarts", options.weak_direction_restarts));
+  options.weak_direction_above = args.number("weak-direction-above", options.weak_direction_above);
+  options.icp.fixed_pairs_after = int(args.integer("icp-fixed-pairs-after", options.icp.fixed_pairs_after));
   options.validation.max_distance = args.number("validation-distance", options.validation.max_distance);
   options.validation.min_inlier_share = args.number("validation-share", options.validation.min_inlier_share);
   options.validation.max_seen_through_share =
@@ -154,10 +159,9 @@ int runAlign(const Args& args) {
       else out << "nan,nan,nan";
       out << ',' << r.validation.inlier_share << ',' << int(r.accepted) << ',' << 1e3 * r.seconds;
       if (truth_check) {
-        const llc::IcpResult from_truth =
-            llc::alignIcp(b->points, a->icp_target, truth, aligner.options().icp, &b->icp_target.normals);
-        // The winner's share, as align() ranked it (the largest of the converged starts').
-        const double fit = r.icp_shares.empty() ? 0.0 : *std::max_element(r.icp_shares.begin(), r.icp_shares.end());
+        const llc::IcpResult from_truth = aligner.refine(*a, *b, truth);
+        // The winner's share, as align() ranked it (not always the largest: see min_relative_overlap).
+        const double fit = aligned ? aligner.fit(*a, *b, r.pose) : 0.0;
         const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
         const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp, truth);
         auto writeOffset = [&out, &truth](const llc::Pose2& pose) {  // ",metres,degrees" of pose from the truth

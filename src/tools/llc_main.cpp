@@ -92,6 +92,8 @@ void usage(std::ostream& out) {
   out << "alignment options: [--max-range 40] [--validation-distance 1] [--validation-share 0.9]\n"
          "  [--validation-only-in-view 1] [--validation-seen-through 0.1] [--free-space-margin 0.5]\n"
          "  [--validation-max-position-std 0.015]\n"
+         "  [--global-search-below 0.7] [--min-relative-overlap 0.6] [--weak-direction-restarts 3]\n"
+         "  [--weak-direction-above 0.6] [--icp-fixed-pairs-after 30]\n"
          "  [--crf-weights CRF.yaml]\n";
   out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
          "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";

@@ -213,6 +213,34 @@ TEST(Icp, ConvergesToTheTruthFromANearbyStartWithACovariance) {
   EXPECT_GT(r.covariance(0, 0), 0.0);
 }
 
+TEST(Icp, LeavesOutSourcePointsTheTargetCouldNotSee) {
+  // Target, a forward 180-degree scanner at the origin: a wall across at x = 2 and a wall
+  // along at y = -1, seen from x = 0.05 on. Source, at the same pose (the truth is the
+  // identity): those walls and a ledge at y = -0.3 behind the target scanner (x < 0), which it
+  // could not see. Paired with the nearest target points, the ledge's points all pull the
+  // source down towards the wall at y = -1; left out, ICP stays at the truth.
+  Points2 target, source;
+  for (int i = 0; i <= 40; ++i) {
+    const Point2 across(2.0, -2.0 + 0.1 * i), along(0.05 + 0.04875 * i, -1.0);
+    target.push_back(across), target.push_back(along), source.push_back(across), source.push_back(along);
+  }
+  for (int i = 0; i <= 30; ++i) source.emplace_back(-0.05 - 0.04 * i, -0.3);
+  const llc::IcpOptions options;
+  const llc::IcpTarget icp_target(target, options);
+  llc::FieldOfView view;
+  view.full_circle = false;
+  view.bearing_min = -M_PI / 2;
+  view.bearing_max = M_PI / 2;
+  view.max_range = 40.0;
+  const llc::IcpResult seen = llc::alignIcp(source, icp_target, Pose2{}, options, nullptr, &view);
+  ASSERT_TRUE(seen.converged) << seen.reject_reason;
+  expectPoseNear(seen.pose, Pose2{}, 1e-6, 1e-6);
+  // Without the view the ledge moves the result (the reason for the view).
+  const llc::IcpResult all = llc::alignIcp(source, icp_target, Pose2{}, options);
+  EXPECT_TRUE(!all.converged || std::hypot(all.pose.x, all.pose.y) > 0.01 || std::abs(all.pose.theta) > 0.01)
+      << all.pose.x << ' ' << all.pose.y << ' ' << all.pose.theta;
+}
+
 TEST(Icp, NormalGateDropsPairsAcrossACorner) {
   // Source: the same room; its normals all turned by 90 degrees claim every point lies on a
   // wall perpendicular to the real one, so with the gate no pair survives.
@@ -250,6 +278,26 @@ TEST(Icp, RefusesDegenerateAndEmptyInputWithAReason) {
   bad = {};
   bad.max_normal_angle = 0.0;
   EXPECT_FALSE(bad.validate().empty());
+  bad = {};
+  bad.fixed_pairs_after = 0;
+  EXPECT_FALSE(bad.validate().empty());
+}
+
+TEST(Icp, WithThePairsFixedFromTheFirstStepStillReachesTheTruth) {
+  // The pairs found at the start are kept (moved with the pose) for every later step. Point
+  // to line, a point paired with the wrong point of the right wall still pulls the right way,
+  // so Gauss-Newton on those pairs settles near the truth; a wrong update of the fixed pairs
+  // (not moved, or residuals left stale) would stop at the start or never converge.
+  const Pose2 a{0.3, -0.2, 0.1}, b{1.4, 0.6, 0.5};
+  const Pose2 truth = llc::between(a, b);
+  llc::IcpOptions options;
+  options.fixed_pairs_after = 1;
+  const llc::IcpTarget target(llc::scanPoints(scanAt(room(), a), 40.0), options);
+  const Points2 source = llc::scanPoints(scanAt(room(), b), 40.0);
+  const llc::IcpResult r = llc::alignIcp(source, target, Pose2{truth.x + 0.1, truth.y - 0.05, truth.theta + 0.03}, options);
+  ASSERT_TRUE(r.converged) << r.reject_reason;
+  EXPECT_GT(r.iterations, 1);
+  expectPoseNear(r.pose, truth, 0.02, 0.01);
 }
 
 /// The whole stage, no initial guess: rotations up to 180 degrees either way.
@@ -360,6 +408,22 @@ TEST(Aligner, PositionStdRefusesACorridorThatOnlyItsFarEndPinsDown) {
   EXPECT_TRUE(alignIn(llc::ScanAligner{}, room(), a, b).accepted);
 }
 
+TEST(Aligner, FitCountsOnlyPointsTheOtherScannerCouldSee) {
+  // a: the forward half of a 360-degree scan of the room (a 180-degree scanner); b: the whole
+  // scan, from the same spot. At the truth every point either could see matches, so the fit is
+  // 1; b's rear half, which a's scanner never saw, is no evidence against the pose (counted,
+  // it would halve b's share and make the fit about 0.75).
+  const llc::Scan full = scanAt(room(), Pose2{});
+  llc::Scan front;
+  for (std::size_t i = 0; i < full.size(); ++i)
+    if (std::abs(full.bearings[i]) <= M_PI / 2) front.bearings.push_back(full.bearings[i]), front.ranges.push_back(full.ranges[i]);
+  front.full_circle = false;
+  const llc::ScanAligner aligner;
+  const auto a = aligner.prepare(front), b = aligner.prepare(full);
+  EXPECT_NEAR(aligner.fit(*a, *b, Pose2{}), 1.0, 1e-12);
+  EXPECT_LT(aligner.fit(*a, *b, Pose2{0.3, 0.0, 0.0}), 0.9);  // and a wrong pose still fits worse
+}
+
 TEST(Aligner, RefusesBadOptions) {
   llc::ScanAlignerOptions options;
   options.validation.min_inlier_share = 1.5;
@@ -372,6 +436,21 @@ TEST(Aligner, RefusesBadOptions) {
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
   options = {};
   options.global_search_below = 1.5;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.min_relative_overlap = -0.1;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.weak_direction_shift = 0.0;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.weak_direction_restarts = -1;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.weak_direction_above = 1.1;
+  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
+  options = {};
+  options.icp.fixed_pairs_after = 0;  // ICP's options are validated with the rest
   EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
   for (const double bad : {-0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
     options = {};

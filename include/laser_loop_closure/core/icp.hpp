@@ -9,6 +9,8 @@
 
 namespace llc {
 
+struct FieldOfView;
+
 struct IcpOptions {
   int max_iterations = 40;                 ///< Gauss-Newton steps at most
   double max_correspondence_distance = 1.5;  ///< m; farther nearest neighbours are not paired
@@ -23,6 +25,10 @@ struct IcpOptions {
   double normal_radius = 0.6;              ///< m; neighbours beyond this do not shape a normal
   std::size_t max_source_points = 400;     ///< source points paired per step, evenly strided (0 = all)
   double max_normal_angle = 0.5;           ///< rad; pairs whose normals differ more are dropped (when given)
+  /// Steps after which the pairs stay as they are: the trimmed pair set can flip between two
+  /// states for ever (a limit cycle 2 mm to 2 cm wide), while with fixed pairs Gauss-Newton
+  /// settles. At or beyond max_iterations: the pairs are found afresh at every step.
+  int fixed_pairs_after = 30;
   std::string validate() const;
 };
 
@@ -50,8 +56,10 @@ struct IcpResult {
 /// or degenerate input (e.g. a straight corridor) gives converged = false with the reason.
 /// With source_normals (one per source point, as estimateNormals gives them), a pair whose
 /// normals differ by more than max_normal_angle is not used: a wall does not match a wall
-/// across it.
+/// across it. With target_view, a source point the target's scanner could not have seen (out
+/// of its bearings or range) is not paired: it has no partner there, and the nearest points at
+/// the edge of the view would pull the pose towards them.
 IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
-                   const Points2* source_normals = nullptr);
+                   const Points2* source_normals = nullptr, const FieldOfView* target_view = nullptr);
 
 }  // namespace llc

@@ -15,14 +15,24 @@ namespace llc {
 
 struct ScanAlignerOptions {
   double max_range = 40.0;  ///< m; returns at or beyond this are not aligned (sparse, noisy)
-  double selection_distance = 0.1;  ///< m; of several ICP results, the one with most points this near (both ways) wins
+  double selection_distance = 0.1;  ///< m; of several ICP results, the one with most points this near (both ways, in view) wins
   double reverse_below = 0.6;  ///< best such share below this: CRF-match b to a as well, for more starts (1 = always)
   bool parallel = true;  ///< match the other way round on a second thread meanwhile (same result, less wall time)
   /// ICP also from the starts of the global search (orientation histograms and translation
   /// votes) when no start so far converged, or the best share is still below this after
   /// CRF-match both ways (0 = only when none converged, 1 = always). More starts align more
   /// true matches, and more false ones, which the position test of validation refuses: see the README.
-  double global_search_below = 0.5;
+  double global_search_below = 0.7;
+  /// Of the converged results, only those whose overlap (the points each scanner could have
+  /// seen of the other, both ways) is at least this share of the largest overlap among them
+  /// compete on the share: a pose that leaves few points in view can fit those few well.
+  double min_relative_overlap = 0.6;
+  /// ICP also from the winner shifted along the larger axis of its position covariance (along
+  /// a corridor, where the local optima line up) by ±shift, ±2 shift, ±4 shift, ...:
+  /// weak_direction_restarts of each sign (0 = none).
+  double weak_direction_shift = 0.25;  ///< m
+  int weak_direction_restarts = 3;
+  double weak_direction_above = 0.6;  ///< only when the winner's share is at least this (most candidates are two places)
   CrfMatchOptions crf{};
   GlobalSearchOptions global{};
   IcpOptions icp{};
@@ -68,8 +78,10 @@ class ScanAligner {
   ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b) const;
   /// How well b placed at `pose` in a's frame fits a, as align() ranks its ICP results: the
   /// mean of the shares of b's points near a's and of a's points near b's (within
-  /// selection_distance).
+  /// selection_distance), each among the points the other scanner could have seen.
   double fit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose) const;
+  /// ICP of b onto a from `start`, as align() runs it from each of its starts.
+  IcpResult refine(const PreparedScan& a, const PreparedScan& b, const Pose2& start) const;
 
  private:
   ScanAlignerOptions options_;

@@ -31,6 +31,7 @@ void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit)
   visit(prefix + "degeneracy_ratio", o.degeneracy_ratio);
   visit(prefix + "max_source_points", o.max_source_points);
   visit(prefix + "max_normal_angle", o.max_normal_angle);
+  visit(prefix + "fixed_pairs_after", o.fixed_pairs_after);
 }
 
 /// Calls visit(name, field) for every parameter; field is a double, int, bool or std::size_t.
@@ -67,6 +68,10 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("aligner/reverse_below", aligner.reverse_below);
   visit("aligner/parallel", aligner.parallel);
   visit("aligner/global_search_below", aligner.global_search_below);
+  visit("aligner/min_relative_overlap", aligner.min_relative_overlap);
+  visit("aligner/weak_direction_shift", aligner.weak_direction_shift);
+  visit("aligner/weak_direction_restarts", aligner.weak_direction_restarts);
+  visit("aligner/weak_direction_above", aligner.weak_direction_above);
   visit("aligner/global/sample_spacing", aligner.global.sample_spacing);
   visit("aligner/global/angle_bin", aligner.global.angle_bin);
   visit("aligner/global/rotations", aligner.global.rotations);
