@@ -49,17 +49,11 @@ std::shared_ptr<const PreparedScan> ScanAligner::prepare(const Scan& scan) const
 
 namespace {
 
-/// How well one ICP result fits (see twoWayFit).
-struct Fit {
-  double share = 0.0;        ///< mean of the two ways' shares of points within selection_distance
-  std::size_t overlap = 0;   ///< points counted, both ways: those the other scanner could have seen
-};
-
 /// ICP from each start, in order: every converged result with its fit, and the reason of the
 /// first start that did not converge.
 struct StartResults {
   std::vector<IcpResult> converged;
-  std::vector<Fit> fits;
+  std::vector<AlignmentFit> fits;
   IcpResult first_failure;
   bool any_failure = false;
 };
@@ -69,7 +63,7 @@ struct StartResults {
 /// other scanner could have seen (as validation counts them). Counting every point instead
 /// favoured a result that puts the two scanners at one spot: from there both see the same
 /// stretch of a corridor, while at the truth each sees a little the other cannot.
-Fit twoWayFit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose, const ScanAlignerOptions& options) {
+AlignmentFit twoWayFit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose, const ScanAlignerOptions& options) {
   ShapeValidationOptions tight = options.validation;
   tight.max_distance = options.selection_distance;
   const ShapeValidationResult forward = validateShape(b.points, a.icp_target.tree, pose, tight, &a.view);
@@ -96,34 +90,6 @@ StartResults tryStarts(const PreparedScan& a, const PreparedScan& b, const std::
   return out;
 }
 
-/// The result with the best share among those whose overlap is at least min_relative_overlap
-/// of the largest: a pose that leaves few points in the other's view can fit those few well
-/// (a 180-degree scan turned round, seeing only the other's side walls).
-std::size_t pickWinner(const std::vector<Fit>& fits, double min_relative_overlap) {
-  std::size_t largest = 0;
-  for (const Fit& f : fits) largest = std::max(largest, f.overlap);
-  std::size_t winner = 0;
-  double best = -1.0;
-  for (std::size_t k = 0; k < fits.size(); ++k)
-    if (double(fits[k].overlap) >= min_relative_overlap * double(largest) && fits[k].share > best)
-      best = fits[k].share, winner = k;
-  return winner;
-}
-
-/// The pose shifted both ways along the larger axis of its position covariance by shift,
-/// 2 shift, 4 shift, ... (count of each sign).
-std::vector<Pose2> weakDirectionStarts(const IcpResult& icp, double shift, int count) {
-  const double xx = icp.covariance(0, 0), xy = icp.covariance(0, 1), yy = icp.covariance(1, 1);
-  const double angle = 0.5 * std::atan2(2.0 * xy, xx - yy);  // of the larger eigenvalue's axis
-  std::vector<Pose2> starts;
-  for (int k = 0; k < count; ++k)
-    for (const double sign : {-1.0, 1.0}) {
-      const double d = sign * shift * double(1 << k);
-      starts.push_back({icp.pose.x + d * std::cos(angle), icp.pose.y + d * std::sin(angle), icp.pose.theta});
-    }
-  return starts;
-}
-
 /// CRF-match of a's contour as the chain (b to a the other way round), and ICP from its starts.
 struct ReverseMatch {
   CrfMatchResult crf;
@@ -141,6 +107,31 @@ ReverseMatch matchReverse(const PreparedScan& a, const PreparedScan& b, const Sc
 }
 
 }  // namespace
+
+std::size_t pickAlignment(const std::vector<AlignmentFit>& fits, double min_relative_overlap) {
+  // A pose that leaves few points in the other's view can fit those few well (a 180-degree
+  // scan turned round, seeing only the other's side walls): it competes only with its like.
+  std::size_t largest = 0;
+  for (const AlignmentFit& f : fits) largest = std::max(largest, f.overlap);
+  std::size_t winner = 0;
+  double best = -1.0;
+  for (std::size_t k = 0; k < fits.size(); ++k)
+    if (double(fits[k].overlap) >= min_relative_overlap * double(largest) && fits[k].share > best)
+      best = fits[k].share, winner = k;
+  return winner;
+}
+
+std::vector<Pose2> weakDirectionStarts(const Pose2& pose, const Eigen::Matrix3d& covariance, double shift, int count) {
+  const double xx = covariance(0, 0), xy = covariance(0, 1), yy = covariance(1, 1);
+  const double angle = 0.5 * std::atan2(2.0 * xy, xx - yy);  // of the larger eigenvalue's axis
+  std::vector<Pose2> starts;
+  for (int k = 0; k < count; ++k)
+    for (const double sign : {-1.0, 1.0}) {
+      const double d = sign * shift * double(1 << k);
+      starts.push_back({pose.x + d * std::cos(angle), pose.y + d * std::sin(angle), pose.theta});
+    }
+  return starts;
+}
 
 double ScanAligner::fit(const PreparedScan& a, const PreparedScan& b, const Pose2& pose) const {
   return twoWayFit(a, b, pose, options_).share;
@@ -165,7 +156,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   if (options_.parallel) reverse_ahead = std::async(std::launch::async, matchReverse, std::cref(a), std::cref(b), std::cref(options_));
 
   std::vector<IcpResult> converged;
-  std::vector<Fit> fits;
+  std::vector<AlignmentFit> fits;
   double best_share = -1.0;  // of every converged result so far: do more starts pay?
   auto take = [&](StartResults&& starts) {
     if (starts.any_failure && converged.empty() && result.icp.reject_reason.empty())
@@ -200,13 +191,13 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   if (converged.empty() && crf_found_none && result.global.poses.empty())
     return finish("crf: " + result.crf.reject_reason + "; global search: " + result.global.reject_reason);
   if (converged.empty()) return finish("icp: " + result.icp.reject_reason);
-  std::size_t winner = pickWinner(fits, options_.min_relative_overlap);
+  std::size_t winner = pickAlignment(fits, options_.min_relative_overlap);
   // The local optima of a corridor line up along it: restart from the winner shifted that way
   // (unless it fits so poorly that the pair is most likely two places, as most candidates are).
   if (options_.weak_direction_restarts > 0 && fits[winner].share >= options_.weak_direction_above) {
-    take(tryStarts(a, b, weakDirectionStarts(converged[winner], options_.weak_direction_shift,
-                                             options_.weak_direction_restarts), options_));
-    winner = pickWinner(fits, options_.min_relative_overlap);
+    take(tryStarts(a, b, weakDirectionStarts(converged[winner].pose, converged[winner].covariance,
+                                             options_.weak_direction_shift, options_.weak_direction_restarts), options_));
+    winner = pickAlignment(fits, options_.min_relative_overlap);
   }
   result.icp = std::move(converged[winner]);
   result.pose = result.icp.pose;

@@ -424,6 +424,37 @@ TEST(Aligner, FitCountsOnlyPointsTheOtherScannerCouldSee) {
   EXPECT_LT(aligner.fit(*a, *b, Pose2{0.3, 0.0, 0.0}), 0.9);  // and a wrong pose still fits worse
 }
 
+TEST(Aligner, PicksTheBestShareAmongResultsOfComparableOverlap) {
+  // Overlaps 400, 100, 300 and shares 0.7, 0.95, 0.8: the 100-point result fits best but
+  // covers a quarter of the largest overlap; at 0.6 only 400 and 300 (>= 240) compete.
+  const std::vector<llc::AlignmentFit> fits = {{0.7, 400}, {0.95, 100}, {0.8, 300}};
+  EXPECT_EQ(llc::pickAlignment(fits, 0.6), 2u);
+  EXPECT_EQ(llc::pickAlignment(fits, 0.0), 1u);   // every result competes: the best share
+  EXPECT_EQ(llc::pickAlignment(fits, 0.8), 0u);   // only 400 (300 < 320)
+  EXPECT_EQ(llc::pickAlignment(fits, 0.75), 2u);  // 300 >= 300: the bound is inclusive
+  EXPECT_EQ(llc::pickAlignment({}, 0.6), 0u);
+}
+
+TEST(Aligner, WeakDirectionStartsLieAlongTheLargerAxisOfThePositionCovariance) {
+  // Covariance with axes along 30 degrees (variance 4e-4) and 120 degrees (1e-6): the starts
+  // lie along 30 degrees at -0.25, +0.25, -0.5, +0.5, -1, +1 m, heading unchanged.
+  const double angle = M_PI / 6, c = std::cos(angle), s = std::sin(angle);
+  Eigen::Matrix2d rotation;
+  rotation << c, -s, s, c;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity() * 1e-6;
+  covariance.topLeftCorner<2, 2>() = rotation * Eigen::Vector2d(4e-4, 1e-6).asDiagonal() * rotation.transpose();
+  const Pose2 pose{1.0, -2.0, 0.4};
+  const std::vector<Pose2> starts = llc::weakDirectionStarts(pose, covariance, 0.25, 3);
+  ASSERT_EQ(starts.size(), 6u);
+  const double shifts[6] = {-0.25, 0.25, -0.5, 0.5, -1.0, 1.0};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_NEAR(starts[k].x, 1.0 + shifts[k] * c, 1e-12) << k;
+    EXPECT_NEAR(starts[k].y, -2.0 + shifts[k] * s, 1e-12) << k;
+    EXPECT_EQ(starts[k].theta, 0.4);
+  }
+  EXPECT_TRUE(llc::weakDirectionStarts(pose, covariance, 0.25, 0).empty());
+}
+
 TEST(Aligner, RefusesBadOptions) {
   llc::ScanAlignerOptions options;
   options.validation.min_inlier_share = 1.5;

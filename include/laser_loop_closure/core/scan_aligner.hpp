@@ -87,4 +87,17 @@ class ScanAligner {
   ScanAlignerOptions options_;
 };
 
+/// How well one ICP result fits, as align() ranks them.
+struct AlignmentFit {
+  double share = 0.0;       ///< mean of the two ways' shares of points within selection_distance
+  std::size_t overlap = 0;  ///< points counted, both ways: those the other scanner could have seen
+};
+/// The index of the best share among the fits whose overlap is at least min_relative_overlap
+/// of the largest (0 when fits is empty).
+std::size_t pickAlignment(const std::vector<AlignmentFit>& fits, double min_relative_overlap);
+/// Starts for restarts along the weakest direction: `pose` shifted both ways along the larger
+/// axis of the x-y block of `covariance` by shift, 2 shift, 4 shift, ... (count of each sign,
+/// nearest first, minus before plus); the heading is kept.
+std::vector<Pose2> weakDirectionStarts(const Pose2& pose, const Eigen::Matrix3d& covariance, double shift, int count);
+
 }  // namespace llc
