@@ -199,6 +199,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
                                              options_.weak_direction_shift, options_.weak_direction_restarts), options_));
     winner = pickAlignment(fits, options_.min_relative_overlap);
   }
+  result.chosen = winner;  // converged and icp_poses run in step
   result.icp = std::move(converged[winner]);
   result.pose = result.icp.pose;
   result.covariance = result.icp.covariance;

@@ -161,7 +161,7 @@ int runAlign(const Args& args) {
       if (truth_check) {
         const llc::IcpResult from_truth = aligner.refine(*a, *b, truth);
         // The winner's share, as align() ranked it (not always the largest: see min_relative_overlap).
-        const double fit = aligned ? aligner.fit(*a, *b, r.pose) : 0.0;
+        const double fit = aligned ? r.icp_shares[r.chosen] : 0.0;
         const double truth_fit = from_truth.converged ? aligner.fit(*a, *b, from_truth.pose) : 0.0;
         const PclAlignment gicp = alignPcl(PclMethod::kGicp, b->points, a->points, aligner.options().icp, truth);
         auto writeOffset = [&out, &truth](const llc::Pose2& pose) {  // ",metres,degrees" of pose from the truth

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "laser_loop_closure/core/crf_training.hpp"
@@ -456,41 +457,29 @@ TEST(Aligner, WeakDirectionStartsLieAlongTheLargerAxisOfThePositionCovariance) {
 }
 
 TEST(Aligner, RefusesBadOptions) {
-  llc::ScanAlignerOptions options;
-  options.validation.min_inlier_share = 1.5;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.crf.weights.distance = -1.0;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.reverse_below = 2.0;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.global_search_below = 1.5;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.min_relative_overlap = -0.1;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.weak_direction_shift = 0.0;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.weak_direction_restarts = -1;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.weak_direction_above = 1.1;
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  options = {};
-  options.icp.fixed_pairs_after = 0;  // ICP's options are validated with the rest
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
-  for (const double bad : {-0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
-    options = {};
-    options.validation.max_position_std = bad;
-    EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument) << bad;
+  // Each entry spoils one option of an otherwise default set (the nested stages' options are
+  // validated with the rest).
+  using Spoil = std::function<void(llc::ScanAlignerOptions&)>;
+  const std::vector<std::pair<const char*, Spoil>> spoils = {
+      {"min_inlier_share", [](auto& o) { o.validation.min_inlier_share = 1.5; }},
+      {"crf distance weight", [](auto& o) { o.crf.weights.distance = -1.0; }},
+      {"reverse_below", [](auto& o) { o.reverse_below = 2.0; }},
+      {"global_search_below", [](auto& o) { o.global_search_below = 1.5; }},
+      {"min_relative_overlap", [](auto& o) { o.min_relative_overlap = -0.1; }},
+      {"weak_direction_shift", [](auto& o) { o.weak_direction_shift = 0.0; }},
+      {"weak_direction_restarts", [](auto& o) { o.weak_direction_restarts = -1; }},
+      {"weak_direction_above", [](auto& o) { o.weak_direction_above = 1.1; }},
+      {"icp fixed_pairs_after", [](auto& o) { o.icp.fixed_pairs_after = 0; }},
+      {"max_position_std -0.01", [](auto& o) { o.validation.max_position_std = -0.01; }},
+      {"max_position_std nan", [](auto& o) { o.validation.max_position_std = std::nan(""); }},
+      {"max_position_std inf", [](auto& o) { o.validation.max_position_std = std::numeric_limits<double>::infinity(); }},
+      {"global rotations", [](auto& o) { o.global.rotations = 0; }},
+  };
+  for (const auto& [name, spoil] : spoils) {
+    llc::ScanAlignerOptions options;
+    spoil(options);
+    EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument) << name;
   }
-  options = {};
-  options.global.rotations = 0;  // the global search's options are validated with the rest
-  EXPECT_THROW(llc::ScanAligner{options}, std::invalid_argument);
 }
 
 TEST(Aligner, ReverseMatchingAddsStartsAndAgreesWithTheForwardOne) {

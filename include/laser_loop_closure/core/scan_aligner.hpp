@@ -63,6 +63,7 @@ struct ScanAlignmentResult {
   /// selection_distance: what the winner was chosen from.
   std::vector<Pose2> icp_poses;
   std::vector<double> icp_shares;
+  std::size_t chosen = 0;  ///< index in icp_poses / icp_shares of the result that went on to validation
   double seconds = 0.0;      ///< all stages
   std::string reject_reason;  ///< "crf: ...", "icp: ..." or "validation: ..."; empty when accepted
 };
