@@ -373,6 +373,35 @@ TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {
   EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.theta));
 }
 
+TEST(Aligner, BadPartialScansGiveAClearResultWithTheFieldOfViewInUse) {
+  // 180-degree scans, where the field of view now shapes ICP and the choice: bearings all NaN
+  // (no view at all), ranges NaN / inf / negative / zero, and a scan of two beams. Against a
+  // good half-room scan and against each other: refused with a reason, pose finite, no throw.
+  auto half = [](const llc::Scan& full) {
+    llc::Scan out;
+    for (std::size_t i = 0; i < full.size(); ++i)
+      if (std::abs(full.bearings[i]) <= M_PI / 2) out.bearings.push_back(full.bearings[i]), out.ranges.push_back(full.ranges[i]);
+    out.full_circle = false;
+    return out;
+  };
+  const llc::ScanAligner aligner;
+  const llc::Scan good = half(scanAt(room(), Pose2{}));
+  llc::Scan no_bearings = good, bad_ranges = good, two;
+  for (double& b : no_bearings.bearings) b = std::nan("");
+  const double bad[4] = {std::nan(""), std::numeric_limits<double>::infinity(), -1.0, 0.0};
+  for (std::size_t i = 0; i < bad_ranges.size(); ++i) bad_ranges.ranges[i] = bad[i % 4];
+  two.bearings = {-0.1, 0.1}, two.ranges = {2.0, 2.0}, two.full_circle = false;
+  const auto g = aligner.prepare(good);
+  for (const llc::Scan* s : {&no_bearings, &bad_ranges, &two}) {
+    const auto p = aligner.prepare(*s);
+    for (const llc::ScanAlignmentResult& r : {aligner.align(*p, *g), aligner.align(*g, *p), aligner.align(*p, *p)}) {
+      EXPECT_FALSE(r.accepted);
+      EXPECT_FALSE(r.reject_reason.empty());
+      EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.y) && std::isfinite(r.pose.theta));
+    }
+  }
+}
+
 TEST(Aligner, PositionStdRefusesACorridorThatOnlyItsFarEndPinsDown) {
   // A corridor closed by one short wall 9 m ahead: ICP converges, but only that end wall's
   // few points fix the position along the corridor, so its uncertainty there is large. The
