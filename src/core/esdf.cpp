@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -118,6 +119,19 @@ Eigen::Matrix3d errorInformation(const Pose2& z, const Eigen::Matrix3d& covarian
   return (r * covariance * r.transpose()).inverse();
 }
 
+/// Adds the wall time of its own lifetime to a counter.
+class StopWatch {
+ public:
+  explicit StopWatch(double* total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+  ~StopWatch() { *total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  StopWatch(const StopWatch&) = delete;
+  StopWatch& operator=(const StopWatch&) = delete;
+
+ private:
+  double* total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
 Pose2 plus(const Pose2& p, const double* step) { return {p.x + step[0], p.y + step[1], normalizeAngle(p.theta + step[2])}; }
 }  // namespace
 
@@ -172,7 +186,13 @@ void Esdf::rebuildSystem() {
 }
 
 void Esdf::factorAndSolve() {
+  factorize();
+  solveMean();
+}
+
+void Esdf::factorize() {
   Impl& m = *impl_;
+  const StopWatch watch(&timings_.factorizations);
   const std::size_t n = 3 * size();
   // Column-compressed, upper triangle (stype = 1), built straight from the blocks: column c of
   // pose-block j holds, for every block (i, j) with i <= j, rows 3i..3i+2 (only up to the
@@ -210,10 +230,10 @@ void Esdf::factorAndSolve() {
   if (m.common.status == CHOLMOD_NOT_POSDEF) throw std::runtime_error("esdf: information matrix not positive definite");
   m.factored_nonzeros = m.factorNonzeros();
   m.factor_valid = true;
-  solveMean();
 }
 
 void Esdf::solveMean() {
+  const StopWatch watch(&timings_.solves);
   const Eigen::VectorXd step = impl_->solve(impl_->gradient);
   for (std::size_t p = 0; p < size(); ++p) mean_[p] = plus(linearization_[p], step.data() + 3 * p);
   impl_->current = true;
@@ -255,7 +275,11 @@ bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
     }
   }
   cp[col] = 6 * col;
-  const int ok = cholmod_updown(update ? 1 : 0, c, m.factor, &m.common);
+  int ok = 0;
+  {
+    const StopWatch watch(&timings_.rank_updates);
+    ok = cholmod_updown(update ? 1 : 0, c, m.factor, &m.common);
+  }
   cholmod_free_sparse(&c, &m.common);
   if (!ok || m.common.status != CHOLMOD_OK) {
     m.factor_valid = false;
@@ -354,6 +378,7 @@ Eigen::Matrix<double, 6, 6> Esdf::factoredJointCovariance(std::size_t a, std::si
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n, 6);
   rhs.block<3, 3>(3 * long(a), 0).setIdentity();
   rhs.block<3, 3>(3 * long(b), 3).setIdentity();
+  const StopWatch watch(&timings_.solves);
   const Eigen::MatrixXd x = impl_->solve(rhs);
   Eigen::Matrix<double, 6, 6> joint;
   joint.topRows<3>() = x.block<3, 6>(3 * long(a), 0);

@@ -79,7 +79,10 @@ int runGraph(const Args& args) {
             << " rank_updates=" << filter.rankUpdates()
             << " relinearizations=" << filter.relinearizations()
             << " edges_relinearized_in_place=" << filter.edgesRelinearizedInPlace()
-            << " rebuilds=" << filter.rebuilds() << " initial_chi2=" << std::setprecision(10)
+            << " rebuilds=" << filter.rebuilds() << std::setprecision(3)
+            << " seconds_rank_updates=" << filter.timings().rank_updates
+            << " seconds_solves=" << filter.timings().solves
+            << " seconds_factorizations=" << filter.timings().factorizations << " initial_chi2=" << std::setprecision(10)
             << llc::chiSquared(graph.edges, graph.poses) << " -> " << out_path << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
   std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";

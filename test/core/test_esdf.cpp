@@ -3,6 +3,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -190,6 +191,30 @@ TEST(Esdf, RelinearisingEdgesInPlaceEqualsRebuildingTheSystem) {
     const Eigen::Matrix<double, 6, 6> a = in_place.jointCovariance(2, 21), b = rebuilt.jointCovariance(2, 21);
     EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
   }
+}
+
+TEST(Esdf, TimingsCountEachKindOfWorkOnlyWhenItHappens) {
+  std::vector<Pose2> truth;
+  const llc::PoseGraph2 g = randomGraph(4, 25, 12, &truth);
+  llc::Esdf filter;
+  for (const llc::PoseEdge& e : g.edges) {
+    if (e.to == filter.size()) filter.augmentWithInformation(e);
+  }
+  // Augmentation alone composes poses: nothing is factorised, updated or solved.
+  EXPECT_EQ(filter.timings().rank_updates + filter.timings().solves + filter.timings().factorizations, 0.0);
+  const auto start = std::chrono::steady_clock::now();
+  for (const llc::PoseEdge& e : g.edges) {
+    if (e.to == e.from + 1) continue;
+    ASSERT_TRUE(filter.updateWithInformation(e, false).applied);
+  }
+  filter.marginalCovariance(3);
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const llc::Esdf::Timings& t = filter.timings();
+  ASSERT_GT(filter.rankUpdates(), 0);
+  EXPECT_GT(t.rank_updates, 0.0);
+  EXPECT_GT(t.solves, 0.0);
+  EXPECT_GT(t.factorizations, 0.0);
+  EXPECT_LE(t.rank_updates + t.solves + t.factorizations, elapsed) << "parts of the elapsed time, counted once";
 }
 
 TEST(Esdf, DefaultRelinearisationReachesTheOptimumWithFewerFactorisations) {

@@ -99,6 +99,7 @@ printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
 check "graph: negative max-edges-in-place" 1 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place -1
 check "graph: reorder-fill-ratio below 1" 1 "reorder_fill_ratio must be finite and >= 1" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --reorder-fill-ratio 0.5
 check "graph: every swap as a rebuild still reaches the optimum" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place 0
+check "graph: prints where its time went" 0 " seconds_rank_updates=[0-9.e+-]+ seconds_solves=[0-9.e+-]+ seconds_factorizations=[0-9.e+-]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 check "graph: prints its rebuild count" 0 " rebuilds=[0-9]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"

@@ -110,6 +110,13 @@ class Esdf {
   /// Rounds that rebuilt and refactored the whole system (too many stale constraints, or a
   /// factor that did not cover every pose) instead of swapping constraints in place.
   int rebuilds() const { return rebuilds_; }
+  /// Wall time spent so far in CHOLMOD's three kinds of work, to see where an update's time goes.
+  struct Timings {
+    double rank_updates = 0.0;    ///< s in cholmod_updown (constraints added, relinearised in place)
+    double solves = 0.0;          ///< s in solves with the factor (means, covariances)
+    double factorizations = 0.0;  ///< s in building, analysing (ordering) and factorising the system afresh
+  };
+  const Timings& timings() const { return timings_; }
 
  private:
   struct Impl;
@@ -121,6 +128,7 @@ class Esdf {
   void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point);
   void rebuildSystem();
   void factorAndSolve();
+  void factorize();  ///< builds, analyses when the pattern changed, and factorises the system
   void solveMean();
   /// The edges' information added to (update) or removed from the factor in place.
   bool rankUpdate(const std::vector<std::size_t>& edges, bool update);
@@ -146,6 +154,7 @@ class Esdf {
     Eigen::Matrix3d ja = Eigen::Matrix3d::Zero(), jb = Eigen::Matrix3d::Zero();
   };
   std::vector<EdgeModel> edge_models_;
+  Timings timings_;
   int factorizations_ = 0, relinearizations_ = 0, rank_updates_ = 0, edges_relinearized_in_place_ = 0, rebuilds_ = 0;
   std::unique_ptr<Impl> impl_;
 };
