@@ -3,13 +3,16 @@
 #include <suitesparse/cholmod.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <iomanip>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 
 #include "laser_loop_closure/core/se2_jacobians.hpp"
@@ -24,6 +27,7 @@ std::string EsdfOptions::validate() const {
   if (max_relinearizations < 0) return "max_relinearizations must be >= 0";
   if (!(loop_chi2_threshold > 0.0)) return "loop_chi2_threshold must be > 0";
   if (!(prior_information > 0.0) || !std::isfinite(prior_information)) return "prior_information must be finite and > 0";
+  if (!(max_information > 0.0) || !std::isfinite(max_information)) return "max_information must be finite and > 0";
   return "";
 }
 
@@ -132,6 +136,21 @@ class StopWatch {
   std::chrono::steady_clock::time_point start_;
 };
 
+/// Why a constraint's measurement and information cannot enter the system; empty when they can.
+std::string unusableConstraint(const PoseEdge& e, double max_information) {
+  if (!std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) || !e.information.allFinite() ||
+      e.information.llt().info() != Eigen::Success)
+    return "measurement not finite or information not positive definite";
+  const double largest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(e.information, Eigen::EigenvaluesOnly).eigenvalues()[2];
+  if (largest > max_information) {
+    std::ostringstream why;
+    why << std::setprecision(3) << "information " << largest << " above max_information " << max_information
+        << " (a standard deviation this small cannot be held beside the others)";
+    return why.str();
+  }
+  return "";
+}
+
 Pose2 plus(const Pose2& p, const double* step) { return {p.x + step[0], p.y + step[1], normalizeAngle(p.theta + step[2])}; }
 }  // namespace
 
@@ -235,6 +254,7 @@ void Esdf::factorize() {
 void Esdf::solveMean() {
   const StopWatch watch(&timings_.solves);
   const Eigen::VectorXd step = impl_->solve(impl_->gradient);
+  if (!step.allFinite()) throw std::runtime_error("esdf: the solve gave non-finite means");
   for (std::size_t p = 0; p < size(); ++p) mean_[p] = plus(linearization_[p], step.data() + 3 * p);
   impl_->current = true;
   impl_->leaf_start = std::string::npos;
@@ -300,9 +320,8 @@ std::size_t Esdf::augmentFrom(std::size_t base, const Pose2& odometry, const Eig
 
 std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
   if (e.from >= size() || e.to != size()) throw std::invalid_argument("esdf: augmentation must go from an existing pose to a new one");
-  if (!e.information.allFinite() || !std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) ||
-      e.information.llt().info() != Eigen::Success)
-    throw std::invalid_argument("esdf: odometry not finite, or its covariance not positive definite");
+  if (const std::string why = unusableConstraint(e, options_.max_information); !why.empty())
+    throw std::invalid_argument("esdf: odometry " + why);
   if (impl_->current && impl_->factor_valid && impl_->factor && impl_->factor->n == 3 * size()) impl_->leaf_start = size();
   impl_->augmentation_edge.resize(size() + 1, std::string::npos);
   impl_->augmentation_edge[size()] = edges_.size();
@@ -334,12 +353,10 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
     result.reject_reason = "poses " + std::to_string(e.from) + " and " + std::to_string(e.to) + " are not two poses of the filter";
     return result;
   }
-  // A NaN here would poison every mean at the next solve: refuse it instead.
-  if (!std::isfinite(e.measurement.x + e.measurement.y + e.measurement.theta) || !e.information.allFinite() ||
-      e.information.llt().info() != Eigen::Success) {
-    result.reject_reason = "measurement not finite or information not positive definite";
-    return result;
-  }
+  // A NaN here would poison every mean at the next solve, and an information beyond what
+  // double precision holds beside the others would scatter them: refuse both instead.
+  result.reject_reason = unusableConstraint(e, options_.max_information);
+  if (!result.reject_reason.empty()) return result;
   if (gate) {
     result.innovation_chi2 = innovationChi2(e);
     if (!(result.innovation_chi2 <= options_.loop_chi2_threshold)) {
@@ -357,12 +374,35 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   // The factor is updated in place when it covers every pose (no pose added since it was
   // made); otherwise, or if the update fails, it is made again.
   impl_->factor_valid = factor_was_valid;
-  // Reordered (analysed afresh) once the updates' fill has made L much denser than a new
-  // ordering would: the solves' cost follows L's size.
-  if (rankUpdate({edges_.size() - 1}, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
-  else factorAndSolve();
-  result.relinearizations = relinearizeUntilSteady();
+  saved_linearization_.clear();
+  saving_linearization_ = true;  // a failure below needs the linearisation point of before
+  try {
+    // Reordered (analysed afresh) once the updates' fill has made L much denser than a new
+    // ordering would: the solves' cost follows L's size.
+    if (rankUpdate({edges_.size() - 1}, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
+    else factorAndSolve();
+    result.relinearizations = relinearizeUntilSteady();
+    saving_linearization_ = false;
+  } catch (const std::runtime_error& e) {
+    saving_linearization_ = false;
+    takeBackNewestEdge();
+    result.applied = false;
+    result.reject_reason = std::string("the system could not be solved with it (") + e.what() + "): taken back";
+  }
   return result;
+}
+
+void Esdf::takeBackNewestEdge() {
+  edges_.pop_back();
+  edge_points_.pop_back();
+  largest_information_.pop_back();
+  edge_models_.pop_back();
+  // Back to the linearisation point of before the update when a round moved it (to means
+  // the failed solve may have made), and the system rebuilt there.
+  if (!saved_linearization_.empty()) linearization_.swap(saved_linearization_);
+  saved_linearization_.clear();
+  rebuildSystem();
+  factorAndSolve();
 }
 
 int Esdf::solveFrom(const std::vector<Pose2>& poses) {

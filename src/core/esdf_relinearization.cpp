@@ -104,6 +104,7 @@ int Esdf::relinearizeUntilSteady(bool batch) {
       continue;
     }
     ++rebuilds_;
+    if (saving_linearization_ && saved_linearization_.empty()) saved_linearization_ = linearization_;
     linearization_ = mean_;
     rebuildSystem();
     factorAndSolve();

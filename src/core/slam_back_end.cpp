@@ -66,7 +66,11 @@ std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, con
   if (!esdf_) {
     esdf_ = std::make_unique<Esdf>(keyframe.has_wheel_odometry ? keyframe.wheel_odometry : Pose2{}, options_);
   } else {
-    esdf_->augment(motion, covariance);
+    try {
+      esdf_->augment(motion, covariance);
+    } catch (const std::invalid_argument& e) {  // the filter's own limits (an information it cannot hold)
+      return refuse(e.what());
+    }
   }
   keyframes_.push_back(std::move(keyframe));
   ++counters_.keyframes;

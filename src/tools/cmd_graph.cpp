@@ -24,6 +24,7 @@ int runGraph(const Args& args) {
   options.reorder_fill_ratio = args.number("reorder-fill-ratio", options.reorder_fill_ratio);
   options.max_relinearizations = int(args.integer("max-relinearizations", options.max_relinearizations));
   options.loop_chi2_threshold = args.number("loop-chi2", options.loop_chi2_threshold);
+  options.max_information = args.number("max-information", options.max_information);
   const std::string invalid = options.validate();
   if (!invalid.empty()) throw ToolError(invalid);
   const bool gate = args.has("gate");

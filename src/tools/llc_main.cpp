@@ -65,11 +65,11 @@ const std::vector<Command>& commands() {
        "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
       {"graph", llc_tool::runGraph,
        {"g2o", "out", "relinearize-translation", "relinearize-rotation", "relinearize-chi2", "max-edges-in-place", "reorder-fill-ratio",
-        "max-relinearizations", "loop-chi2"},
+        "max-relinearizations", "loop-chi2", "max-information"},
        {"incremental", "batch", "gate"},
        "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--loop-chi2 16.27]\n"
        "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--relinearize-chi2 0.001]\n"
-       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20]"},
+       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20] [--max-information 1e12]"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset"},

@@ -379,6 +379,61 @@ TEST(Esdf, ChiSquareGateRefusesAPlantedWrongLoopAndAcceptsTheRightOnes) {
   EXPECT_THROW(filter.augmentFrom(999, wrong, covariance), std::invalid_argument);
 }
 
+TEST(Esdf, AnInformationBeyondWhatDoublesHoldIsRefusedAndMovesNothing) {
+  std::vector<Pose2> truth;
+  const llc::PoseGraph2 g = randomGraph(9, 40, 0, &truth);
+  llc::Esdf filter;
+  for (const llc::PoseEdge& e : g.edges) filter.augmentWithInformation(e);
+  filter.marginalCovariance(39);  // factorised
+  const std::vector<Pose2> before = filter.mean();
+  // Standard deviation 1e-12 (information 1e24): far beyond what doubles hold beside the rest.
+  const Eigen::Matrix3d tiny = 1e-24 * Eigen::Matrix3d::Identity();
+  for (const bool gate : {false, true}) {
+    const llc::EsdfUpdateResult r = filter.update(2, 30, llc::between(truth[2], truth[30]), tiny, gate);
+    EXPECT_FALSE(r.applied);
+    EXPECT_NE(r.reject_reason.find("above max_information"), std::string::npos) << r.reject_reason;
+  }
+  for (std::size_t p = 0; p < before.size(); ++p) EXPECT_EQ(filter.mean()[p].x, before[p].x);
+  EXPECT_THROW(filter.augment(Pose2{1.0, 0.0, 0.0}, tiny), std::invalid_argument);
+  EXPECT_EQ(filter.size(), before.size());
+  // One direction too sure is enough (the heading's here), and the limit is an option.
+  Eigen::Matrix3d one_tiny = Eigen::Vector3d(0.01, 0.01, 1e-13).asDiagonal();
+  EXPECT_FALSE(filter.update(2, 30, llc::between(truth[2], truth[30]), one_tiny, false).applied);
+  llc::EsdfOptions looser;
+  looser.max_information = 1e14;
+  llc::Esdf trusting(Pose2{}, looser);
+  for (const llc::PoseEdge& e : g.edges) trusting.augmentWithInformation(e);
+  EXPECT_TRUE(trusting.update(2, 30, llc::between(truth[2], truth[30]), one_tiny, false).applied);
+  // At the default limit (standard deviation 1e-6) the loop holds the poses where it says.
+  const Eigen::Matrix3d sure = 1e-12 * Eigen::Matrix3d::Identity();
+  const Pose2 measured = llc::between(truth[2], truth[30]);
+  ASSERT_TRUE(filter.update(2, 30, measured, sure, false).applied);
+  const Pose2 got = llc::between(filter.mean()[2], filter.mean()[30]);
+  EXPECT_NEAR(got.x, measured.x, 1e-5);
+  EXPECT_NEAR(got.y, measured.y, 1e-5);
+  EXPECT_NEAR(llc::normalizeAngle(got.theta - measured.theta), 0.0, 1e-5);
+  EXPECT_GE(filter.marginalCovariance(30).diagonal().minCoeff(), 0.0);
+  // With no limit, a solve that fails (information 1e40) takes the constraint back: refused,
+  // the means finite and where they were, and the filter still takes the next loop.
+  llc::EsdfOptions unlimited;
+  unlimited.max_information = 1e300;
+  llc::Esdf reckless(Pose2{}, unlimited);
+  for (const llc::PoseEdge& e : g.edges) reckless.augmentWithInformation(e);
+  reckless.marginalCovariance(39);
+  const std::vector<Pose2> settled = reckless.mean();
+  const llc::EsdfUpdateResult failed = reckless.update(2, 30, measured, 1e-40 * Eigen::Matrix3d::Identity(), false);
+  EXPECT_FALSE(failed.applied);
+  EXPECT_NE(failed.reject_reason.find("taken back"), std::string::npos) << failed.reject_reason;
+  EXPECT_EQ(reckless.constraints().size(), g.edges.size());
+  for (std::size_t p = 0; p < settled.size(); ++p) EXPECT_NEAR(reckless.mean()[p].x, settled[p].x, 1e-9);
+  EXPECT_TRUE(reckless.update(2, 30, measured, Eigen::Vector3d(0.01, 0.01, 0.0025).asDiagonal(), true).applied);
+  for (const double bad : {0.0, -1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    llc::EsdfOptions options;
+    options.max_information = bad;
+    EXPECT_NE(options.validate().find("max_information"), std::string::npos) << bad;
+  }
+}
+
 TEST(Esdf, AugmentationIsTheCompositionAndLeavesOtherPosesAlone) {
   llc::Esdf filter(Pose2{1.0, 2.0, 0.5});
   const Eigen::Matrix3d covariance = Eigen::Vector3d(0.01, 0.02, 0.001).asDiagonal();

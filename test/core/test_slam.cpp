@@ -266,7 +266,11 @@ TEST(SlamBackEnd, RefusesMalformedKeyframesAndLoopsWithAReason) {
   not_positive(2, 2) = -1.0;
   EXPECT_NE(back.addKeyframe(llc::Keyframe{}, {1.0, 0.0, 0.0}, not_positive), "");
   EXPECT_NE(back.addKeyframe(llc::Keyframe{}, {std::nan(""), 0.0, 0.0}, Eigen::Matrix3d::Identity()), "");
+  // A covariance beyond what the filter can hold beside the others (std 1e-12 m): refused, named.
+  EXPECT_NE(back.addKeyframe(llc::Keyframe{}, {1.0, 0.0, 0.0}, 1e-24 * Eigen::Matrix3d::Identity()).find("max_information"),
+            std::string::npos);
   EXPECT_EQ(back.keyframes().size(), 1u);
+  EXPECT_EQ(back.counters().refused_keyframes, 3u);
   EXPECT_EQ(back.addKeyframe(llc::Keyframe{}, {1.0, 0.0, 0.0}, 0.01 * Eigen::Matrix3d::Identity()), "");
   ASSERT_EQ(back.keyframes().size(), 2u);
 

@@ -101,6 +101,10 @@ check "graph: reorder-fill-ratio below 1" 1 "reorder_fill_ratio must be finite a
 check "graph: every swap as a rebuild still reaches the optimum" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place 0
 check "graph: prints where its time went" 0 " seconds_rank_updates=[0-9.e+-]+ seconds_solves=[0-9.e+-]+ seconds_factorizations=[0-9.e+-]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 check "graph: prints its rebuild count" 0 " rebuilds=[0-9]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
+printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 1e24 0 0 1e24 0 1e24\n' > "$TMP/too_sure.g2o"
+check "graph: a loop beyond max_information is refused" 0 "refused edge 3 -> 0: information .* above max_information" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o"
+check "graph: max-information is an option" 0 "refused=0" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o" --max-information 1e25
+check "graph: max-information must be positive" 1 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-information 0
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front

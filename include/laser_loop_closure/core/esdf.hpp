@@ -33,6 +33,10 @@ struct EsdfOptions {
   /// 3-DoF chi-square threshold of a loop closure's innovation (99.9%: 16.27); larger is refused.
   double loop_chi2_threshold = 16.27;
   double prior_information = 1e8;         ///< anchors the first pose (information per unit)
+  /// Largest eigenvalue a constraint's information may have (per m^2 or rad^2; 1e12: a standard
+  /// deviation of 1 um or 1 urad). More is refused: beside the others, double precision cannot
+  /// hold it (applied, a loop far beyond it scatters the means or fails the factorisation).
+  double max_information = 1e12;
   std::string validate() const;
 };
 
@@ -73,7 +77,9 @@ class Esdf {
   EsdfUpdateResult update(std::size_t from, std::size_t to, const Pose2& measurement, const Eigen::Matrix3d& covariance,
                           bool gate);
   /// The same with the information of g2o's error e = t2v(Z^-1 (X_from^-1 X_to)), as g2o
-  /// files give it (the error lives in the frame of the measured pose).
+  /// files give it (the error lives in the frame of the measured pose). A constraint whose
+  /// information exceeds max_information is refused; one with which the system cannot be
+  /// solved (numerically not positive definite) is taken back and refused.
   EsdfUpdateResult updateWithInformation(const PoseEdge& edge, bool gate, bool solve = true);
   /// Batch use: every mean set to `poses` (one per pose), the system rebuilt there and solved,
   /// rebuilt again while any pose moves past the relinearisation thresholds (Gauss-Newton from
@@ -126,6 +132,8 @@ class Esdf {
   /// Adds (sign 1) or removes (sign -1) edge k's information and gradient.
   void addToSystem(std::size_t k, double sign);
   void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point);
+  /// Removes the newest constraint (its solve failed) and factorises the system without it.
+  void takeBackNewestEdge();
   void rebuildSystem();
   void factorAndSolve();
   void factorize();  ///< builds, analyses when the pattern changed, and factorises the system
@@ -146,6 +154,9 @@ class Esdf {
   const LeafState& leafState(std::size_t leaf);
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
+  /// While an update runs: the linearisation point before its first rebuild, to take it back.
+  std::vector<Pose2> saved_linearization_;
+  bool saving_linearization_ = false;
   std::vector<PoseEdge> edges_;
   std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
   std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information

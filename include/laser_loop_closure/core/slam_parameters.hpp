@@ -103,6 +103,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/reorder_fill_ratio", esdf.reorder_fill_ratio);
   visit("esdf/loop_chi2_threshold", esdf.loop_chi2_threshold);
   visit("esdf/prior_information", esdf.prior_information);
+  visit("esdf/max_information", esdf.max_information);
   visit("esdf/gate_loops", options.slam.gate_loops);
 
   PlaceGateOptions& place_gate = options.slam.place_gate;
