@@ -53,29 +53,38 @@ double SlamBackEnd::placeChi2(std::size_t from, std::size_t to, double radius) {
   return chi2;
 }
 
+Eigen::Matrix3d looseLinkCovariance() { return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal(); }
+
 std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance) {
-  auto refuse = [&](const std::string& why) {
-    ++counters_.refused_keyframes;
-    return why;
-  };
-  if (keyframe.has_wheel_odometry && !isFinite(keyframe.wheel_odometry))
-    return refuse("wheel odometry is not finite");
-  if (esdf_ && (!isFinite(motion) || !usableCovariance(covariance)))
-    return refuse("odometry motion not finite, or its covariance not positive definite");
+  std::string note;
+  if (keyframe.has_wheel_odometry && !isFinite(keyframe.wheel_odometry)) {
+    keyframe.has_wheel_odometry = false;
+    note = "wheel odometry not finite: dropped";
+  }
   const auto start = std::chrono::steady_clock::now();
   if (!esdf_) {
     esdf_ = std::make_unique<Esdf>(keyframe.has_wheel_odometry ? keyframe.wheel_odometry : Pose2{}, options_);
   } else {
-    try {
-      esdf_->augment(motion, covariance);
-    } catch (const std::invalid_argument& e) {  // the filter's own limits (an information it cannot hold)
-      return refuse(e.what());
+    std::string unusable;
+    if (!isFinite(motion) || !usableCovariance(covariance)) {
+      unusable = "odometry motion not finite, or its covariance not positive definite";
+    } else {
+      try {
+        esdf_->augment(motion, covariance);
+      } catch (const std::invalid_argument& e) {  // the filter's own limits (an information it cannot hold)
+        unusable = e.what();
+      }
+    }
+    if (!unusable.empty()) {
+      esdf_->augment(isFinite(motion) ? motion : Pose2{}, looseLinkCovariance());
+      ++counters_.loosely_linked_keyframes;
+      note += (note.empty() ? "" : "; ") + unusable + ": loosely linked instead (the first loop closure places it)";
     }
   }
   keyframes_.push_back(std::move(keyframe));
   ++counters_.keyframes;
   counters_.seconds += secondsSince(start);
-  return "";
+  return note;
 }
 
 LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {

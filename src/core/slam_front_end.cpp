@@ -11,11 +11,7 @@ SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptio
                            const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
     : odometry_(odometry), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
 
-Eigen::Matrix3d SlamFrontEnd::restartCovariance() {
-  // Anywhere within ~100 m, any heading: the first loop closure decides. Not more, so that
-  // the information matrix stays well conditioned next to the first pose's prior.
-  return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal();
-}
+Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
 
 std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
                                   bool continue_odometry, bool* features_recomputed) {

@@ -69,9 +69,8 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   keyframe.scan = scan;
   keyframe.has_wheel_odometry = wheel_odometry != nullptr;
   if (wheel_odometry) keyframe.wheel_odometry = *wheel_odometry;
-  // The front end has checked what the back end would refuse, so the indices stay together.
-  const std::string refused = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
-  if (!refused.empty()) throw std::logic_error("slam pipeline: the back end refused a keyframe: " + refused);
+  // The back end keeps every keyframe, so the indices stay the front end's.
+  step.back_end_note = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
 
   CandidateCheck place_gate;
   if (options_.place_gate.enabled) {

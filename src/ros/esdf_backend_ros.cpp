@@ -69,9 +69,14 @@ void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& ms
   if (msg->index != expected) {
     error = "keyframe " + std::to_string(msg->index) + " arrived, " + std::to_string(expected) + " expected";
   } else if (fromKeyframeMsg(*msg, &keyframe, &motion, &covariance, &error)) {
-    error = back_->addKeyframe(std::move(keyframe), motion, covariance);
+    // Kept whatever its odometry: a note says what was unusable and replaced.
+    const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
+    if (!note.empty()) {
+      last_problem_ = "keyframe " + std::to_string(msg->index) + ": " + note;
+      ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
+    }
+    features_.push_back(msg->features);
   }
-  if (error.empty()) features_.push_back(msg->features);
   if (!error.empty()) {
     ++refused_keyframes_;
     last_problem_ = error;
@@ -272,6 +277,7 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "mapping");
   status.add("keyframes", c.keyframes);
   status.add("refused keyframes", refused_keyframes_);
+  status.add("keyframes loosely linked (odometry unusable)", c.loosely_linked_keyframes);
   status.add("loops applied", c.loops_accepted);
   status.add("loops refused by the gate", c.refused_by_gate);
   status.add("malformed loops", c.refused_loops);

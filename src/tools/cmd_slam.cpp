@@ -223,7 +223,7 @@ int runSlam(const Args& args) {
               << path << (args.has("continue-odometry") ? " (odometry continues)\n" : " (a new chain)\n");
   }
   Progress progress(sequence.scans.size(), !args.has("quiet"));
-  std::size_t first_skip_reported = 0;
+  std::size_t first_skip_reported = 0, loosely_linked = 0;
   std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
   std::vector<llc::OdometryStep> steps;  // per keyframe (the first one's is empty)
   std::vector<llc::LoopClosure> not_aligned;  // candidates the place gate skipped
@@ -238,6 +238,8 @@ int runSlam(const Args& args) {
     if (!step.skip_reason.empty() && first_skip_reported++ == 0)
       std::cerr << "warning: scan " << i << " skipped: " << step.skip_reason << " (later skips are only counted)\n";
     if (step.keyframe) steps.push_back(step.odometry);
+    if (step.keyframe && !step.back_end_note.empty() && loosely_linked++ == 0)
+      std::cerr << "warning: keyframe " << step.keyframe_index << ": " << step.back_end_note << " (later ones are only counted)\n";
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
     for (const llc::LoopRecord& record : step.records)
       if (!record.applied) ++loop_reasons[general(record.reject_reason)];
@@ -266,6 +268,7 @@ int runSlam(const Args& args) {
          << "scans=" << c.scans << "\n"
          << "skipped_scans=" << c.skipped_scans << "\n"
          << "keyframes=" << c.keyframes << "\n"
+         << "keyframes_loosely_linked=" << loosely_linked << "  (odometry the back end could not use as given)\n"
          << "odometry_offset=" << offset.offset << "\n" << offset.table
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"

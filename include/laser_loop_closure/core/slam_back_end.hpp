@@ -35,7 +35,7 @@ struct LoopRecord {
 
 struct BackEndCounters {
   std::size_t keyframes = 0;
-  std::size_t refused_keyframes = 0;  ///< not the next index, or a bad odometry constraint
+  std::size_t loosely_linked_keyframes = 0;  ///< kept, but their odometry was unusable (see addKeyframe)
   std::size_t loops_accepted = 0;     ///< applied
   std::size_t refused_by_gate = 0;    ///< the chi-square test said no
   std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
@@ -44,14 +44,24 @@ struct BackEndCounters {
 
 struct SlamSession;
 
+/// Covariance of a link that says next to nothing: anywhere within ~100 m, any heading, so
+/// that the first loop closure places the keyframe. Not looser, so that the information matrix
+/// stays well conditioned next to the first pose's prior. Used for a new chain after a
+/// restored session and for a keyframe whose odometry is unusable.
+Eigen::Matrix3d looseLinkCovariance();
+
 class SlamBackEnd {
  public:
   /// Throws std::invalid_argument on bad options.
   explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true);
 
   /// Appends keyframe number keyframes().size() with its motion from the previous keyframe
-  /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Returns an
-  /// empty string, or why it was refused (non-finite motion, covariance not positive definite).
+  /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Always
+  /// appends: the keyframe's index must stay the front end's, and its scan is data. Returns ""
+  /// or what was unusable and what was done instead: a motion that is not finite, or a
+  /// covariance not positive definite or beyond EsdfOptions::max_information, is replaced by a
+  /// loose link (the motion when finite, else none, with looseLinkCovariance());
+  /// non-finite wheel odometry is dropped (has_wheel_odometry false).
   std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
   /// A loop between two stored keyframes (from older than to), through the gate when
   /// gate_loops. The record says whether it was applied and why not; never throws on data.

@@ -54,6 +54,7 @@ struct SlamStepResult {
   OdometryStep odometry;        ///< when keyframe (and not the first one)
   LoopDetectionResult loops;    ///< when keyframe: candidates aligned and not
   std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them
+  std::string back_end_note;    ///< when keyframe: non-empty if the back end could not use its odometry as given (SlamBackEnd::addKeyframe)
   std::string skip_reason;      ///< non-empty: the scan was not used (and why)
 };
 
