@@ -180,7 +180,6 @@ Eigen::Matrix3d fromArray(const Array& a) {
     for (int c = 0; c < 3; ++c) m(r, c) = a[std::size_t(3 * r + c)];
   return m;
 }
-bool finite(const geometry_msgs::Pose2D& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta); }
 }  // namespace
 
 laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
@@ -202,10 +201,6 @@ laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::s
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
                      Eigen::Matrix3d* covariance, std::string* error) {
   if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
-  if (!finite(msg.motion) || (msg.has_wheel_odometry && !finite(msg.wheel_odometry))) {
-    *error = "motion or wheel odometry is not finite";
-    return false;
-  }
   keyframe->scan_index = msg.scan_index;
   keyframe->stamp = msg.header.stamp.toSec();
   keyframe->scan.stamp = keyframe->stamp;

@@ -112,9 +112,18 @@ TEST(MsgConversion, KeyframeAndLoopClosureRoundTrip) {
   EXPECT_DOUBLE_EQ(back.wheel_odometry.theta, 0.3);
   EXPECT_DOUBLE_EQ(motion.x, 0.9);
   EXPECT_TRUE(covariance.isApprox(step.covariance, 0.0));
+  // Non-finite odometry is passed on for the back end to replace (the keyframe is kept) ...
   laser_loop_closure::Keyframe bad = msg;
   bad.motion.theta = std::numeric_limits<double>::quiet_NaN();
+  bad.wheel_odometry.x = std::numeric_limits<double>::infinity();
+  ASSERT_TRUE(llc_ros::fromKeyframeMsg(bad, &back, &motion, &covariance, &error)) << error;
+  EXPECT_TRUE(std::isnan(motion.theta));
+  EXPECT_TRUE(std::isinf(back.wheel_odometry.x));
+  // ... a malformed scan is not.
+  bad = msg;
+  bad.scan.bearings.pop_back();
   EXPECT_FALSE(llc_ros::fromKeyframeMsg(bad, &back, &motion, &covariance, &error));
+  EXPECT_FALSE(error.empty());
 
   llc::LoopClosure loop;
   loop.from = 3, loop.to = 40, loop.score = 0.7, loop.pose = {0.5, -0.25, 3.0}, loop.inlier_share = 0.95;

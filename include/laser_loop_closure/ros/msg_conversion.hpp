@@ -44,7 +44,8 @@ geometry_msgs::Pose2D toPose2D(const llc::Pose2& pose);
 llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose);
 
 /// A keyframe and its odometry step as the front end sends it to the back end, and back
-/// (false with a reason for a malformed message: non-finite numbers, bad scan).
+/// (false with a reason for a malformed scan). Non-finite motion or wheel odometry is passed
+/// on as it is: the back end keeps the keyframe and says what it replaced (SlamBackEnd::addKeyframe).
 laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
                                            const std::string& base_frame);
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
