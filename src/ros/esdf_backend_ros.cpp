@@ -44,12 +44,24 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   save_map_srv_ = private_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
   save_session_srv_ = private_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
   load_session_srv_ = private_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
-  if (options_.publish_tf)
-    tf_timer_ = nh.createTimer(ros::Duration(options_.tf_publish_period), [this](const ros::TimerEvent&) { publishTransform(); });
+  if (options_.publish_tf) {
+    ros::NodeHandle transform_nh(nh);
+    transform_nh.setCallbackQueue(&transform_queue_);
+    tf_timer_ = transform_nh.createTimer(ros::Duration(options_.tf_publish_period),
+                                         [this](const ros::TimerEvent&) { publishTransform(); });
+    transform_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &transform_queue_);
+    transform_spinner_->start();
+  }
   map_timer_ = nh.createTimer(ros::Duration(options_.map_publish_period), [this](const ros::TimerEvent&) { publishMap(); });
   diagnostics_.setHardwareID("none");
   diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
   diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+}
+
+EsdfBackendRos::~EsdfBackendRos() {
+  // The transform thread reads members: stopped before any of them goes.
+  if (transform_spinner_) transform_spinner_->stop();
+  tf_timer_.stop();
 }
 
 std_msgs::Header EsdfBackendRos::mapHeader() const {
@@ -129,6 +141,11 @@ void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
 }
 
 void EsdfBackendRos::publishPoses() {
+  {
+    std::lock_guard<std::mutex> lock(transform_mutex_);
+    has_map_to_odom_ = !back_->keyframes().empty() && back_->keyframes().back().has_wheel_odometry;
+    if (has_map_to_odom_) map_to_odom_ = back_->mapToOdom();
+  }
   if (back_->keyframes().empty()) return;
   const std_msgs::Header header = mapHeader();
   path_pub_.publish(toPathMsg(back_->keyframes(), back_->poses(), header));
@@ -166,8 +183,12 @@ void EsdfBackendRos::publishMap() {
 }
 
 void EsdfBackendRos::publishTransform() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (back_->keyframes().empty() || !back_->keyframes().back().has_wheel_odometry) return;
+  llc::Pose2 map_to_odom;
+  {
+    std::lock_guard<std::mutex> lock(transform_mutex_);
+    if (!has_map_to_odom_) return;
+    map_to_odom = map_to_odom_;
+  }
   const ros::Time now = ros::Time::now();
   // Simulated time has not started, or has not moved since the last broadcast (tf would
   // warn about a repeated stamp).
@@ -177,7 +198,7 @@ void EsdfBackendRos::publishTransform() {
   t.header.frame_id = options_.map_frame;
   t.child_frame_id = options_.odom_frame;
   t.header.stamp = now + ros::Duration(options_.transform_tolerance);
-  t.transform = toTransformMsg(back_->mapToOdom());
+  t.transform = toTransformMsg(map_to_odom);
   tf_broadcaster_.sendTransform(t);
 }
 

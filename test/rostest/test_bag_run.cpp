@@ -1,5 +1,5 @@
 // rostest: the simulated drive played through bag.launch's nodelets. Asserts what a user sees:
-// map -> odom on /tf dated ahead of the clock, a latched /map, a Path that grows to one pose
+// map -> odom on /tf dated ahead of the clock and never paused for long, a latched /map, a Path that grows to one pose
 // per keyframe, at least 80% of the drive's true revisits closed and no wrong loop applied
 // (checked against /ground_truth with the same code as `llc slam --evaluate`); then
 // ~train_classifier on the session's keyframes answers, saves a model, and swaps it in only
@@ -38,6 +38,10 @@ struct Observed {
   std::vector<llc::LoopRecord> records;
   std::vector<std::size_t> path_sizes;
   std::size_t map_to_odom = 0, map_to_odom_future = 0;
+  // Wall time between consecutive map -> odom broadcasts while keyframes still come: a gap is
+  // a stretch in which tf users (rviz, navigation) could not look the robot up in the map.
+  ros::WallTime last_map_to_odom;
+  double map_to_odom_max_gap = 0.0;
   ros::WallTime last_message = ros::WallTime::now();
 };
 
@@ -90,6 +94,11 @@ TEST(BagRun, MapsTheSimulatedDrive) {
       if (t.header.frame_id != "map" || t.child_frame_id != "odom") continue;
       ++seen.map_to_odom;
       if (t.header.stamp > ros::Time::now()) ++seen.map_to_odom_future;
+      const ros::WallTime now = ros::WallTime::now();
+      // From the first keyframe until the drive is over (the player ends; then the clock stops).
+      if (!seen.last_map_to_odom.isZero() && !seen.keyframe_stamps.empty() && (now - seen.last_message).toSec() < 2.0)
+        seen.map_to_odom_max_gap = std::max(seen.map_to_odom_max_gap, (now - seen.last_map_to_odom).toSec());
+      seen.last_map_to_odom = now;
     }
   });
 
@@ -114,6 +123,9 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   EXPECT_GT(map->info.width * map->info.height, 10000u);
   EXPECT_GT(seen.map_to_odom, 100u) << "map -> odom not on /tf";
   EXPECT_GT(seen.map_to_odom_future, seen.map_to_odom / 2) << "map -> odom is not dated ahead (transform_tolerance)";
+  // Broadcast every 12.5 ms of wall time here (0.05 s of a clock running 4x); a map rebuild
+  // (0.33 s at the end of the drive) once held it back: 0.30 s gaps, now 0.03 s.
+  EXPECT_LT(seen.map_to_odom_max_gap, 0.2) << "map -> odom paused while the back end was busy";
   ASSERT_GE(seen.path_sizes.size(), 10u);
   for (std::size_t i = 1; i < seen.path_sizes.size(); ++i) EXPECT_GE(seen.path_sizes[i], seen.path_sizes[i - 1]);
   EXPECT_EQ(seen.path_sizes.back(), keyframes) << "the path must end with one pose per keyframe";
@@ -129,6 +141,7 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   RecordProperty("wrong_loops_applied", int(check.wrong_loops));
   RecordProperty("path_messages", int(seen.path_sizes.size()));
   RecordProperty("map_to_odom_broadcasts", int(seen.map_to_odom));
+  RecordProperty("map_to_odom_max_gap_wall_s", std::to_string(seen.map_to_odom_max_gap));
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);

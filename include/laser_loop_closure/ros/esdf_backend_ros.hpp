@@ -5,6 +5,7 @@
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
@@ -60,12 +61,17 @@ class EsdfBackendRos {
   /// graph_markers, ~loop_records and session (latched, after a load); serves ~save_map,
   /// ~save_session and ~load_session. Throws std::runtime_error on bad parameters.
   EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~EsdfBackendRos();
+  EsdfBackendRos(const EsdfBackendRos&) = delete;
+  EsdfBackendRos& operator=(const EsdfBackendRos&) = delete;
 
  private:
   void onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg);
   void onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   /// Applies one loop whose keyframes exist; publishes its record.
   void applyLoop(const laser_loop_closure::LoopClosure& msg);
+  /// Publishes path and pose, and hands map -> odom to the transform thread; called whenever
+  /// the poses change.
   void publishPoses();
   void publishMap();
   void publishTransform();
@@ -82,7 +88,7 @@ class EsdfBackendRos {
   ros::Subscriber keyframe_sub_, loop_sub_;
   ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
   ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_;
-  ros::Timer tf_timer_, map_timer_, diagnostics_timer_;
+  ros::Timer tf_timer_, map_timer_, diagnostics_timer_;  // tf_timer_ on transform_queue_
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;
@@ -90,7 +96,15 @@ class EsdfBackendRos {
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
   std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
   bool map_dirty_ = false;
-  ros::Time last_tf_time_;
+
+  // map -> odom is broadcast from its own thread and queue, so that a map rebuild (which holds
+  // mutex_ and the nodelet's queue for a while) never leaves tf users without it.
+  std::mutex transform_mutex_;
+  llc::Pose2 map_to_odom_;       ///< guarded by transform_mutex_
+  bool has_map_to_odom_ = false;  ///< guarded by transform_mutex_: the newest keyframe has wheel odometry
+  ros::Time last_tf_time_;        ///< the transform thread's own
+  ros::CallbackQueue transform_queue_;
+  std::unique_ptr<ros::AsyncSpinner> transform_spinner_;
   std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;
   double last_map_seconds_ = 0.0;
   std::string last_problem_;
