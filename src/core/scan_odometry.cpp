@@ -20,6 +20,7 @@ std::string ScanOdometryOptions::validate() const {
   if (!(translation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_radian >= 0.0))
     return "the per-metre and per-radian sigmas must be >= 0";
   if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
+  if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   const std::string error = icp.validate();
   return error.empty() ? "" : "icp: " + error;
 }

@@ -17,6 +17,8 @@ std::string LoopClosureNodeOptions::validate() const {
   if (!(tf_timeout >= 0.0)) return "tf_timeout must not be negative";
   if (queue_size < 1) return "queue_size must be at least 1";
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
+  if (publish_odometry_tf && use_wheel_odometry)
+    return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   return "";
 }
 
@@ -79,6 +81,7 @@ void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", step.skip_reason.c_str());
     return;
   }
+  if (options_.publish_odometry_tf) publishOdometry(step, msg->header, &keyframe);
   if (!step.keyframe) return;
   keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
   keyframe.scan_index = scan_index;
@@ -89,6 +92,31 @@ void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
   keyframe_pub_.publish(keyframe_msg);
   const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index);
   for (const llc::LoopClosure& loop : loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
+}
+
+void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {
+  // The front end matched this scan to the newest keyframe (step.odometry.motion: from it);
+  // a new keyframe moves the chain on.
+  llc::Pose2 pose;
+  if (step.keyframe) {
+    keyframe_in_odometry_ = has_keyframe_in_odometry_ ? llc::compose(keyframe_in_odometry_, step.odometry.motion) : llc::Pose2{};
+    has_keyframe_in_odometry_ = true;
+    pose = keyframe_in_odometry_;
+    keyframe->has_wheel_odometry = true;  // the back end's map -> odom comes from it
+    keyframe->wheel_odometry = pose;
+  } else if (has_keyframe_in_odometry_) {
+    pose = llc::compose(keyframe_in_odometry_, step.odometry.motion);
+  } else {
+    return;
+  }
+  if (scan_header.stamp <= last_odometry_stamp_) return;  // tf would warn about a repeated or older stamp
+  last_odometry_stamp_ = scan_header.stamp;
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = scan_header.stamp;
+  t.header.frame_id = options_.odom_frame;
+  t.child_frame_id = scan_header.frame_id;
+  t.transform = toTransformMsg(pose);
+  odometry_broadcaster_.sendTransform(t);
 }
 
 void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {

@@ -4,7 +4,9 @@
 // (checked against /ground_truth with the same code as `llc slam --evaluate`); then
 // ~train_classifier on the session's keyframes answers, saves a model, and swaps it in only
 // when it is at least as good as the running one; ~save_session writes the run and
-// ~load_session restores it and hands its keyframes to the front end.
+// ~load_session restores it and hands its keyframes to the front end. With laser_only
+// (bag_run_laser_only.test: no wheel odometry), also odom -> base_link from scan matching and
+// map -> base_link at the end of the drive near the truth; services: false skips the services.
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -42,8 +44,17 @@ struct Observed {
   // a stretch in which tf users (rviz, navigation) could not look the robot up in the map.
   ros::WallTime last_map_to_odom;
   double map_to_odom_max_gap = 0.0;
+  // The newest map -> odom and odom -> base_link (the latter only comes from the nodelets
+  // when the recorded odometry is kept out of tf: laser_only).
+  geometry_msgs::TransformStamped newest_map_to_odom, newest_odom_to_base;
+  std::size_t odom_to_base = 0;
   ros::WallTime last_message = ros::WallTime::now();
 };
+
+/// A planar transform (rotation about z only) as a pose.
+llc::Pose2 planar(const geometry_msgs::Transform& t) {
+  return {t.translation.x, t.translation.y, 2.0 * std::atan2(t.rotation.z, t.rotation.w)};
+}
 
 llc::Pose2 truthAt(const std::map<double, llc::Pose2>& truth, double stamp) {
   auto after = truth.lower_bound(stamp);
@@ -61,6 +72,11 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   double quiet_seconds = 20.0, max_wall_seconds = 900.0;
   pnh.getParam("quiet_seconds", quiet_seconds);
   pnh.getParam("max_wall_seconds", max_wall_seconds);
+  // laser_only: no wheel odometry; the nodelets also broadcast odom -> base_link from scan
+  // matching. services: call the four services after the drive.
+  bool laser_only = false, services = true;
+  pnh.getParam("laser_only", laser_only);
+  pnh.getParam("services", services);
 
   Observed seen;
   auto touch = [&] { seen.last_message = ros::WallTime::now(); };
@@ -91,7 +107,12 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   ros::Subscriber tf_sub = nh.subscribe<tf2_msgs::TFMessage>("/tf", 1000, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(seen.mutex);
     for (const auto& t : m->transforms) {
+      if (t.header.frame_id == "odom" && t.child_frame_id == "base_link") {
+        ++seen.odom_to_base;
+        seen.newest_odom_to_base = t;
+      }
       if (t.header.frame_id != "map" || t.child_frame_id != "odom") continue;
+      seen.newest_map_to_odom = t;
       ++seen.map_to_odom;
       if (t.header.stamp > ros::Time::now()) ++seen.map_to_odom_future;
       const ros::WallTime now = ros::WallTime::now();
@@ -145,6 +166,21 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);
+
+  if (laser_only) {
+    // Scan matching's odom -> base_link and the back end's map -> odom put the robot where it
+    // was: the map frame is the first keyframe's pose, so compare with the truth from there.
+    RecordProperty("odom_to_base_broadcasts", int(seen.odom_to_base));
+    ASSERT_GT(seen.odom_to_base, 100u) << "odom -> base_link not on /tf from scan matching";
+    const llc::Pose2 map_to_base = llc::compose(planar(seen.newest_map_to_odom.transform),
+                                                planar(seen.newest_odom_to_base.transform));
+    const llc::Pose2 truth_to_base = llc::between(truthAt(seen.truth, seen.keyframe_stamps.front()),
+                                                  truthAt(seen.truth, seen.newest_odom_to_base.header.stamp.toSec()));
+    const double error = std::hypot(map_to_base.x - truth_to_base.x, map_to_base.y - truth_to_base.y);
+    RecordProperty("final_pose_error_m", std::to_string(error));
+    EXPECT_LT(error, 1.0) << "map -> base_link at the end of the drive is off the truth";  // 0.24 m when written
+  }
+  if (!services) return;
 
   // ~train_classifier on the session: keyframes labelled by their optimised poses (the path).
   char folder[] = "/tmp/llc_bag_run_XXXXXX";

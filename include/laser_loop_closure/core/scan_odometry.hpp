@@ -28,6 +28,11 @@ struct ScanOdometryOptions {
   double rotation_sigma_per_metre = 0.002;    ///< rad per m moved
   double rotation_sigma_per_radian = 0.01;    ///< rad per rad turned
   double wheel_sigma_scale = 5.0;  ///< a step from wheel odometry alone is this many times less certain
+  /// Without wheel odometry: seed each scan's ICP with the last measured velocity, and move on
+  /// by it when ICP fails (a featureless stretch), instead of standing still until the robot is
+  /// too far from the keyframe for any match (false: no motion model).
+  bool predict_motion = true;
+  double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   IcpOptions icp{};                ///< ICP of consecutive keyframes
   std::string validate() const;
 };

@@ -51,6 +51,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/rotation_sigma_per_metre", odometry.rotation_sigma_per_metre);
   visit("odometry/rotation_sigma_per_radian", odometry.rotation_sigma_per_radian);
   visit("odometry/wheel_sigma_scale", odometry.wheel_sigma_scale);
+  visit("odometry/predict_motion", odometry.predict_motion);
+  visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visitIcpParameters("odometry/icp/", odometry.icp, visit);
 
   LoopDetectorOptions& loops = options.slam.loops;

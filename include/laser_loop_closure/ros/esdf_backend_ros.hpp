@@ -28,7 +28,7 @@ namespace llc_ros {
 struct EsdfBackendNodeOptions {
   std::string map_frame = "map";       ///< frame of the path, the map and the markers
   std::string odom_frame = "odom";     ///< child of map_frame in the published transform
-  bool publish_tf = true;              ///< publish map -> odom (needs keyframes with wheel odometry)
+  bool publish_tf = true;              ///< publish map -> odom (needs keyframes with an odometry pose: wheels, or loop_closure's publish_odometry_tf)
   double transform_tolerance = 0.1;    ///< s the published transform is dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
   double map_publish_period = 2.0;     ///< s between rebuilds of /map, the cloud and the markers (when changed)

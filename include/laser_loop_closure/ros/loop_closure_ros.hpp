@@ -8,6 +8,7 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <memory>
@@ -27,6 +28,9 @@ struct LoopClosureNodeOptions {
   std::string model_path;            ///< classifier model (YAML); empty: the package's config/classifier.yaml
   std::string odom_frame = "odom";   ///< wheel odometry frame (tf odom_frame -> scan's base frame)
   bool use_wheel_odometry = true;    ///< seed scan matching by tf; a scan without it is skipped
+  /// Without wheel odometry: broadcast odom_frame -> the scan's frame from scan matching, and
+  /// give each keyframe its pose in odom_frame, so that the back end publishes map -> odom_frame.
+  bool publish_odometry_tf = false;
   double tf_timeout = 0.1;           ///< s to wait for the odometry transform at a scan's stamp
   int queue_size = 200;              ///< merged scans kept while loop detection runs
   std::string trained_model_path = "llc_classifier.yaml";  ///< default file of ~train_classifier (relative: to the working directory)
@@ -38,6 +42,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("model_path", o.model_path);
   visit("odom_frame", o.odom_frame);
   visit("use_wheel_odometry", o.use_wheel_odometry);
+  visit("publish_odometry_tf", o.publish_odometry_tf);
   visit("tf_timeout", o.tf_timeout);
   visit("queue_size", o.queue_size);
   visit("trained_model_path", o.trained_model_path);
@@ -53,6 +58,9 @@ class LoopClosureRos {
 
  private:
   void onScan(const laser_loop_closure::Scan360::ConstPtr& msg);
+  /// publish_odometry_tf: broadcasts odom_frame -> the scan's frame for this scan and, for a
+  /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
+  void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);
   void onPath(const nav_msgs::Path::ConstPtr& msg);
   /// A session the back end restored: the keyframes (and their features) replace ours.
   void onSession(const laser_loop_closure::Session::ConstPtr& msg);
@@ -79,6 +87,11 @@ class LoopClosureRos {
   bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
   std::size_t models_trained_ = 0, models_swapped_ = 0;
   std::string model_path_;  ///< of the running model
+  // Scan-matching odometry (publish_odometry_tf): the newest keyframe's pose in odom_frame.
+  tf2_ros::TransformBroadcaster odometry_broadcaster_;
+  llc::Pose2 keyframe_in_odometry_;
+  bool has_keyframe_in_odometry_ = false;
+  ros::Time last_odometry_stamp_;
   std::string last_problem_;
 };
 
