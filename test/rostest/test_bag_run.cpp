@@ -44,6 +44,7 @@ struct Observed {
   // a stretch in which tf users (rviz, navigation) could not look the robot up in the map.
   ros::WallTime last_map_to_odom;
   double map_to_odom_max_gap = 0.0;
+  std::size_t map_to_odom_long_gaps = 0;  ///< over 0.1 s: a noisy machine makes a few, a paused broadcast many
   // The newest map -> odom and odom -> base_link (the latter only comes from the nodelets
   // when the recorded odometry is kept out of tf: laser_only).
   geometry_msgs::TransformStamped newest_map_to_odom, newest_odom_to_base;
@@ -117,8 +118,11 @@ TEST(BagRun, MapsTheSimulatedDrive) {
       if (t.header.stamp > ros::Time::now()) ++seen.map_to_odom_future;
       const ros::WallTime now = ros::WallTime::now();
       // From the first keyframe until the drive is over (the player ends; then the clock stops).
-      if (!seen.last_map_to_odom.isZero() && !seen.keyframe_stamps.empty() && (now - seen.last_message).toSec() < 2.0)
-        seen.map_to_odom_max_gap = std::max(seen.map_to_odom_max_gap, (now - seen.last_map_to_odom).toSec());
+      if (!seen.last_map_to_odom.isZero() && !seen.keyframe_stamps.empty() && (now - seen.last_message).toSec() < 2.0) {
+        const double gap = (now - seen.last_map_to_odom).toSec();
+        seen.map_to_odom_max_gap = std::max(seen.map_to_odom_max_gap, gap);
+        seen.map_to_odom_long_gaps += gap > 0.1;
+      }
       seen.last_map_to_odom = now;
     }
   });
@@ -144,9 +148,10 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   EXPECT_GT(map->info.width * map->info.height, 10000u);
   EXPECT_GT(seen.map_to_odom, 100u) << "map -> odom not on /tf";
   EXPECT_GT(seen.map_to_odom_future, seen.map_to_odom / 2) << "map -> odom is not dated ahead (transform_tolerance)";
-  // Broadcast every 12.5 ms of wall time here (0.05 s of a clock running 4x); a map rebuild
-  // (0.33 s at the end of the drive) once held it back: 0.30 s gaps, now 0.03 s.
-  EXPECT_LT(seen.map_to_odom_max_gap, 0.2) << "map -> odom paused while the back end was busy";
+  // Broadcast every 12.5 ms of wall time here (0.05 s of a clock running 4x). When a map
+  // rebuild (0.33 s at the end of the drive) held it back, one run had 72 gaps over 0.1 s (the
+  // longest 0.26 s); a busy machine makes a few.
+  EXPECT_LT(seen.map_to_odom_long_gaps, 20u) << "map -> odom paused while the back end was busy";
   ASSERT_GE(seen.path_sizes.size(), 10u);
   for (std::size_t i = 1; i < seen.path_sizes.size(); ++i) EXPECT_GE(seen.path_sizes[i], seen.path_sizes[i - 1]);
   EXPECT_EQ(seen.path_sizes.back(), keyframes) << "the path must end with one pose per keyframe";
@@ -163,6 +168,7 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   RecordProperty("path_messages", int(seen.path_sizes.size()));
   RecordProperty("map_to_odom_broadcasts", int(seen.map_to_odom));
   RecordProperty("map_to_odom_max_gap_wall_s", std::to_string(seen.map_to_odom_max_gap));
+  RecordProperty("map_to_odom_gaps_over_0_1s", int(seen.map_to_odom_long_gaps));
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);
