@@ -149,9 +149,10 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   EXPECT_GT(seen.map_to_odom, 100u) << "map -> odom not on /tf";
   EXPECT_GT(seen.map_to_odom_future, seen.map_to_odom / 2) << "map -> odom is not dated ahead (transform_tolerance)";
   // Broadcast every 12.5 ms of wall time here (0.05 s of a clock running 4x). When a map
-  // rebuild (0.33 s at the end of the drive) held it back, one run had 72 gaps over 0.1 s (the
-  // longest 0.26 s); a busy machine makes a few.
-  EXPECT_LT(seen.map_to_odom_long_gaps, 20u) << "map -> odom paused while the back end was busy";
+  // rebuild (0.33 s at the end of the drive) held it back, one run alone had 72 gaps over
+  // 0.1 s (the longest 0.26 s); now 0 alone, and 3 and 8 under scripts/test, where the two bag
+  // rostests share two cores. Half of 72 is the limit.
+  EXPECT_LT(seen.map_to_odom_long_gaps, 36u) << "map -> odom paused while the back end was busy";
   ASSERT_GE(seen.path_sizes.size(), 10u);
   for (std::size_t i = 1; i < seen.path_sizes.size(); ++i) EXPECT_GE(seen.path_sizes[i], seen.path_sizes[i - 1]);
   EXPECT_EQ(seen.path_sizes.back(), keyframes) << "the path must end with one pose per keyframe";
