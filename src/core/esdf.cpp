@@ -15,6 +15,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/se2_jacobians.hpp"
 
 namespace llc {
@@ -127,7 +128,7 @@ Eigen::Matrix3d errorInformation(const Pose2& z, const Eigen::Matrix3d& covarian
 class StopWatch {
  public:
   explicit StopWatch(double* total) : total_(total), start_(std::chrono::steady_clock::now()) {}
-  ~StopWatch() { *total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  ~StopWatch() { *total_ += secondsSince(start_); }
   StopWatch(const StopWatch&) = delete;
   StopWatch& operator=(const StopWatch&) = delete;
 
@@ -374,33 +375,29 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   // The factor is updated in place when it covers every pose (no pose added since it was
   // made); otherwise, or if the update fails, it is made again.
   impl_->factor_valid = factor_was_valid;
-  saved_linearization_.clear();
-  saving_linearization_ = true;  // a failure below needs the linearisation point of before
+  std::vector<Pose2> linearization_before;  // filled by the first rebuild, for a take-back
   try {
     // Reordered (analysed afresh) once the updates' fill has made L much denser than a new
     // ordering would: the solves' cost follows L's size.
     if (rankUpdate({edges_.size() - 1}, true) && double(impl_->factorNonzeros()) <= options_.reorder_fill_ratio * double(impl_->factored_nonzeros)) solveMean();
     else factorAndSolve();
-    result.relinearizations = relinearizeUntilSteady();
-    saving_linearization_ = false;
+    result.relinearizations = relinearizeUntilSteady(false, &linearization_before);
   } catch (const std::runtime_error& e) {
-    saving_linearization_ = false;
-    takeBackNewestEdge();
+    takeBackNewestEdge(std::move(linearization_before));
     result.applied = false;
     result.reject_reason = std::string("the system could not be solved with it (") + e.what() + "): taken back";
   }
   return result;
 }
 
-void Esdf::takeBackNewestEdge() {
+void Esdf::takeBackNewestEdge(std::vector<Pose2> linearization_before) {
   edges_.pop_back();
   edge_points_.pop_back();
   largest_information_.pop_back();
   edge_models_.pop_back();
   // Back to the linearisation point of before the update when a round moved it (to means
   // the failed solve may have made), and the system rebuilt there.
-  if (!saved_linearization_.empty()) linearization_.swap(saved_linearization_);
-  saved_linearization_.clear();
+  if (!linearization_before.empty()) linearization_ = std::move(linearization_before);
   rebuildSystem();
   factorAndSolve();
 }

@@ -88,7 +88,7 @@ bool Esdf::relinearizeInPlace(const std::vector<std::size_t>& stale) {
   return true;
 }
 
-int Esdf::relinearizeUntilSteady(bool batch) {
+int Esdf::relinearizeUntilSteady(bool batch, std::vector<Pose2>* linearization_before) {
   // Batch: Gauss-Newton steps over the whole system while any pose moves past the thresholds.
   const double tau = batch ? 0.0 : options_.relinearize_chi2;
   const std::size_t in_place = batch ? 0 : std::size_t(options_.max_edges_relinearized_in_place);
@@ -104,7 +104,7 @@ int Esdf::relinearizeUntilSteady(bool batch) {
       continue;
     }
     ++rebuilds_;
-    if (saving_linearization_ && saved_linearization_.empty()) saved_linearization_ = linearization_;
+    if (linearization_before && linearization_before->empty()) *linearization_before = linearization_;
     linearization_ = mean_;
     rebuildSystem();
     factorAndSolve();

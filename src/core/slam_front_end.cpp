@@ -37,11 +37,10 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
   velocity_ = Pose2{};
-  has_last_scan_ = false;
   has_keyframe_ = continue_odometry && !keyframes.empty();
   restart_pending_ = !continue_odometry && !keyframes.empty();
   if (has_keyframe_) {
-    last_keyframe_stamp_ = keyframes.back().stamp;
+    last_keyframe_stamp_ = last_scan_stamp_ = keyframes.back().stamp;
     last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
     last_keyframe_wheels_ = keyframes.back().wheel_odometry;
   }
@@ -74,7 +73,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       // No wheels: every scan is matched to the newest keyframe to know when it moved enough,
       // from where the last velocity says it is now.
       prepared = detector_.aligner().prepare(scan);
-      const double dt = has_last_scan_ ? scan.stamp - last_scan_stamp_ : 0.0;
+      const double dt = scan.stamp - last_scan_stamp_;  // a keyframe was made, so a scan came before
       const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
       const Pose2 guess = predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt})
                                   : tracked_motion_;
@@ -84,7 +83,6 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
         velocity_ = {moved.x / dt, moved.y / dt, moved.theta / dt};
       }
       last_scan_stamp_ = scan.stamp;
-      has_last_scan_ = true;
       tracked_motion_ = step.odometry.motion;
       if (!odometry_.movedEnough(tracked_motion_)) {
         counters_.seconds_odometry += secondsSince(start);
@@ -102,7 +100,6 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   has_keyframe_ = true;
   last_keyframe_stamp_ = scan.stamp;
   last_scan_stamp_ = scan.stamp;
-  has_last_scan_ = true;
   last_keyframe_has_wheels_ = wheel_odometry != nullptr;
   if (wheel_odometry) last_keyframe_wheels_ = *wheel_odometry;
   tracked_motion_ = Pose2{};

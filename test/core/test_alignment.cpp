@@ -350,20 +350,26 @@ TEST(Aligner, ConvergesWithThirtyPercentClutterAndPartialOverlap) {
   EXPECT_GT(s.validation.seen_through_share, 0.15);
 }
 
-TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {
-  const llc::ScanAligner aligner;
-  llc::Scan empty;
-  llc::Scan two = llc_test::ringScan({1.0, std::nan(""), -1.0, 2.0});
-  llc::Scan garbage = llc_test::ringScan(std::vector<double>(360, std::numeric_limits<double>::infinity()));
-  const auto room_scan = aligner.prepare(scanAt(room(), Pose2{}));
-  for (const llc::Scan* s : {&empty, &two, &garbage}) {
+/// Each bad scan aligned to `good`, `good` to it, and it to itself: refused with a reason,
+/// the pose finite, no throw.
+void expectRefusedWithAFinitePose(const llc::ScanAligner& aligner, const std::vector<const llc::Scan*>& bad,
+                                  const llc::PreparedScan& good) {
+  for (const llc::Scan* s : bad) {
     const auto p = aligner.prepare(*s);
-    for (const llc::ScanAlignmentResult& r : {aligner.align(*p, *room_scan), aligner.align(*room_scan, *p), aligner.align(*p, *p)}) {
+    for (const llc::ScanAlignmentResult& r : {aligner.align(*p, good), aligner.align(good, *p), aligner.align(*p, *p)}) {
       EXPECT_FALSE(r.accepted);
       EXPECT_FALSE(r.reject_reason.empty());
       EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.y) && std::isfinite(r.pose.theta));
     }
   }
+}
+
+TEST(Aligner, DegenerateInputGivesAClearNonConvergedResult) {
+  const llc::ScanAligner aligner;
+  llc::Scan empty;
+  llc::Scan two = llc_test::ringScan({1.0, std::nan(""), -1.0, 2.0});
+  llc::Scan garbage = llc_test::ringScan(std::vector<double>(360, std::numeric_limits<double>::infinity()));
+  expectRefusedWithAFinitePose(aligner, {&empty, &two, &garbage}, *aligner.prepare(scanAt(room(), Pose2{})));
   // A straight corridor: CRF-match may find associations, but ICP must call it degenerate.
   const auto c1 = aligner.prepare(scanAt(corridor(), Pose2{}));
   const auto c2 = aligner.prepare(scanAt(corridor(), Pose2{0.7, 0.1, 0.2}));
@@ -391,15 +397,7 @@ TEST(Aligner, BadPartialScansGiveAClearResultWithTheFieldOfViewInUse) {
   const double bad[4] = {std::nan(""), std::numeric_limits<double>::infinity(), -1.0, 0.0};
   for (std::size_t i = 0; i < bad_ranges.size(); ++i) bad_ranges.ranges[i] = bad[i % 4];
   two.bearings = {-0.1, 0.1}, two.ranges = {2.0, 2.0}, two.full_circle = false;
-  const auto g = aligner.prepare(good);
-  for (const llc::Scan* s : {&no_bearings, &bad_ranges, &two}) {
-    const auto p = aligner.prepare(*s);
-    for (const llc::ScanAlignmentResult& r : {aligner.align(*p, *g), aligner.align(*g, *p), aligner.align(*p, *p)}) {
-      EXPECT_FALSE(r.accepted);
-      EXPECT_FALSE(r.reject_reason.empty());
-      EXPECT_TRUE(std::isfinite(r.pose.x) && std::isfinite(r.pose.y) && std::isfinite(r.pose.theta));
-    }
-  }
+  expectRefusedWithAFinitePose(aligner, {&no_bearings, &bad_ranges, &two}, *aligner.prepare(good));
 }
 
 TEST(Aligner, PositionStdRefusesACorridorThatOnlyItsFarEndPinsDown) {

@@ -45,6 +45,14 @@ struct DriveResult {
   double travelled = 0.0;  ///< x of the newest keyframe by the composed keyframe motions
 };
 
+/// The scan 360 beams see at x along the corridor (y wavers by 0.1 m).
+llc::Scan corridorScan(const std::vector<Wall>& walls, int k) {
+  const double x = 0.7 * k, y = 0.1 * std::sin(0.05 * k);
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, y, scan.bearings[i]);
+  return scan;
+}
+
 /// Drives along the corridor at 7 m/s, scanning 360 beams at 10 Hz, with no wheel odometry.
 DriveResult drive(bool predict_motion, double seconds) {
   llc::ScanOdometryOptions odometry;
@@ -54,10 +62,7 @@ DriveResult drive(bool predict_motion, double seconds) {
   DriveResult run;
   llc::Pose2 newest;
   for (int k = 0; 0.1 * k <= seconds; ++k) {
-    const double x = 0.7 * k, y = 0.1 * std::sin(0.05 * k);
-    std::vector<double> ranges(360);
-    llc::Scan scan = llc_test::ringScan(ranges);
-    for (std::size_t i = 0; i < ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, y, scan.bearings[i]);
+    llc::Scan scan = corridorScan(walls, k);
     scan.stamp = 100.0 + 0.1 * k;
     const llc::FrontEndStep step = front.addScan(scan, nullptr);
     EXPECT_TRUE(step.skip_reason.empty()) << step.skip_reason;
@@ -77,8 +82,36 @@ TEST(ScanOdometry, WithoutWheelsTheMotionModelCarriesKeyframesThroughABareCorrid
   // Without a motion model the odometry stands still where matching loses the corridor's
   // length, and then no scan is ever far enough from the keyframe to make a new one.
   const DriveResult standing = drive(false, 20.0);
+  // test_core --gtest_output=xml:F.xml writes these.
+  RecordProperty("keyframes_with_model", int(predicted.keyframes));
+  RecordProperty("travelled_with_model_m", std::to_string(predicted.travelled));
+  RecordProperty("keyframes_without_model", int(standing.keyframes));
+  RecordProperty("travelled_without_model_m", std::to_string(standing.travelled));
   EXPECT_LT(standing.keyframes, 40u);
   EXPECT_LT(standing.travelled, 60.0);  // 17 keyframes, 22.4 m when written
+}
+
+TEST(ScanOdometry, OddStampsAreNotPredictedFromAndNothingBreaks) {
+  // Among the niches (ICP well posed): a repeated stamp, a scan earlier than the one before
+  // (but after the newest keyframe), and a 5 s gap (beyond max_prediction_gap). None is used
+  // to extrapolate; every motion stays finite and keyframes go on.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+  const std::vector<Wall> walls = corridor();
+  const std::vector<double> stamps = {0.0, 0.1, 0.2, 0.3, 0.3, 0.35, 0.34, 5.34, 5.44, 5.54, 5.64, 5.74};
+  std::size_t keyframes = 0;
+  for (std::size_t k = 0; k < stamps.size(); ++k) {
+    llc::Scan scan = corridorScan(walls, int(k));
+    scan.stamp = 100.0 + stamps[k];
+    const llc::FrontEndStep step = front.addScan(scan, nullptr);
+    if (!step.skip_reason.empty()) {
+      EXPECT_EQ(step.skip_reason, "time went backwards") << "scan " << k;
+      continue;
+    }
+    const llc::Pose2& m = step.odometry.motion;
+    EXPECT_TRUE(std::isfinite(m.x) && std::isfinite(m.y) && std::isfinite(m.theta)) << "scan " << k;
+    keyframes += step.keyframe;
+  }
+  EXPECT_GE(keyframes, 5u) << "0.7 m a scan: a keyframe every second scan";
 }
 
 TEST(ScanOdometry, PredictionOptionsAreValidated) {

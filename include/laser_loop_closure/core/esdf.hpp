@@ -132,8 +132,9 @@ class Esdf {
   /// Adds (sign 1) or removes (sign -1) edge k's information and gradient.
   void addToSystem(std::size_t k, double sign);
   void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point);
-  /// Removes the newest constraint (its solve failed) and factorises the system without it.
-  void takeBackNewestEdge();
+  /// Removes the newest constraint (its solve failed) and factorises the system without it, at
+  /// linearization_before when a relinearisation round had moved the linearisation point.
+  void takeBackNewestEdge(std::vector<Pose2> linearization_before);
   void rebuildSystem();
   void factorAndSolve();
   void factorize();  ///< builds, analyses when the pattern changed, and factorises the system
@@ -146,7 +147,9 @@ class Esdf {
   /// linear model by more than tau. Stops counting past limit.
   std::vector<std::size_t> staleEdges(double tau, std::size_t limit) const;
   bool relinearizeInPlace(const std::vector<std::size_t>& edges);
-  int relinearizeUntilSteady(bool batch = false);
+  /// linearization_before (when given and empty) receives the linearisation point before the
+  /// first round that moves it, so that a failed update can be taken back.
+  int relinearizeUntilSteady(bool batch = false, std::vector<Pose2>* linearization_before = nullptr);
   Eigen::Matrix<double, 6, 6> factoredJointCovariance(std::size_t a, std::size_t b);
   bool leafCovariancesAvailable(std::size_t a, std::size_t b) const;
   Eigen::Matrix<double, 6, 6> leafJointCovariance(std::size_t a, std::size_t b);
@@ -154,9 +157,6 @@ class Esdf {
   const LeafState& leafState(std::size_t leaf);
   EsdfOptions options_;
   std::vector<Pose2> mean_, linearization_;
-  /// While an update runs: the linearisation point before its first rebuild, to take it back.
-  std::vector<Pose2> saved_linearization_;
-  bool saving_linearization_ = false;
   std::vector<PoseEdge> edges_;
   std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
   std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information

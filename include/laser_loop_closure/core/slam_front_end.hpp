@@ -79,10 +79,9 @@ class SlamFrontEnd {
   Pose2 last_keyframe_wheels_;
   Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
   // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
-  // the robot's frame) and the stamp of the last scan matched or predicted.
+  // the robot's frame; zero after a restore) and the stamp of the last scan used.
   Pose2 velocity_;
   double last_scan_stamp_ = 0.0;
-  bool has_last_scan_ = false;
 };
 
 }  // namespace llc
