@@ -41,9 +41,13 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
   loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
   session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1, true);
-  save_map_srv_ = private_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
-  save_session_srv_ = private_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
-  load_session_srv_ = private_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
+  ros::NodeHandle service_nh(private_nh);
+  service_nh.setCallbackQueue(&service_queue_);
+  save_map_srv_ = service_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
+  save_session_srv_ = service_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
+  load_session_srv_ = service_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
   if (options_.publish_tf) {
     ros::NodeHandle transform_nh(nh);
     transform_nh.setCallbackQueue(&transform_queue_);
@@ -52,16 +56,19 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
     transform_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &transform_queue_);
     transform_spinner_->start();
   }
-  map_timer_ = nh.createTimer(ros::Duration(options_.map_publish_period), [this](const ros::TimerEvent&) { publishMap(); });
+  map_timer_ = nh.createWallTimer(ros::WallDuration(options_.map_publish_period), [this](const ros::WallTimerEvent&) { publishMap(); });
   diagnostics_.setHardwareID("none");
   diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
-  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
 EsdfBackendRos::~EsdfBackendRos() {
-  // The transform thread reads members: stopped before any of them goes.
+  // The transform and service threads read members: stopped before any of them goes.
   if (transform_spinner_) transform_spinner_->stop();
+  if (service_spinner_) service_spinner_->stop();
   tf_timer_.stop();
+  map_timer_.stop();
+  diagnostics_timer_.stop();
 }
 
 std_msgs::Header EsdfBackendRos::mapHeader() const {

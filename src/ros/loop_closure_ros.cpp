@@ -14,13 +14,24 @@ namespace llc_ros {
 
 std::string LoopClosureNodeOptions::validate() const {
   if (odom_frame.empty()) return "odom_frame must not be empty";
-  if (!(tf_timeout >= 0.0)) return "tf_timeout must not be negative";
+  if (tf_queue_size < 1) return "tf_queue_size must be at least 1";
   if (queue_size < 1) return "queue_size must be at least 1";
+  if (!(max_lag >= 0.0)) return "max_lag must not be negative";
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
   if (publish_odometry_tf && use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   return "";
 }
+
+namespace {
+const char* failureName(tf2_ros::FilterFailureReason reason) {
+  switch (reason) {
+    case tf2_ros::filter_failure_reasons::OutTheBack: return "its stamp is older than the tf history";
+    case tf2_ros::filter_failure_reasons::EmptyFrameID: return "it has no frame_id";
+    default: return "dropped waiting for it (tf_queue_size full, or the transform failed)";
+  }
+}
+}  // namespace
 
 LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : tf_listener_(tf_buffer_, nh), diagnostics_(nh, private_nh) {
@@ -41,57 +52,143 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
 
+  llc::ScanBacklogOptions backlog;
+  backlog.capacity = std::size_t(options_.queue_size);
+  // Without wheels every scan is a step of the odometry chain: none is skipped to catch up.
+  backlog.max_lag = options_.use_wheel_odometry ? options_.max_lag : 0.0;
+  backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(backlog);
+  worker_ = std::thread([this] { work(); });
+
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
-  scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScan, this);
+  if (options_.use_wheel_odometry) {
+    // Outputs and failures come on nh's queue, never from tf's thread.
+    odometry_filter_ = std::make_unique<tf2_ros::MessageFilter<laser_loop_closure::Scan360>>(
+        tf_buffer_, options_.odom_frame, std::uint32_t(options_.tf_queue_size), nh);
+    odometry_filter_->registerCallback(&LoopClosureRos::onScanWithOdometry, this);
+    odometry_filter_->registerFailureCallback(
+        [this](const laser_loop_closure::Scan360::ConstPtr& msg, tf2_ros::FilterFailureReason reason) { onOdometryFailure(msg, reason); });
+  }
+  scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScanReceived, this);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
   session_sub_ = nh.subscribe("session", 1, &LoopClosureRos::onSession, this);
-  train_srv_ = private_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
+  ros::NodeHandle service_nh(private_nh);
+  service_nh.setCallbackQueue(&service_queue_);
+  train_srv_ = service_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
-  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
-void LoopClosureRos::onScan(const laser_loop_closure::Scan360::ConstPtr& msg) {
+LoopClosureRos::~LoopClosureRos() {
+  if (service_spinner_) service_spinner_->stop();
+  diagnostics_timer_.stop();
+  scan_sub_.shutdown();
+  odometry_filter_.reset();
+  backlog_->stop();
+  if (worker_.joinable()) worker_.join();
+}
+
+void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg) {
+  PendingScan pending;
+  pending.msg = msg;
+  {
+    std::lock_guard<std::mutex> lock(receive_mutex_);
+    pending.index = scans_received_++;
+    if (odometry_filter_) awaiting_odometry_[msg.get()] = pending.index;
+  }
+  if (odometry_filter_)
+    odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
+  else
+    enqueue(std::move(pending));
+}
+
+void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::ConstPtr& msg) {
+  PendingScan pending;
+  pending.msg = msg;
+  {
+    std::lock_guard<std::mutex> lock(receive_mutex_);
+    const auto found = awaiting_odometry_.find(msg.get());
+    if (found != awaiting_odometry_.end()) {
+      pending.index = found->second;
+      awaiting_odometry_.erase(found);
+    }
+    ++filter_passed_;
+  }
+  // The filter saw the transform in the buffer: this lookup does not wait.
+  std::string error;
+  pending.has_wheel_odometry = lookupPose2(tf_buffer_, options_.odom_frame, msg->header.frame_id, msg->header.stamp,
+                                           &pending.wheel_odometry, &error);
+  if (!pending.has_wheel_odometry) {
+    std::lock_guard<std::mutex> lock(receive_mutex_);
+    ++lookup_failed_;
+    last_filter_problem_ = "no wheel odometry: " + error;
+    ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, no wheel odometry (%s -> %s): %s", options_.odom_frame.c_str(),
+                      msg->header.frame_id.c_str(), error.c_str());
+    return;
+  }
+  enqueue(std::move(pending));
+}
+
+void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstPtr& msg, tf2_ros::FilterFailureReason reason) {
+  const std::string why = std::string("no wheel odometry (") + options_.odom_frame + " -> '" + msg->header.frame_id +
+                          "' at the scan's stamp): " + failureName(reason);
+  {
+    std::lock_guard<std::mutex> lock(receive_mutex_);
+    awaiting_odometry_.erase(msg.get());
+    ++filter_failed_;
+    last_filter_problem_ = why;
+  }
+  ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, %s", why.c_str());
+}
+
+void LoopClosureRos::enqueue(PendingScan scan) {
+  const double stamp = scan.msg->header.stamp.toSec();
+  if (backlog_->push(std::move(scan), stamp) > 0)
+    ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: the oldest was dropped (queue_size)%s", options_.queue_size,
+                      options_.use_wheel_odometry ? "" : "; without wheel odometry this breaks the odometry chain");
+}
+
+void LoopClosureRos::work() {
+  PendingScan pending;
+  while (backlog_->pop(&pending)) {
+    processScan(pending);
+    pending = PendingScan{};  // let go of the message while waiting
+  }
+}
+
+void LoopClosureRos::processScan(const PendingScan& pending) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const std::size_t scan_index = scans_received_++;
+  const laser_loop_closure::Scan360& msg = *pending.msg;
   std::string error;
   llc::Keyframe keyframe;
-  if (!fromScan360(*msg, &keyframe.scan, &error)) {
+  if (!fromScan360(msg, &keyframe.scan, &error)) {
     ++malformed_;
     last_problem_ = error;
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", error.c_str());
     return;
   }
-  if (options_.use_wheel_odometry) {
-    keyframe.has_wheel_odometry =
-        lookupPose2(tf_buffer_, options_.odom_frame, msg->header.frame_id, msg->header.stamp,
-                    ros::Duration(options_.tf_timeout), &keyframe.wheel_odometry, &error);
-    if (!keyframe.has_wheel_odometry) {
-      ++no_odometry_;
-      last_problem_ = "no wheel odometry: " + error;
-      ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, no wheel odometry (%s -> %s): %s", options_.odom_frame.c_str(),
-                        msg->header.frame_id.c_str(), error.c_str());
-      return;
-    }
-  }
+  keyframe.has_wheel_odometry = pending.has_wheel_odometry;
+  keyframe.wheel_odometry = pending.wheel_odometry;
   const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);
   if (!step.skip_reason.empty()) {
     last_problem_ = step.skip_reason;
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", step.skip_reason.c_str());
     return;
   }
-  if (options_.publish_odometry_tf) publishOdometry(step, msg->header, &keyframe);
+  if (options_.publish_odometry_tf) publishOdometry(step, msg.header, &keyframe);
   if (!step.keyframe) return;
   keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
-  keyframe.scan_index = scan_index;
+  keyframe.scan_index = pending.index;
   keyframe.stamp = keyframe.scan.stamp;
   // Keyframe first: the back end must know both ends of a loop before it applies it.
-  laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg->header.frame_id);
+  laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
   keyframe_pub_.publish(keyframe_msg);
   const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index);
-  for (const llc::LoopClosure& loop : loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg->header));
+  for (const llc::LoopClosure& loop : loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
 }
 
 void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {
@@ -209,16 +306,34 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
 }
 
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0;
+  std::string filter_problem;
+  {
+    std::lock_guard<std::mutex> lock(receive_mutex_);
+    received = scans_received_, passed = filter_passed_, failed = filter_failed_, lookup_failed = lookup_failed_;
+    filter_problem = last_filter_problem_;
+  }
+  const llc::ScanBacklogCounters backlog = backlog_->counters();
   std::lock_guard<std::mutex> lock(mutex_);
   const llc::FrontEndCounters& c = front_->counters();
-  if (scans_received_ == 0)
+  const std::string problem = last_problem_.empty() ? filter_problem : last_problem_;
+  if (received == 0)
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan received yet");
   else if (c.keyframes == 0)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet: " + last_problem_);
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet: " + problem);
+  else if (options_.max_lag > 0.0 && backlog.lag > options_.max_lag)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "falling behind the scans: " + std::to_string(backlog.lag) + " s");
   else
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");
-  status.add("scans received", scans_received_);
-  status.add("scans without wheel odometry", no_odometry_);
+  status.add("scans received", received);
+  status.add("scans waiting for their odometry transform", options_.use_wheel_odometry ? received - passed - failed : 0);
+  status.add("scans without wheel odometry", failed + lookup_failed);
+  status.add("scans waiting for the front end", backlog.waiting);
+  status.add("lag behind the newest scan (s)", backlog.lag);
+  status.add("largest lag (s)", backlog.largest_lag);
+  status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
+  status.add("scans dropped, queue full (queue_size)", backlog.dropped_full);
+  status.add("scans processed", backlog.popped);
   status.add("malformed scans", malformed_);
   status.add("scans skipped by the front end", c.skipped_scans);
   status.add("model", model_path_);
@@ -233,7 +348,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("refused by alignment", c.refused_by_alignment);
   status.add("seconds classifying", c.seconds_classify);
   status.add("seconds aligning", c.seconds_align);
-  status.add("last problem", last_problem_);
+  status.add("last problem", problem);
 }
 
 }  // namespace llc_ros

@@ -41,7 +41,7 @@ ScanMergerRos::ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   laser_pub_ = nh.advertise<sensor_msgs::LaserScan>("scan_merged", 10);
   diagnostics_.setHardwareID(options_.base_frame);
   diagnostics_.add("scan merger", this, &ScanMergerRos::diagnose);
-  diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
 bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {

@@ -32,9 +32,9 @@ bool MountCache::lookup(const std::string& frame, ScannerMount* mount, std::stri
 }
 
 bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const std::string& child,
-                 const ros::Time& stamp, const ros::Duration& timeout, llc::Pose2* pose, std::string* error) {
+                 const ros::Time& stamp, llc::Pose2* pose, std::string* error) {
   try {
-    const geometry_msgs::TransformStamped t = buffer.lookupTransform(parent, child, stamp, timeout);
+    const geometry_msgs::TransformStamped t = buffer.lookupTransform(parent, child, stamp);
     geometry_msgs::Pose p;
     p.position.x = t.transform.translation.x;
     p.position.y = t.transform.translation.y;

@@ -51,7 +51,10 @@ TEST(RosConfig, BadOptionsAreRefused) {
   backend.odom_frame = backend.map_frame;
   EXPECT_NE(backend.validate(), "");
   llc_ros::LoopClosureNodeOptions loop;
-  loop.tf_timeout = -1.0;
+  loop.max_lag = -1.0;
+  EXPECT_NE(loop.validate(), "");
+  loop = llc_ros::LoopClosureNodeOptions{};
+  loop.tf_queue_size = 0;
   EXPECT_NE(loop.validate(), "");
 }
 

@@ -31,7 +31,7 @@ struct EsdfBackendNodeOptions {
   bool publish_tf = true;              ///< publish map -> odom (needs keyframes with an odometry pose: wheels, or loop_closure's publish_odometry_tf)
   double transform_tolerance = 0.1;    ///< s the published transform is dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
-  double map_publish_period = 2.0;     ///< s between rebuilds of /map, the cloud and the markers (when changed)
+  double map_publish_period = 2.0;     ///< s of wall time between rebuilds of /map, the cloud and the markers (when changed)
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
@@ -88,7 +88,13 @@ class EsdfBackendRos {
   ros::Subscriber keyframe_sub_, loop_sub_;
   ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
   ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_;
-  ros::Timer tf_timer_, map_timer_, diagnostics_timer_;  // tf_timer_ on transform_queue_
+  // The services have their own queue and thread: they answer while keyframes queue up and
+  // while the clock stands still (a bag ended or paused).
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  ros::Timer tf_timer_;  // on transform_queue_
+  // Wall time: the last keyframes of a bag reach /map, and the health is told, after the clock stopped.
+  ros::WallTimer map_timer_, diagnostics_timer_;
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;

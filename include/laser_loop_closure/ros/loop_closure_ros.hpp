@@ -2,23 +2,36 @@
 // keyframes, ICP odometry seeded by wheel odometry from tf, the classifier against every older
 // keyframe with no pose prior, CRF-match/ICP/shape validation) out as Keyframe and
 // LoopClosure messages for a back end.
+//
+// Threads: no callback waits on the ROS clock (which stops when a bag ends or is paused). A
+// scan waits for its odometry transform in a tf2_ros::MessageFilter (no thread blocked), takes
+// its wheel-odometry pose as soon as tf has it, and joins a bounded backlog (llc::ScanBacklog)
+// that one worker thread empties through the front end. ~train_classifier has its own callback
+// queue and thread, so it answers while scans are processed and while the clock stands still.
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
 #include <nav_msgs/Path.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <atomic>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "laser_loop_closure/Scan360.h"
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
+#include "laser_loop_closure/core/scan_backlog.hpp"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 
@@ -31,8 +44,11 @@ struct LoopClosureNodeOptions {
   /// Without wheel odometry: broadcast odom_frame -> the scan's frame from scan matching, and
   /// give each keyframe its pose in odom_frame, so that the back end publishes map -> odom_frame.
   bool publish_odometry_tf = false;
-  double tf_timeout = 0.1;           ///< s to wait for the odometry transform at a scan's stamp
-  int queue_size = 200;              ///< merged scans kept while loop detection runs
+  int tf_queue_size = 100;           ///< scans waiting for their odometry transform (none waits on a clock); when full the oldest is dropped
+  int queue_size = 200;              ///< scans (odometry attached) waiting for the worker thread; when full the oldest is dropped
+  /// s of scan time the worker may fall behind the newest scan before it skips the oldest
+  /// waiting scans, to catch up (with wheel odometry only: without, every scan is odometry); 0: never.
+  double max_lag = 5.0;
   std::string trained_model_path = "llc_classifier.yaml";  ///< default file of ~train_classifier (relative: to the working directory)
   std::string validate() const;
 };
@@ -43,8 +59,9 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("odom_frame", o.odom_frame);
   visit("use_wheel_odometry", o.use_wheel_odometry);
   visit("publish_odometry_tf", o.publish_odometry_tf);
-  visit("tf_timeout", o.tf_timeout);
+  visit("tf_queue_size", o.tf_queue_size);
   visit("queue_size", o.queue_size);
+  visit("max_lag", o.max_lag);
   visit("trained_model_path", o.trained_model_path);
 }
 
@@ -55,9 +72,29 @@ class LoopClosureRos {
   /// publishes keyframes and loop_closures (names relative to nh); serves ~train_classifier.
   /// Throws std::runtime_error on bad parameters or an unreadable model.
   LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  /// Stops the worker and the service thread before any member goes.
+  ~LoopClosureRos();
+  LoopClosureRos(const LoopClosureRos&) = delete;
+  LoopClosureRos& operator=(const LoopClosureRos&) = delete;
 
  private:
-  void onScan(const laser_loop_closure::Scan360::ConstPtr& msg);
+  /// A scan on its way to the worker, with its wheel-odometry pose when there is one.
+  struct PendingScan {
+    laser_loop_closure::Scan360::ConstPtr msg;
+    std::size_t index = 0;  ///< among the scans received, from 0
+    bool has_wheel_odometry = false;
+    llc::Pose2 wheel_odometry;
+  };
+  /// Every scan as it arrives: numbered, then to the tf filter (wheels) or the backlog.
+  void onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg);
+  /// The tf filter's output: the odometry transform at the scan's stamp is in the buffer.
+  void onScanWithOdometry(const laser_loop_closure::Scan360::ConstPtr& msg);
+  /// The tf filter gave up on a scan (its stamp older than tf's history, no frame, queue full).
+  void onOdometryFailure(const laser_loop_closure::Scan360::ConstPtr& msg, tf2_ros::FilterFailureReason reason);
+  void enqueue(PendingScan scan);
+  /// The worker thread: takes scans from the backlog through the front end until stopped.
+  void work();
+  void processScan(const PendingScan& pending);
   /// publish_odometry_tf: broadcasts odom_frame -> the scan's frame for this scan and, for a
   /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
   void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);
@@ -75,14 +112,26 @@ class LoopClosureRos {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber scan_sub_, path_sub_, session_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<laser_loop_closure::Scan360>> odometry_filter_;
   ros::ServiceServer train_srv_;
+  ros::CallbackQueue service_queue_;  ///< ~train_classifier's, spun by its own thread
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;  ///< wall time: the health is told while the clock stands still too
+
+  std::unique_ptr<llc::ScanBacklog<PendingScan>> backlog_;
+  std::thread worker_;
+
+  // Receiving side (the nodelet's queue and the tf filter): counts and scan numbers.
+  std::mutex receive_mutex_;
+  std::size_t scans_received_ = 0, filter_passed_ = 0, filter_failed_ = 0, lookup_failed_ = 0;
+  std::map<const laser_loop_closure::Scan360*, std::size_t> awaiting_odometry_;  ///< scan -> its number
+  std::string last_filter_problem_;
 
   std::mutex mutex_;     ///< guards everything below and front_
   std::mutex training_;  ///< one training at a time
-  std::size_t scans_received_ = 0, no_odometry_ = 0, malformed_ = 0;
+  std::size_t malformed_ = 0;
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
   bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
   std::size_t models_trained_ = 0, models_swapped_ = 0;

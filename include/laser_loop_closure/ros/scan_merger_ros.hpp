@@ -64,7 +64,7 @@ class ScanMergerRos {
   ros::Subscriber front_alone_sub_, back_watch_sub_;
   ros::Publisher scan360_pub_, laser_pub_;
   diagnostic_updater::Updater diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;  ///< wall time: told while the clock stands still too
 
   std::mutex mutex_;
   ros::Time last_back_stamp_;

@@ -2,7 +2,6 @@
 // move) and the wheel-odometry pose of the base at a scan's stamp.
 #pragma once
 
-#include <ros/duration.h>
 #include <ros/time.h>
 #include <tf2_ros/buffer.h>
 
@@ -28,9 +27,10 @@ class MountCache {
   std::map<std::string, ScannerMount> cache_;
 };
 
-/// The planar pose of `child` in `parent` at `stamp`, waiting at most `timeout`. False with
-/// tf's reason when it is not available.
+/// The planar pose of `child` in `parent` at `stamp`, from what the buffer holds now: it never
+/// waits (a wait on the ROS clock never ends once a bag stops). False with tf's reason when it
+/// is not there; a caller that must wait for tf uses a tf2_ros::MessageFilter first.
 bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const std::string& child,
-                 const ros::Time& stamp, const ros::Duration& timeout, llc::Pose2* pose, std::string* error);
+                 const ros::Time& stamp, llc::Pose2* pose, std::string* error);
 
 }  // namespace llc_ros
