@@ -8,6 +8,7 @@
 // (bag_run_laser_only.test: no wheel odometry), also odom -> base_link from scan matching and
 // map -> base_link at the end of the drive near the truth; services: false skips the services.
 #include <gtest/gtest.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
@@ -29,6 +30,7 @@
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "wall_bounded.hpp"
 
 namespace {
 
@@ -50,7 +52,13 @@ struct Observed {
   geometry_msgs::TransformStamped newest_map_to_odom, newest_odom_to_base;
   std::size_t odom_to_base = 0;
   ros::WallTime last_message = ros::WallTime::now();
+  std::map<std::string, std::string> loop_closure_health;  ///< the newest diagnostics of loop_closure
 };
+
+double healthValue(const std::map<std::string, std::string>& health, const std::string& key) {
+  const auto found = health.find(key);
+  return found == health.end() ? -1.0 : std::stod(found->second);
+}
 
 /// A planar transform (rotation about z only) as a pose.
 llc::Pose2 planar(const geometry_msgs::Transform& t) {
@@ -78,6 +86,8 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   bool laser_only = false, services = true;
   pnh.getParam("laser_only", laser_only);
   pnh.getParam("services", services);
+  double train_wall_seconds = 60.0;  // ~train_classifier trains for real on every pair of the session
+  pnh.getParam("train_wall_seconds", train_wall_seconds);
 
   Observed seen;
   auto touch = [&] { seen.last_message = ros::WallTime::now(); };
@@ -127,6 +137,17 @@ TEST(BagRun, MapsTheSimulatedDrive) {
     }
   });
 
+  ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(seen.mutex);
+        for (const auto& status : m->status) {
+          const std::string suffix = ": loop closure";
+          if (status.name.size() < suffix.size() || status.name.compare(status.name.size() - suffix.size(), suffix.size(), suffix) != 0) continue;
+          seen.loop_closure_health.clear();
+          for (const auto& kv : status.values) seen.loop_closure_health[kv.key] = kv.value;
+        }
+      });
+
   ros::AsyncSpinner spinner(2);
   spinner.start();
   const ros::WallTime start = ros::WallTime::now();
@@ -136,9 +157,10 @@ TEST(BagRun, MapsTheSimulatedDrive) {
     if (!seen.keyframe_stamps.empty() && (ros::WallTime::now() - seen.last_message).toSec() > quiet_seconds) break;
   }
 
+  // The front end's health after the drive (told every second of wall time).
+  ros::WallDuration(1.5).sleep();
   // A subscriber that comes after the map was published still gets it: /map is latched.
-  nav_msgs::OccupancyGrid::ConstPtr map =
-      ros::topic::waitForMessage<nav_msgs::OccupancyGrid>("/map", nh, ros::Duration(10.0));
+  nav_msgs::OccupancyGrid::ConstPtr map = llc_test::waitForMessageWithin<nav_msgs::OccupancyGrid>("/map", 10.0);
   spinner.stop();
 
   std::lock_guard<std::mutex> lock(seen.mutex);
@@ -170,6 +192,14 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   RecordProperty("map_to_odom_broadcasts", int(seen.map_to_odom));
   RecordProperty("map_to_odom_max_gap_wall_s", std::to_string(seen.map_to_odom_max_gap));
   RecordProperty("map_to_odom_gaps_over_0_1s", int(seen.map_to_odom_long_gaps));
+  // How far the front end fell behind the scans, and what it dropped (0 on an idle machine).
+  ASSERT_FALSE(seen.loop_closure_health.empty()) << "no diagnostics from loop_closure";
+  RecordProperty("front_end_largest_lag_s", std::to_string(healthValue(seen.loop_closure_health, "largest lag (s)")));
+  RecordProperty("scans_dropped_to_catch_up", int(healthValue(seen.loop_closure_health, "scans dropped to catch up (max_lag)")));
+  RecordProperty("scans_dropped_queue_full", int(healthValue(seen.loop_closure_health, "scans dropped, queue full (queue_size)")));
+  RecordProperty("scans_without_wheel_odometry", int(healthValue(seen.loop_closure_health, "scans without wheel odometry")));
+  RecordProperty("scans_received", int(healthValue(seen.loop_closure_health, "scans received")));
+  RecordProperty("scans_processed", int(healthValue(seen.loop_closure_health, "scans processed")));
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);
@@ -192,10 +222,14 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   // ~train_classifier on the session: keyframes labelled by their optimised poses (the path).
   char folder[] = "/tmp/llc_bag_run_XXXXXX";
   ASSERT_NE(mkdtemp(folder), nullptr);
+  // Every call is bounded in wall time (the clock stopped with the bag): an unanswered call
+  // fails the test instead of hanging it.
+  std::string why;
+  double took = 0.0;
   laser_loop_closure::TrainClassifier train;
   train.request.model_path = std::string(folder) + "/session_model.yaml";
-  ASSERT_TRUE(ros::service::waitForService("/loop_closure/train_classifier", 10000));
-  ASSERT_TRUE(ros::service::call("/loop_closure/train_classifier", train));
+  ASSERT_TRUE(llc_test::callWithin("/loop_closure/train_classifier", &train, train_wall_seconds, &why, &took)) << why;
+  RecordProperty("train_session_wall_s", std::to_string(took));
   const auto& trained = train.response;
   RecordProperty("train_session_pairs", int(trained.pairs));
   RecordProperty("train_session_detection", std::to_string(trained.detection));
@@ -209,7 +243,7 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   // ~save_session, then ~load_session of it: the front end gets the keyframes on /session.
   laser_loop_closure::SaveSession save;
   save.request.path = std::string(folder) + "/run.llcsession";
-  ASSERT_TRUE(ros::service::call("/esdf_backend/save_session", save));
+  ASSERT_TRUE(llc_test::callWithin("/esdf_backend/save_session", &save, 5.0, &why)) << why;
   ASSERT_TRUE(save.response.success) << save.response.message;
   EXPECT_EQ(save.response.keyframes, keyframes);
   const llc::SlamSession saved = llc::loadSession(save.request.path);
@@ -218,15 +252,14 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   EXPECT_EQ(saved.constraints.size(), keyframes - 1 + check.applied);
   laser_loop_closure::LoadSession load;
   load.request.path = std::string(folder) + "/none.llcsession";
-  ASSERT_TRUE(ros::service::call("/esdf_backend/load_session", load));
+  ASSERT_TRUE(llc_test::callWithin("/esdf_backend/load_session", &load, 5.0, &why)) << why;
   EXPECT_FALSE(load.response.success);
   EXPECT_NE(load.response.message.find("none.llcsession"), std::string::npos) << load.response.message;
   load.request.path = save.request.path;
-  ASSERT_TRUE(ros::service::call("/esdf_backend/load_session", load));
+  ASSERT_TRUE(llc_test::callWithin("/esdf_backend/load_session", &load, 5.0, &why)) << why;
   ASSERT_TRUE(load.response.success) << load.response.message;
   EXPECT_EQ(load.response.keyframes, keyframes);
-  const laser_loop_closure::Session::ConstPtr restored =
-      ros::topic::waitForMessage<laser_loop_closure::Session>("/session", nh, ros::Duration(10.0));
+  const laser_loop_closure::Session::ConstPtr restored = llc_test::waitForMessageWithin<laser_loop_closure::Session>("/session", 10.0);
   ASSERT_NE(restored, nullptr) << "no latched /session after ~load_session";
   EXPECT_EQ(restored->keyframes.size(), keyframes);
   EXPECT_EQ(restored->keyframes.back().features.size(), saved.features.back().size());
@@ -239,5 +272,8 @@ TEST(BagRun, MapsTheSimulatedDrive) {
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_bag_run");
-  return RUN_ALL_TESTS();
+  const int result = RUN_ALL_TESTS();
+  // A service call that never answered is still blocked on its thread: leave without waiting.
+  std::fflush(nullptr);
+  std::_Exit(result);
 }
