@@ -1,13 +1,16 @@
 // llc evaluate: the paper's section V on labelled pairs.
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
+#include "laser_loop_closure/core/log_out_evaluation.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
 
@@ -59,6 +62,62 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// --leave-one-log-out: for each --data item, a model trained (stumps and K, as `llc train`
+/// does) on the other items only, scored on it. Per-log rows and means; writes
+/// leave_one_log_out.csv and summary.txt.
+int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const llc::FeatureOptions& features,
+                      const std::string& out_dir, std::chrono::steady_clock::time_point start) {
+  if (data.size() < 2) throw ToolError("--leave-one-log-out needs at least two --data items");
+  llc::ClassifierTrainingOptions training;
+  training.rounds = int(args.integer("rounds", 50));
+  training.folds = int(args.integer("folds", 10));
+  training.repeats = int(args.integer("repeats", 1));
+  training.seed = std::uint64_t(args.integer("seed", 1));
+  training.target_false_alarm = args.number("target-false-alarm", 0.01);
+  const std::string invalid = training.validate();
+  if (invalid.size()) throw ToolError(invalid);
+  std::vector<llc::TrainingSet> logs;
+  std::vector<std::string> names;
+  for (const PairData& item : data) {
+    logs.push_back(llc::pairTrainingSet(item.features, item.pairs, features.feature_set));
+    std::string name = item.log_path.substr(item.log_path.find_last_of('/') + 1);
+    for (const char* suffix : {".gz", ".log", ".bag", "-corrected"})
+      if (name.size() > std::strlen(suffix) && name.compare(name.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
+        name.resize(name.size() - std::strlen(suffix));
+    names.push_back(name);
+  }
+  std::size_t fitted = 0;
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set) {
+    std::cerr << "llc evaluate: model " << ++fitted << " of " << logs.size() << " (" << set.size() << " pairs)\n";
+    return llc::trainClassifierModel(set, features, training).model.classifier;
+  });
+  std::ofstream csv = openCsv(out_dir + "/leave_one_log_out.csv");
+  csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,detection_at_1pct_fa,detection_at_0pct_fa,auc\n";
+  std::ostringstream s;
+  s << std::setprecision(4) << std::fixed;
+  s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
+    << " rounds=" << training.rounds << " k_folds=" << training.folds << " target_false_alarm=" << training.target_false_alarm
+    << " seed=" << training.seed << "\n";
+  for (const llc::HeldOutLog& log : result.logs) {
+    csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
+        << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.detection_at_1pct << ','
+        << log.detection_at_0pct << ',' << log.auc << '\n';
+    s << "held_out=" << log.name << " pairs=" << log.pairs << " k=" << log.k << " realised_false_alarm=" << log.realised_false_alarm
+      << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
+      << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc << "\n";
+  }
+  s << "mean_realised_false_alarm=" << result.mean_realised_false_alarm
+    << " worst_realised_false_alarm=" << result.worst_realised_false_alarm << " mean_detection_at_k=" << result.mean_detection_at_k
+    << "\nmean_detection_at_0pct_fa=" << result.mean_detection_at_0pct << " mean_auc=" << result.mean_auc << "\n";
+  s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
+  s << std::setprecision(4) << "mean_detection_at_1pct_fa=" << result.mean_detection_at_1pct << "\n";
+  std::ofstream text(out_dir + "/summary.txt");
+  text << s.str();
+  if (!text) throw ToolError(out_dir + "/summary.txt: write failed");
+  std::cout << s.str() << std::flush;
+  return 0;
+}
+
 }  // namespace
 
 int runEvaluate(const Args& args) {
@@ -67,6 +126,7 @@ int runEvaluate(const Args& args) {
   ensureDirectory(out_dir);
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<PairData> data = loadPairData(args.all("data"), features, args);
+  if (args.has("leave-one-log-out")) return runLeaveOneLogOut(args, data, features, out_dir, start);
   const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
 
   llc::CrossValidationOptions cv;

@@ -45,14 +45,17 @@ const std::vector<Command>& commands() {
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
-                  "ablation-repeats"},
+                  "ablation-repeats", "target-false-alarm"},
                  with(kFeatureFlags, llc_tool::kAlignerFlags)),
             kInputFlags),
-       with({"no-curve", "no-ablation", "no-rotation", "validate"}, kFeatureSwitches),
+       with({"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"}, kFeatureSwitches),
        "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
        "      [--seed 1] [--features paper|extended] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
        "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]\n"
-       "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)"},
+       "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
+       "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
+       "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [feature options]\n"
+       "      (each log scored by a model, stumps and K, trained on the other logs only)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
       {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},

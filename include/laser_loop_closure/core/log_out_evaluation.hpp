@@ -1,0 +1,47 @@
+// Leave-one-log-out evaluation: the honest measure of a classifier on a building it has never
+// seen. For each log, everything that is fitted (stumps, their thresholds, K) is fitted on the
+// pairs of the other logs only, and the held-out log's pairs are scored by that model. Unlike
+// pooled cross validation, no pair of the tested log (often the same corridor a few scans
+// apart) is ever in the training set.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/adaboost.hpp"
+
+namespace llc {
+
+/// One held-out log's figures.
+struct HeldOutLog {
+  std::string name;
+  std::size_t pairs = 0, positives = 0;
+  std::size_t training_pairs = 0;     ///< rows of the other logs the model was trained on
+  double k = 0.0;                     ///< the model's own threshold, fitted without this log
+  double detection_at_k = 0.0;        ///< positives at or above k
+  double realised_false_alarm = 0.0;  ///< negatives at or above k: what a user of the model gets
+  double detection_at_1pct = 0.0;     ///< best detection with <= 1% false alarm on this log (oracle K)
+  double detection_at_0pct = 0.0;     ///< best detection with no false alarm on this log (oracle K)
+  double auc = 0.0;
+  std::vector<double> scores;         ///< each pair's score, in the log's row order
+};
+
+struct LeaveOneLogOutResult {
+  std::vector<HeldOutLog> logs;
+  /// Means over the logs (each log counts once, whatever its size).
+  double mean_detection_at_1pct = 0.0, mean_detection_at_0pct = 0.0, mean_auc = 0.0;
+  double mean_detection_at_k = 0.0, mean_realised_false_alarm = 0.0;
+  double worst_realised_false_alarm = 0.0;  ///< the largest over the logs
+};
+
+/// Fits a classifier (stumps and K) on a training set. It must see nothing but its argument.
+using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& training)>;
+
+/// For each log: fit on the rows of every other log, score the log. Needs at least two logs of
+/// one dimension (std::invalid_argument otherwise); names may be empty (then "log N").
+LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
+                                    const ClassifierFitter& fit);
+
+}  // namespace llc

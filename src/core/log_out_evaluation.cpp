@@ -1,0 +1,51 @@
+#include "laser_loop_closure/core/log_out_evaluation.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/evaluation.hpp"
+
+namespace llc {
+
+LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
+                                    const ClassifierFitter& fit) {
+  if (logs.size() < 2) throw std::invalid_argument("leave-one-log-out needs at least two logs");
+  for (const TrainingSet& log : logs)
+    if (log.dimension != logs.front().dimension) throw std::invalid_argument("leave-one-log-out: logs of different dimensions");
+  LeaveOneLogOutResult result;
+  for (std::size_t held_out = 0; held_out < logs.size(); ++held_out) {
+    TrainingSet training;
+    training.dimension = logs.front().dimension;
+    for (std::size_t other = 0; other < logs.size(); ++other)
+      if (other != held_out) training.append(logs[other]);
+    const StrongClassifier model = fit(training);
+
+    const TrainingSet& test = logs[held_out];
+    HeldOutLog out;
+    out.name = held_out < names.size() && !names[held_out].empty() ? names[held_out] : "log " + std::to_string(held_out + 1);
+    out.pairs = test.size();
+    out.training_pairs = training.size();
+    out.k = model.thresholdK();
+    for (std::size_t i = 0; i < test.size(); ++i) out.scores.push_back(model.score(test.row(i)));
+    for (int y : test.labels) out.positives += y == 1;
+    const ErrorRates at_k = errorRates(out.scores, test.labels, out.k);
+    out.detection_at_k = 1.0 - at_k.missed_detection;
+    out.realised_false_alarm = at_k.false_alarm;
+    out.detection_at_1pct = detectionAtFalseAlarm(out.scores, test.labels, 0.01);
+    out.detection_at_0pct = detectionAtFalseAlarm(out.scores, test.labels, 0.0);
+    out.auc = areaUnderCurve(out.scores, test.labels);
+    result.logs.push_back(std::move(out));
+  }
+  const double n = double(result.logs.size());
+  for (const HeldOutLog& log : result.logs) {
+    result.mean_detection_at_1pct += log.detection_at_1pct / n;
+    result.mean_detection_at_0pct += log.detection_at_0pct / n;
+    result.mean_auc += log.auc / n;
+    result.mean_detection_at_k += log.detection_at_k / n;
+    result.mean_realised_false_alarm += log.realised_false_alarm / n;
+    result.worst_realised_false_alarm = std::max(result.worst_realised_false_alarm, log.realised_false_alarm);
+  }
+  return result;
+}
+
+}  // namespace llc
