@@ -64,7 +64,7 @@ bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
 
 void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& back) {
   std::lock_guard<std::mutex> lock(mutex_);
-  last_back_stamp_ = back->header.stamp;
+  last_back_arrival_ = ros::WallTime::now();
 }
 
 void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
@@ -78,8 +78,11 @@ void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const 
 void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
   std::lock_guard<std::mutex> lock(mutex_);
   // While the back scanner talks, the synchroniser publishes; this path is for when it does not.
-  if (!last_back_stamp_.isZero() && std::abs((front->header.stamp - last_back_stamp_).toSec()) <= options_.back_timeout)
-    return;
+  // At the start a back scanner gets back_timeout to say something.
+  const ros::WallTime now = ros::WallTime::now();
+  if (first_front_arrival_.isZero()) first_front_arrival_ = now;
+  const ros::WallTime heard = last_back_arrival_.isZero() ? first_front_arrival_ : last_back_arrival_;
+  if ((now - heard).toSec() <= options_.back_timeout) return;
   llc::Scan front_scan;
   if (toBase(*front, &front_scan)) publish(front_scan, nullptr, *front);
 }
@@ -87,6 +90,15 @@ void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
 void ScanMergerRos::publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg) {
   std_msgs::Header header = front_msg.header;
   header.frame_id = options_.base_frame;
+  // A scan not newer than the last one (the front went alone while the back was only late) is
+  // skipped; a jump back of a second or more is a restart (a looped bag) and goes through.
+  if (!last_published_stamp_.isZero() && header.stamp <= last_published_stamp_ &&
+      (last_published_stamp_ - header.stamp).toSec() < 1.0) {
+    ++out_of_order_;
+    ROS_WARN_THROTTLE(5.0, "scan_merger: a scan not newer than the last one published was skipped (%zu so far)", out_of_order_);
+    return;
+  }
+  last_published_stamp_ = header.stamp;
   const llc::Scan merged = back ? llc::mergeScans(front, *back) : front;
   ++(back ? merged_ : front_only_);
   scan360_pub_.publish(toScan360(merged, header));
@@ -108,6 +120,7 @@ void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
   status.add("merged scans", merged_);
   status.add("front-only scans", front_only_);
   status.add("skipped scans", rejected_);
+  status.add("skipped scans, not newer than the last", out_of_order_);
   status.add("last problem", last_problem_);
 }
 

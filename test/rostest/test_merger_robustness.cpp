@@ -133,6 +133,25 @@ TEST_F(MergerTest, KeepsPublishingThroughBadInput) {
       << "front alone";
   EXPECT_GE(counts_.partial - partial_before, 25);
 
+  // Still front alone: scans that are not newer than the last one published (half a second
+  // old, all of one stamp) are skipped, so the merged stream never goes back in time ...
+  const ros::Time stale = ros::Time::now() - ros::Duration(0.5);
+  EXPECT_EQ(phase([&](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool* send_back) {
+              *send_back = false;
+              f->header.stamp = stale;
+            }),
+            0)
+      << "scans older than the last published one";
+  // ... but a jump back of seconds (a looped bag) is a restart: mapping goes on.
+  int step = 0;
+  const ros::Time looped = ros::Time::now() - ros::Duration(5.0);
+  EXPECT_GE(phase([&](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool* send_back) {
+              *send_back = false;
+              f->header.stamp = looped + ros::Duration(0.05 * step++);
+            }),
+            15)
+      << "a restart 5 s back";
+
   // ... and starts again: merged 360-degree scans again.
   phase([](auto*, auto*, bool*) {}, 0.5);
   const int full_again = counts_.full;

@@ -1,7 +1,11 @@
 // The scan_merger nodelet's object: a front and a back LaserScan paired by message_filters
 // ApproximateTime, each moved into the base frame by its tf2 mounting, merged into one
 // 360-degree scan (llc::mergeScans, as `llc slam --bag` does). The front scanner alone also
-// works: when no back scan has come within back_timeout of a front one, the front goes alone.
+// works: when no back scan has arrived for back_timeout of wall time, the front goes alone.
+// (Wall time, not stamps: under load one scanner's messages can arrive a few scans late, and a
+// bag played at 4x makes 0.5 s of stamps only 0.125 s of delivery.) The published stream never
+// goes back in time by less than a second: such a scan is skipped; a larger jump (a looped bag)
+// is taken as a restart.
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -24,7 +28,7 @@ namespace llc_ros {
 struct ScanMergerOptions {
   std::string base_frame = "base_link";  ///< frame of the merged scan
   double max_pair_gap = 0.05;   ///< s; a front and a back scan further apart in time are not paired
-  double back_timeout = 0.5;    ///< s; no back scan this near a front one: publish the front alone
+  double back_timeout = 0.5;    ///< s of wall time with no back scan arriving: publish the front alone
   int output_beams = 720;       ///< beams of the published LaserScan over 360 degrees (constant size)
   int queue_size = 20;          ///< messages kept per subscription and synchroniser
   std::string validate() const;
@@ -67,9 +71,10 @@ class ScanMergerRos {
   ros::WallTimer diagnostics_timer_;  ///< wall time: told while the clock stands still too
 
   std::mutex mutex_;
-  ros::Time last_back_stamp_;
+  ros::WallTime last_back_arrival_, first_front_arrival_;
+  ros::Time last_published_stamp_;
   float range_max_ = 0.0f, range_min_ = 0.0f;  ///< of the published LaserScan: the scanners' widest
-  std::size_t merged_ = 0, front_only_ = 0, rejected_ = 0;
+  std::size_t merged_ = 0, front_only_ = 0, rejected_ = 0, out_of_order_ = 0;
   std::string last_problem_;
 };
 
