@@ -8,7 +8,6 @@
 // (bag_run_laser_only.test: no wheel odometry), also odom -> base_link from scan matching and
 // map -> base_link at the end of the drive near the truth; services: false skips the services.
 #include <gtest/gtest.h>
-#include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
@@ -30,6 +29,7 @@
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "health_watch.hpp"
 #include "wall_bounded.hpp"
 
 namespace {
@@ -52,13 +52,7 @@ struct Observed {
   geometry_msgs::TransformStamped newest_map_to_odom, newest_odom_to_base;
   std::size_t odom_to_base = 0;
   ros::WallTime last_message = ros::WallTime::now();
-  std::map<std::string, std::string> loop_closure_health;  ///< the newest diagnostics of loop_closure
 };
-
-double healthValue(const std::map<std::string, std::string>& health, const std::string& key) {
-  const auto found = health.find(key);
-  return found == health.end() ? -1.0 : std::stod(found->second);
-}
 
 /// A planar transform (rotation about z only) as a pose.
 llc::Pose2 planar(const geometry_msgs::Transform& t) {
@@ -137,16 +131,7 @@ TEST(BagRun, MapsTheSimulatedDrive) {
     }
   });
 
-  ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(seen.mutex);
-        for (const auto& status : m->status) {
-          const std::string suffix = ": loop closure";
-          if (status.name.size() < suffix.size() || status.name.compare(status.name.size() - suffix.size(), suffix.size(), suffix) != 0) continue;
-          seen.loop_closure_health.clear();
-          for (const auto& kv : status.values) seen.loop_closure_health[kv.key] = kv.value;
-        }
-      });
+  const llc_test::HealthWatch front_end_health(nh, "loop closure");
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
@@ -193,13 +178,13 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   RecordProperty("map_to_odom_max_gap_wall_s", std::to_string(seen.map_to_odom_max_gap));
   RecordProperty("map_to_odom_gaps_over_0_1s", int(seen.map_to_odom_long_gaps));
   // How far the front end fell behind the scans, and what it dropped (0 on an idle machine).
-  ASSERT_FALSE(seen.loop_closure_health.empty()) << "no diagnostics from loop_closure";
-  RecordProperty("front_end_largest_lag_s", std::to_string(healthValue(seen.loop_closure_health, "largest lag (s)")));
-  RecordProperty("scans_dropped_to_catch_up", int(healthValue(seen.loop_closure_health, "scans dropped to catch up (max_lag)")));
-  RecordProperty("scans_dropped_queue_full", int(healthValue(seen.loop_closure_health, "scans dropped, queue full (queue_size)")));
-  RecordProperty("scans_without_wheel_odometry", int(healthValue(seen.loop_closure_health, "scans without wheel odometry")));
-  RecordProperty("scans_received", int(healthValue(seen.loop_closure_health, "scans received")));
-  RecordProperty("scans_processed", int(healthValue(seen.loop_closure_health, "scans processed")));
+  ASSERT_TRUE(front_end_health.seen()) << "no diagnostics from loop_closure";
+  RecordProperty("front_end_largest_lag_s", std::to_string(front_end_health.value("largest lag (s)")));
+  RecordProperty("scans_dropped_to_catch_up", int(front_end_health.value("scans dropped to catch up (max_lag)")));
+  RecordProperty("scans_dropped_queue_full", int(front_end_health.value("scans dropped, queue full (queue_size)")));
+  RecordProperty("scans_without_wheel_odometry", int(front_end_health.value("scans without wheel odometry")));
+  RecordProperty("scans_received", int(front_end_health.value("scans received")));
+  RecordProperty("scans_processed", int(front_end_health.value("scans processed")));
   ASSERT_GT(check.true_loop_keyframes, 20u);
   EXPECT_GE(double(check.closed), 0.8 * double(check.true_loop_keyframes));
   EXPECT_EQ(check.wrong_loops, 0u);
@@ -269,11 +254,4 @@ TEST(BagRun, MapsTheSimulatedDrive) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_bag_run");
-  const int result = RUN_ALL_TESTS();
-  // A service call that never answered is still blocked on its thread: leave without waiting.
-  std::fflush(nullptr);
-  std::_Exit(result);
-}
+int main(int argc, char** argv) { return llc_test::runTestsAndLeave(argc, argv, "test_bag_run"); }

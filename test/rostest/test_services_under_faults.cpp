@@ -7,7 +7,6 @@
 //  2. it resumes, checks that mapping goes on, lets the bag end (the clock stops for good and
 //     the last scans wait for odometry that never comes) and calls the four services again.
 // Every wait is bounded in wall time; a call that does not answer fails the test, never hangs it.
-#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -32,6 +31,7 @@
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/TrainClassifier.h"
+#include "health_watch.hpp"
 #include "wall_bounded.hpp"
 
 extern char** environ;
@@ -103,14 +103,7 @@ struct Seen {
   std::size_t keyframes = 0;
   ros::WallTime last_keyframe = ros::WallTime::now();
   ros::Time clock;
-  std::map<std::string, std::string> health;  ///< loop_closure's newest diagnostics
 };
-
-/// A number among the diagnostics' values; -1 when it is not there.
-double healthValue(const std::map<std::string, std::string>& health, const std::string& key) {
-  const auto found = health.find(key);
-  return found == health.end() ? -1.0 : std::atof(found->second.c_str());
-}
 
 /// Waits (wall time) until `done` holds; false after `seconds`.
 template <class Done>
@@ -136,7 +129,9 @@ void callEveryService(const std::string& folder, const std::string& tag, std::si
   EXPECT_TRUE(llc_test::callWithin("/loop_closure/train_classifier", &train, kAnswerSeconds, &why, &took)) << tag << ": " << why;
   slowest = std::max(slowest, took);
   EXPECT_FALSE(train.response.message.empty()) << tag;
-  if (expect_trained) EXPECT_TRUE(train.response.success) << tag << ": " << train.response.message;
+  if (expect_trained) {
+    EXPECT_TRUE(train.response.success) << tag << ": " << train.response.message;
+  }
   testing::Test::RecordProperty(tag + "_train_success", int(train.response.success));
 
   laser_loop_closure::SaveMap map;
@@ -193,15 +188,7 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
     std::lock_guard<std::mutex> lock(seen.mutex);
     seen.clock = m->clock;
   });
-  ros::Subscriber diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(seen.mutex);
-        for (const auto& status : m->status) {
-          if (status.name.find(": loop closure") == std::string::npos) continue;
-          seen.health.clear();
-          for (const auto& kv : status.values) seen.health[kv.key] = kv.value;
-        }
-      });
+  const llc_test::HealthWatch front_end_health(nh, "loop closure");
   ros::AsyncSpinner spinner(2);
   spinner.start();
 
@@ -251,14 +238,14 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
   {
     std::lock_guard<std::mutex> lock(seen.mutex);
     keyframes_at_end = seen.keyframes;
-    ASSERT_FALSE(seen.health.empty()) << "no diagnostics from loop_closure after the clock stopped";
-    const double waiting = healthValue(seen.health, "scans waiting for their odometry transform");
+    ASSERT_TRUE(front_end_health.seen()) << "no diagnostics from loop_closure after the clock stopped";
+    const double waiting = front_end_health.value("scans waiting for their odometry transform");
     RecordProperty("scans_waiting_for_odometry", int(waiting));
     // They wait in the tf filter (no thread blocked): the scans after the odometry ended.
     EXPECT_GE(waiting, 5.0);
     EXPECT_LE(waiting, double(scans_after_odometry) + 1.0);
-    RecordProperty("front_end_largest_lag_s", std::to_string(healthValue(seen.health, "largest lag (s)")));
-    RecordProperty("scans_dropped_to_catch_up", int(healthValue(seen.health, "scans dropped to catch up (max_lag)")));
+    RecordProperty("front_end_largest_lag_s", std::to_string(front_end_health.value("largest lag (s)")));
+    RecordProperty("scans_dropped_to_catch_up", int(front_end_health.value("scans dropped to catch up (max_lag)")));
   }
   RecordProperty("keyframes_at_end", int(keyframes_at_end));
   callEveryService(folder, "ended", keyframes_at_end, true);
@@ -268,11 +255,4 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_services_under_faults");
-  const int result = RUN_ALL_TESTS();
-  // A service call that never answered is still blocked on its thread: leave without waiting.
-  std::fflush(nullptr);
-  std::_Exit(result);
-}
+int main(int argc, char** argv) { return llc_test::runTestsAndLeave(argc, argv, "test_services_under_faults"); }

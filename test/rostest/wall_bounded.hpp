@@ -3,10 +3,13 @@
 // or is paused: either can hang a test for good. These fail with a message instead.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -77,6 +80,16 @@ typename M::ConstPtr waitForMessageWithin(const std::string& topic, double secon
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
   while (!received && ros::WallTime::now() < deadline) queue.callAvailable(ros::WallDuration(0.05));
   return received;
+}
+
+/// A rostest node's main: runs the tests, then leaves at once. A call that never answered is
+/// still blocked on its thread; waiting for it at exit would hang the test after all.
+inline int runTestsAndLeave(int argc, char** argv, const char* node) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, node);
+  const int result = RUN_ALL_TESTS();
+  std::fflush(nullptr);
+  std::_Exit(result);
 }
 
 }  // namespace llc_test
