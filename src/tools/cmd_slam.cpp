@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Cholesky>
@@ -16,6 +17,7 @@
 #include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/map_picture.hpp"
+#include "laser_loop_closure/core/odometry_drift.hpp"
 #include "laser_loop_closure/core/odometry_offset.hpp"
 #include "laser_loop_closure/core/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
@@ -178,6 +180,33 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
   return choice;
 }
 
+/// --drift moderate|strong and --drift-* (each overrides the preset; any of them alone starts
+/// from moderate): the odometry degraded before mapping, for logs whose odometry is perfect.
+std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
+  const char* fields[] = {"drift", "drift-scale-bias", "drift-heading", "drift-noise-m", "drift-noise-rad", "drift-noise-share", "drift-seed"};
+  bool any = false;
+  for (const char* f : fields) any = any || args.has(f);
+  if (!any) return std::nullopt;
+  llc::OdometryDrift drift;  // moderate: the defaults
+  const std::string preset = args.get("drift", "moderate");
+  if (preset == "strong") {
+    drift.scale_bias *= 2, drift.heading_drift *= 2, drift.noise_translation *= 2, drift.noise_rotation *= 2, drift.noise_fraction *= 2;
+  } else if (preset != "moderate") {
+    throw ToolError("--drift must be 'moderate' or 'strong', not '" + preset + "'");
+  }
+  drift.scale_bias = args.number("drift-scale-bias", drift.scale_bias);
+  drift.heading_drift = args.number("drift-heading", drift.heading_drift);
+  drift.noise_translation = args.number("drift-noise-m", drift.noise_translation);
+  drift.noise_rotation = args.number("drift-noise-rad", drift.noise_rotation);
+  drift.noise_fraction = args.number("drift-noise-share", drift.noise_fraction);
+  const long seed = args.integer("drift-seed", 1);
+  if (seed < 0) throw ToolError("--drift-seed must be zero or more");
+  drift.seed = std::uint64_t(seed);
+  const std::string invalid = drift.validate();
+  if (!invalid.empty()) throw ToolError(invalid);
+  return drift;
+}
+
 }  // namespace
 
 int runSlam(const Args& args) {
@@ -203,10 +232,22 @@ int runSlam(const Args& args) {
   llc::ScanSequence sequence = loadSequence(input, args);
   ensureDirectory(dir);
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
-  // Decided before any odometry shift: a log whose true poses are its odometry has no truth.
-  const bool has_truth = args.has("evaluate") || hasTruthBesideOdometry(sequence);
+  // Decided before any odometry shift: a log whose true poses are its odometry has no truth
+  // (unless its odometry is drifted below: then those poses are the truth).
+  const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
+  const bool has_truth = args.has("evaluate") || drift || hasTruthBesideOdometry(sequence);
   const OffsetChoice offset = chooseOdometryOffset(args, sequence, options.slam);
   llc::shiftOdometry(&sequence, offset.offset);
+  if (drift) {
+    try {
+      llc::driftOdometry(&sequence, *drift);
+    } catch (const std::invalid_argument& e) {
+      throw ToolError(e.what());
+    }
+    std::cout << "odometry_drift: scale_bias=" << drift->scale_bias << " heading_drift=" << drift->heading_drift
+              << " noise_translation=" << drift->noise_translation << " noise_rotation=" << drift->noise_rotation
+              << " noise_fraction=" << drift->noise_fraction << " seed=" << drift->seed << "\n";
+  }
 
   const auto start = std::chrono::steady_clock::now();
   llc::SlamPipeline slam(model, options.slam);

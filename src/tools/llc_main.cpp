@@ -75,13 +75,17 @@ const std::vector<Command>& commands() {
        "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20] [--max-information 1e12]"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
-             "save-session", "odometry-offset"},
+             "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+             "drift-noise-rad", "drift-noise-share", "drift-seed"},
             kInputFlags),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
        "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, loops.csv, map.pgm/.yaml/.png, report.txt)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
-       "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)"},
+       "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
+       "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
+       "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
+       "       keeping the truth: moderate as written, strong twice each figure)"},
       {"train-crf", llc_tool::runTrainCrf,
        with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
        "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},

@@ -49,6 +49,10 @@ check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" 
        print (ok ? "ok" : "not ok: rms " v["rms_error_m"] " closed " v["true_loop_keyframes_closed"] "/" v["true_loop_keyframes"])}' "$TMP/slam/report.txt"
 check "slam: the place gate spared alignments but skipped no true revisit" 0 "^ok$" -- awk -F= '
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
+# Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.
+check "slam --drift strong on sim.log: drift said, truth kept" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --out '$TMP/slam_drift' --quiet --drift strong --drift-seed 3 | grep -q '^odometry_drift: scale_bias=0.03 heading_drift=0.01 ' && awk -F= '{v[\$1] = \$2} END {print (v[\"rms_error_odometry_m\"] > v[\"rms_error_m\"] && v[\"true_loop_keyframes\"] > 0 ? \"ok\" : \"not ok\")}' '$TMP/slam_drift/report.txt'"
+check "slam --drift: unknown preset" 1 "--drift must be 'moderate' or 'strong'" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift wild
+check "slam --drift: negative noise" 1 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
 printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
