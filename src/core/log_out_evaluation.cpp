@@ -8,8 +8,10 @@
 namespace llc {
 
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
-                                    const ClassifierFitter& fit) {
+                                    const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives) {
   if (logs.size() < 2) throw std::invalid_argument("leave-one-log-out needs at least two logs");
+  if (extra_negatives && extra_negatives->size() != logs.size())
+    throw std::invalid_argument("leave-one-log-out: one set of extra negatives per log");
   for (const TrainingSet& log : logs)
     if (log.dimension != logs.front().dimension) throw std::invalid_argument("leave-one-log-out: logs of different dimensions");
   LeaveOneLogOutResult result;
@@ -30,7 +32,19 @@ LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const 
     for (int y : test.labels) out.positives += y == 1;
     const ErrorRates at_k = errorRates(out.scores, test.labels, out.k);
     out.detection_at_k = 1.0 - at_k.missed_detection;
-    out.realised_false_alarm = at_k.false_alarm;
+    std::size_t negatives = out.pairs - out.positives, false_alarms = 0;
+    for (std::size_t i = 0; i < test.size(); ++i) false_alarms += test.labels[i] == 0 && out.scores[i] >= out.k;
+    if (extra_negatives) {
+      const TrainingSet& extra = (*extra_negatives)[held_out];
+      if (extra.size() && extra.dimension != test.dimension) throw std::invalid_argument("leave-one-log-out: extra negatives of another dimension");
+      for (std::size_t i = 0; i < extra.size(); ++i) {
+        if (extra.labels[i] != 0) throw std::invalid_argument("leave-one-log-out: an extra negative labelled 1");
+        ++negatives;
+        false_alarms += model.score(extra.row(i)) >= out.k;
+      }
+    }
+    out.false_alarm_negatives = negatives;
+    out.realised_false_alarm = negatives ? double(false_alarms) / double(negatives) : 0.0;
     out.detection_at_1pct = detectionAtFalseAlarm(out.scores, test.labels, 0.01);
     out.detection_at_0pct = detectionAtFalseAlarm(out.scores, test.labels, 0.0);
     out.auc = areaUnderCurve(out.scores, test.labels);

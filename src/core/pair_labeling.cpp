@@ -65,6 +65,35 @@ PairLabelingResult labelPairs(const std::vector<Pose2>& poses, const PairLabelin
   return result;
 }
 
+std::vector<LabeledPair> sampleNegativePairs(const std::vector<Pose2>& poses, double min_distance, std::size_t count,
+                                             std::uint64_t seed) {
+  const std::size_t n = poses.size();
+  auto far = [&](std::size_t a, std::size_t b) {
+    return std::hypot(poses[b].x - poses[a].x, poses[b].y - poses[a].y) > min_distance;
+  };
+  std::size_t total = 0;
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = a + 1; b < n; ++b) total += far(a, b);
+  Random random(seed);
+  std::vector<LabeledPair> negatives;
+  if (2 * count >= total) {  // most of them: list all, shuffle, keep count
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::size_t b = a + 1; b < n; ++b)
+        if (far(a, b)) negatives.push_back({a, b, 0});
+    random.shuffle(negatives);
+    negatives.resize(std::min(count, negatives.size()));
+    return negatives;
+  }
+  std::set<std::pair<std::size_t, std::size_t>> taken;  // few of many: rejection
+  while (negatives.size() < count) {
+    std::size_t a = random.index(n), b = random.index(n);
+    if (a == b) continue;
+    if (a > b) std::swap(a, b);
+    if (far(a, b) && taken.insert({a, b}).second) negatives.push_back({a, b, 0});
+  }
+  return negatives;
+}
+
 void writePairs(const std::string& path, const std::vector<LabeledPair>& pairs) {
   std::ofstream out(path);
   if (!out) throw PairFileError(path + ": cannot write");

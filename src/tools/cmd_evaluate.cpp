@@ -11,6 +11,7 @@
 #include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
 #include "laser_loop_closure/core/log_out_evaluation.hpp"
+#include "laser_loop_closure/core/pair_labeling.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
 
@@ -86,13 +87,25 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
         name.resize(name.size() - std::strlen(suffix));
     names.push_back(name);
   }
+  // --false-alarm-negatives N: N more negatives per log (farther apart than llc pairs' 10 m by
+  // the log's true poses), scored only for the realised false-alarm rate.
+  const long extra_count = args.integer("false-alarm-negatives", 0);
+  if (extra_count < 0) throw ToolError("--false-alarm-negatives must be zero or more");
+  std::vector<llc::TrainingSet> extra;
+  for (const PairData& item : data) {
+    std::vector<llc::Pose2> truth;
+    for (const llc::LoggedScan& s : item.sequence.scans) truth.push_back(s.truth);
+    const std::vector<llc::LabeledPair> negatives =
+        llc::sampleNegativePairs(truth, llc::PairLabelingOptions{}.negative_min_distance, std::size_t(extra_count), training.seed);
+    extra.push_back(llc::pairTrainingSet(item.features, negatives, features.feature_set));
+  }
   std::size_t fitted = 0;
   const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set) {
     std::cerr << "llc evaluate: model " << ++fitted << " of " << logs.size() << " (" << set.size() << " pairs)\n";
     return llc::trainClassifierModel(set, features, training).model.classifier;
-  });
+  }, &extra);
   std::ofstream csv = openCsv(out_dir + "/leave_one_log_out.csv");
-  csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,detection_at_1pct_fa,detection_at_0pct_fa,auc\n";
+  csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,detection_at_0pct_fa,auc\n";
   std::ostringstream s;
   s << std::setprecision(4) << std::fixed;
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
@@ -100,9 +113,10 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     << " seed=" << training.seed << "\n";
   for (const llc::HeldOutLog& log : result.logs) {
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
-        << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.detection_at_1pct << ','
-        << log.detection_at_0pct << ',' << log.auc << '\n';
+        << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.false_alarm_negatives << ','
+        << log.detection_at_1pct << ',' << log.detection_at_0pct << ',' << log.auc << '\n';
     s << "held_out=" << log.name << " pairs=" << log.pairs << " k=" << log.k << " realised_false_alarm=" << log.realised_false_alarm
+      << " (of " << log.false_alarm_negatives << " negatives)"
       << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
       << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc << "\n";
   }

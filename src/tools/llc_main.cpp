@@ -45,7 +45,7 @@ const std::vector<Command>& commands() {
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
-                  "ablation-repeats", "target-false-alarm"},
+                  "ablation-repeats", "target-false-alarm", "false-alarm-negatives"},
                  with(kFeatureFlags, llc_tool::kAlignerFlags)),
             kInputFlags),
        with({"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"}, kFeatureSwitches),
@@ -54,7 +54,7 @@ const std::vector<Command>& commands() {
        "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]\n"
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
-       "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [feature options]\n"
+       "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
        "      (each log scored by a model, stumps and K, trained on the other logs only)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},

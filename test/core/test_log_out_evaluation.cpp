@@ -80,6 +80,39 @@ TEST(LeaveOneLogOut, FiguresOfAHeldOutLogAtTheModelsOwnK) {
   EXPECT_NEAR(result.mean_detection_at_k, (2.0 / 3.0 + 1.0) / 2.0, 1e-12);
 }
 
+TEST(LeaveOneLogOut, ExtraNegativesOnlyRefineTheRealisedFalseAlarmRate) {
+  llc::Stump stump;
+  stump.feature = 0, stump.polarity = 1, stump.threshold = 0.5, stump.alpha = 1.0;
+  const llc::StrongClassifier model({stump}, 0.5);
+  auto log = [](std::vector<double> values, std::vector<int> labels) {
+    llc::TrainingSet set;
+    set.dimension = 1;
+    for (std::size_t i = 0; i < values.size(); ++i) set.add(&values[i], labels[i]);
+    return set;
+  };
+  const llc::TrainingSet a = log({0.1, 0.2, 0.9, 0.3, 0.8, 0.9, 1.0}, {1, 1, 1, 0, 0, 0, 0});  // 1 of 4 negatives matched
+  const llc::TrainingSet b = log({0.1, 0.7, 0.8}, {1, 0, 0});
+  // Six more negatives of log A, one of them matched: 2 of 10 in all. None for log B.
+  const std::vector<llc::TrainingSet> extra = {log({0.1, 0.9, 0.9, 0.9, 0.9, 0.9}, {0, 0, 0, 0, 0, 0}), log({}, {})};
+  std::size_t fits = 0;
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training) {
+    ++fits;
+    EXPECT_TRUE(training.size() == 3u || training.size() == 7u) << "extra negatives never reach the fitter: " << training.size();
+    return model;
+  }, &extra);
+  EXPECT_EQ(fits, 2u);
+  EXPECT_EQ(result.logs[0].false_alarm_negatives, 10u);
+  EXPECT_NEAR(result.logs[0].realised_false_alarm, 0.2, 1e-12);
+  EXPECT_NEAR(result.logs[0].detection_at_k, 2.0 / 3.0, 1e-12);  // positives untouched
+  EXPECT_EQ(result.logs[1].false_alarm_negatives, 2u);
+  EXPECT_DOUBLE_EQ(result.logs[1].realised_false_alarm, 0.0);
+
+  const std::vector<llc::TrainingSet> one_set = {extra[0]};
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, &one_set), std::invalid_argument);
+  const std::vector<llc::TrainingSet> a_positive = {log({0.1}, {1}), log({}, {})};
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, &a_positive), std::invalid_argument);
+}
+
 TEST(LeaveOneLogOut, RefusesOneLogAndMixedDimensions) {
   const llc::ClassifierFitter fit = [](const llc::TrainingSet&) { return llc::StrongClassifier(); };
   EXPECT_THROW(llc::leaveOneLogOut({markedLog(0, 2, 2)}, {}, fit), std::invalid_argument);

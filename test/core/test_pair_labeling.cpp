@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "laser_loop_closure/core/pair_labeling.hpp"
 #include "test_util.hpp"
 
@@ -60,6 +62,28 @@ TEST(PairLabeling, HeadingGateAndFullCircle) {
   EXPECT_EQ(llc::labelPairs(poses, options).positive_candidates, 0u);
   options.full_circle = true;
   EXPECT_GT(llc::labelPairs(poses, options).positive_candidates, 0u);
+}
+
+TEST(PairLabeling, ExtraNegativesAreFarApartDistinctAndSeeded) {
+  std::vector<llc::Pose2> line;
+  for (int k = 0; k < 40; ++k) line.push_back({double(k), 0.0, 0.0});  // 1 m apart
+  const std::vector<llc::LabeledPair> some = llc::sampleNegativePairs(line, 10.0, 50, 7);
+  ASSERT_EQ(some.size(), 50u);
+  std::set<std::pair<std::size_t, std::size_t>> seen;
+  for (const llc::LabeledPair& p : some) {
+    EXPECT_LT(p.a, p.b);
+    EXPECT_GT(p.b - p.a, 10u);  // farther than 10 m
+    EXPECT_EQ(p.label, 0);
+    EXPECT_TRUE(seen.insert({p.a, p.b}).second) << "a pair drawn twice";
+  }
+  const std::vector<llc::LabeledPair> again = llc::sampleNegativePairs(line, 10.0, 50, 7);
+  for (std::size_t i = 0; i < some.size(); ++i) {
+    EXPECT_EQ(again[i].a, some[i].a);
+    EXPECT_EQ(again[i].b, some[i].b);
+  }
+  // Gaps 11..39: sum of (40 - gap) = 29 + 28 + ... + 1 = 435 pairs in all; asking for more gives them all.
+  EXPECT_EQ(llc::sampleNegativePairs(line, 10.0, 10000, 7).size(), 435u);
+  EXPECT_TRUE(llc::sampleNegativePairs(line, 100.0, 10, 7).empty());
 }
 
 TEST(PairLabeling, PairFileRoundTripAndErrors) {

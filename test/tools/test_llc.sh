@@ -95,8 +95,9 @@ check "evaluate --validate writes the validated ROC" 0 "false_alarm,detection" -
 # Leave-one-log-out: each log scored by a model trained on the others only.
 check "evaluate --leave-one-log-out needs two logs" 1 "needs at least two --data items" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/lolo"
 check "evaluate --leave-one-log-out" 0 "^mean_detection_at_1pct_fa=" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo" --rounds 10 --folds 3
-check "evaluate --leave-one-log-out csv" 0 "^log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,detection_at_1pct_fa,detection_at_0pct_fa,auc$" -- head -1 "$TMP/sim/lolo/leave_one_log_out.csv"
+check "evaluate --leave-one-log-out csv" 0 "^log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,detection_at_0pct_fa,auc$" -- head -1 "$TMP/sim/lolo/leave_one_log_out.csv"
 check "evaluate --leave-one-log-out: each held-out log trained on the other" 0 "^sim,120,60,[0-9]+," -- grep "^sim,120," "$TMP/sim/lolo/leave_one_log_out.csv"
+check "evaluate --leave-one-log-out --false-alarm-negatives: 60 + 500 negatives" 0 "^sim,120,60,[0-9]+,[0-9.]+,[0-9.]+,[0-9.]+,560," -- bash -c "'$LLC' evaluate --leave-one-log-out --data '$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv' --data '$TMP/sim/sim.log:$TMP/sim/pairs.csv' --out '$TMP/sim/lolo2' --rounds 10 --folds 3 --false-alarm-negatives 500 >/dev/null 2>&1; grep '^sim,120,' '$TMP/sim/lolo2/leave_one_log_out.csv'"
 # Pose graphs through the ESDF: a small g2o file written here (a square with one loop edge).
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 100 0 0 100 0 400\n' > "$TMP/square.g2o"
 check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_out.g2o"

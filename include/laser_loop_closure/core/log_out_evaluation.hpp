@@ -22,6 +22,7 @@ struct HeldOutLog {
   double k = 0.0;                     ///< the model's own threshold, fitted without this log
   double detection_at_k = 0.0;        ///< positives at or above k
   double realised_false_alarm = 0.0;  ///< negatives at or above k: what a user of the model gets
+  std::size_t false_alarm_negatives = 0;  ///< negatives that rate counts (the log's own plus any extra)
   double detection_at_1pct = 0.0;     ///< best detection with <= 1% false alarm on this log (oracle K)
   double detection_at_0pct = 0.0;     ///< best detection with no false alarm on this log (oracle K)
   double auc = 0.0;
@@ -41,7 +42,10 @@ using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& train
 
 /// For each log: fit on the rows of every other log, score the log. Needs at least two logs of
 /// one dimension (std::invalid_argument otherwise); names may be empty (then "log N").
+/// extra_negatives (optional, one set per log, label 0): more negatives of that log, scored
+/// only for its realised false-alarm rate (a balanced set of 35 negatives cannot tell 1% from
+/// 2.9%); never used for fitting.
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
-                                    const ClassifierFitter& fit);
+                                    const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives = nullptr);
 
 }  // namespace llc

@@ -38,6 +38,13 @@ struct PairLabelingResult {
 /// farther than negative_min_distance.
 PairLabelingResult labelPairs(const std::vector<Pose2>& poses, const PairLabelingOptions& options);
 
+/// Up to `count` negative pairs (a < b) drawn uniformly, seeded and without repeats, among the
+/// pairs whose poses are farther apart than min_distance: all of them, in random order, when
+/// there are not more. For measuring a false-alarm rate on more negatives than a balanced set
+/// holds (labelPairs draws as many negatives as positives).
+std::vector<LabeledPair> sampleNegativePairs(const std::vector<Pose2>& poses, double min_distance, std::size_t count,
+                                             std::uint64_t seed);
+
 /// Thrown for an unreadable or malformed pair file; what() names file and line.
 class PairFileError : public std::runtime_error {
  public:
