@@ -19,6 +19,24 @@ llc::TrainingSet markedLog(double marker, int positives, int negatives) {
   return set;
 }
 
+/// A one-feature log from values and labels.
+llc::TrainingSet oneFeatureLog(const std::vector<double>& values, const std::vector<int>& labels) {
+  llc::TrainingSet set;
+  set.dimension = 1;
+  for (std::size_t i = 0; i < values.size(); ++i) set.add(&values[i], labels[i]);
+  return set;
+}
+
+/// One stump: match iff feature < 0.5 (a small difference means the same place), K = 0.5.
+llc::StrongClassifier smallDifferenceModel() {
+  llc::Stump stump;
+  stump.feature = 0;
+  stump.polarity = 1;
+  stump.threshold = 0.5;
+  stump.alpha = 1.0;
+  return llc::StrongClassifier({stump}, 0.5);
+}
+
 TEST(LeaveOneLogOut, TheHeldOutLogNeverReachesTheFitter) {
   const std::vector<llc::TrainingSet> logs = {markedLog(1000, 3, 5), markedLog(2000, 4, 4), markedLog(3000, 2, 6)};
   std::vector<std::set<int>> seen_logs;  // per fit: which logs' rows it was given
@@ -42,19 +60,8 @@ TEST(LeaveOneLogOut, TheHeldOutLogNeverReachesTheFitter) {
 }
 
 TEST(LeaveOneLogOut, FiguresOfAHeldOutLogAtTheModelsOwnK) {
-  // One stump: match iff feature < 0.5 (a small difference means the same place), K = 0.5.
-  llc::Stump stump;
-  stump.feature = 0;
-  stump.polarity = 1;
-  stump.threshold = 0.5;
-  stump.alpha = 1.0;
-  const llc::StrongClassifier model({stump}, 0.5);
-  auto log = [](std::vector<double> values, std::vector<int> labels) {
-    llc::TrainingSet set;
-    set.dimension = 1;
-    for (std::size_t i = 0; i < values.size(); ++i) set.add(&values[i], labels[i]);
-    return set;
-  };
+  const llc::StrongClassifier model = smallDifferenceModel();
+  const auto log = oneFeatureLog;
   // Log A: 2 positives matched, 1 missed; 1 of 4 negatives matched.
   const llc::TrainingSet a = log({0.1, 0.2, 0.9, 0.3, 0.8, 0.9, 1.0}, {1, 1, 1, 0, 0, 0, 0});
   // Log B: everything right.
@@ -81,15 +88,8 @@ TEST(LeaveOneLogOut, FiguresOfAHeldOutLogAtTheModelsOwnK) {
 }
 
 TEST(LeaveOneLogOut, ExtraNegativesOnlyRefineTheRealisedFalseAlarmRate) {
-  llc::Stump stump;
-  stump.feature = 0, stump.polarity = 1, stump.threshold = 0.5, stump.alpha = 1.0;
-  const llc::StrongClassifier model({stump}, 0.5);
-  auto log = [](std::vector<double> values, std::vector<int> labels) {
-    llc::TrainingSet set;
-    set.dimension = 1;
-    for (std::size_t i = 0; i < values.size(); ++i) set.add(&values[i], labels[i]);
-    return set;
-  };
+  const llc::StrongClassifier model = smallDifferenceModel();
+  const auto log = oneFeatureLog;
   const llc::TrainingSet a = log({0.1, 0.2, 0.9, 0.3, 0.8, 0.9, 1.0}, {1, 1, 1, 0, 0, 0, 0});  // 1 of 4 negatives matched
   const llc::TrainingSet b = log({0.1, 0.7, 0.8}, {1, 0, 0});
   // Six more negatives of log A, one of them matched: 2 of 10 in all. None for log B.
