@@ -21,7 +21,7 @@ std::string LoopDetectorOptions::validate() const {
   if (!(score_threshold >= 0.0 && score_threshold <= 1.0)) return "score_threshold must be in [0, 1] (0: the model's K)";
   if (threads == 0) return "threads must be >= 1";
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
-  return "";
+  return calibration.validate();
 }
 
 Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance) {
@@ -38,7 +38,8 @@ LoopDetector::LoopDetector(const ClassifierModel& model, const ScanAlignerOption
       options_(options),
       aligner_(aligner),
       extractor_(model.features),
-      store_(model.features.feature_set) {
+      store_(model.features.feature_set),
+      calibrator_(options.calibration.validate().empty() ? options.calibration : ThresholdCalibrationOptions{}) {
   const std::string error = options_.validate();
   if (!error.empty()) throw std::invalid_argument("loop detector options: " + error);
 }
@@ -48,6 +49,26 @@ void LoopDetector::setModel(const ClassifierModel& model) {
     throw std::invalid_argument("the new model was made with other feature parameters than the stored keyframes");
   model_ = model;
   classifier_ = withThreshold(model.classifier, options_.score_threshold);
+  calibrator_.clear();
+}
+
+double LoopDetector::pairScore(std::size_t stored, std::size_t query) const {
+  if (stored >= store_.size() || query >= store_.size()) throw std::out_of_range("pairScore: no such keyframe");
+  const std::vector<double> fq = store_.features(query), fs = store_.features(stored);
+  std::vector<double> row(pairFeatureCount(store_.featureSet()));
+  pairFeatures(store_.featureSet(), fq.data(), fs.data(), row.data());  // as KeyframeStore::query pairs them
+  return classifier_.score(row.data());
+}
+
+std::size_t LoopDetector::calibrate(std::size_t index, const std::vector<std::size_t>& surely_elsewhere) {
+  if (!options_.calibration.enabled) return 0;
+  std::size_t scored = 0;
+  for (std::size_t other : surely_elsewhere) {
+    calibrator_.add(pairScore(other, index));
+    ++scored;
+  }
+  if (options_.score_threshold == 0.0) classifier_.setThresholdK(calibrator_.threshold(model_.classifier.thresholdK()));
+  return scored;
 }
 
 std::size_t LoopDetector::add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared) {

@@ -33,6 +33,9 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
+  chain_.assign(keyframes.size(), Pose2{});
+  path_.assign(keyframes.size(), 0.0);
+  chain_start_ = keyframes.size();
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
@@ -105,11 +108,31 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   tracked_motion_ = Pose2{};
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
+  const bool chained = step.keyframe_index > chain_start_ && isFinite(step.odometry.motion);
+  if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain
+  chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
+  path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
   ++counters_.keyframes;
   return step;
 }
 
+std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
+  const ThresholdCalibrationOptions& options = loop_options_.calibration;
+  std::vector<std::size_t> found;
+  if (!options.enabled || index >= chain_.size() || index < chain_start_) return found;
+  for (std::size_t j = index; j-- > chain_start_ && path_[index] - path_[j] <= options.max_path;)
+    if (surelyDifferentPlaces(chain_[j], chain_[index], path_[index] - path_[j], options)) found.push_back(j);
+  if (found.size() > options.pairs_per_keyframe) {
+    calibration_random_.shuffle(found);
+    found.resize(options.pairs_per_keyframe);
+  }
+  return found;
+}
+
 LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check) {
+  const auto start = std::chrono::steady_clock::now();
+  counters_.calibration_pairs += detector_.calibrate(keyframe_index, surelyElsewhere(keyframe_index));
+  counters_.seconds_classify += secondsSince(start);
   LoopDetectionResult loops = detector_.detect(keyframe_index, check);
   counters_.pairs_classified += loops.compared;
   counters_.candidates += loops.candidates;

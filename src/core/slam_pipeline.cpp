@@ -49,6 +49,7 @@ SlamCounters SlamPipeline::counters() const {
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
+  c.calibration_pairs = f.calibration_pairs, c.classifier_threshold = front_.detector().threshold();
   c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
   c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
   return c;

@@ -344,6 +344,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("steps from wheel odometry alone", c.wheel_steps);
   status.add("pairs classified", c.pairs_classified);
   status.add("candidates", c.candidates);
+  status.add("classifier threshold K", front_->detector().threshold());
+  status.add("threshold calibration pairs", c.calibration_pairs);
   status.add("loops found", c.loops_found);
   status.add("refused by alignment", c.refused_by_alignment);
   status.add("seconds classifying", c.seconds_classify);

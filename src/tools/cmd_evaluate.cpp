@@ -14,6 +14,7 @@
 #include "laser_loop_closure/core/pair_labeling.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/threshold_calibration.hpp"
 
 namespace llc_tool {
 namespace {
@@ -99,13 +100,40 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
         llc::sampleNegativePairs(truth, llc::PairLabelingOptions{}.negative_min_distance, std::size_t(extra_count), training.seed);
     extra.push_back(llc::pairTrainingSet(item.features, negatives, features.feature_set));
   }
+  // --calibration-pairs N: K fitted again per held-out log on N pairs its own odometry (drifted
+  // with --drift*, else as logged) says are surely two places (ThresholdCalibration).
+  const long calibration_count = args.integer("calibration-pairs", 0);
+  if (calibration_count < 0) throw ToolError("--calibration-pairs must be zero or more");
+  llc::ThresholdCalibrationOptions calibration;
+  calibration.target_false_alarm = training.target_false_alarm;
+  calibration.min_distance = args.number("calibration-min-distance", calibration.min_distance);
+  calibration.drift_per_metre = args.number("calibration-drift-per-metre", calibration.drift_per_metre);
+  calibration.max_path = args.number("calibration-max-path", calibration.max_path);
+  if (const std::string invalid = calibration.validate(); !invalid.empty()) throw ToolError(invalid);
+  const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
+  std::vector<llc::TrainingSet> calibration_sets;
+  std::ostringstream calibration_purity;  // how many calibration pairs are truly over 10 m apart
+  for (const PairData& item : data) {
+    if (calibration_count == 0) break;
+    std::vector<llc::Pose2> odometry, truth;
+    for (const llc::LoggedScan& s : item.sequence.scans) odometry.push_back(s.odometry), truth.push_back(s.truth);
+    if (drift) odometry = llc::driftOdometry(odometry, *drift);
+    const std::vector<llc::LabeledPair> pairs =
+        llc::sampleSurelyDifferentPairs(odometry, calibration, std::size_t(calibration_count), training.seed + 1);
+    std::size_t truly_far = 0;
+    for (const llc::LabeledPair& p : pairs)
+      truly_far += std::hypot(truth[p.b].x - truth[p.a].x, truth[p.b].y - truth[p.a].y) > llc::PairLabelingOptions{}.negative_min_distance;
+    calibration_purity << " " << truly_far << "/" << pairs.size();
+    calibration_sets.push_back(llc::pairTrainingSet(item.features, pairs, features.feature_set));
+  }
   std::size_t fitted = 0;
   const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set) {
     std::cerr << "llc evaluate: model " << ++fitted << " of " << logs.size() << " (" << set.size() << " pairs)\n";
     return llc::trainClassifierModel(set, features, training).model.classifier;
-  }, &extra);
+  }, &extra, calibration_count ? &calibration_sets : nullptr, calibration.target_false_alarm);
   std::ofstream csv = openCsv(out_dir + "/leave_one_log_out.csv");
-  csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,detection_at_0pct_fa,auc\n";
+  csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,"
+         "detection_at_0pct_fa,auc,calibration_pairs,calibrated_k,detection_at_calibrated_k,realised_false_alarm_calibrated\n";
   std::ostringstream s;
   s << std::setprecision(4) << std::fixed;
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
@@ -114,12 +142,25 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   for (const llc::HeldOutLog& log : result.logs) {
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
         << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.false_alarm_negatives << ','
-        << log.detection_at_1pct << ',' << log.detection_at_0pct << ',' << log.auc << '\n';
+        << log.detection_at_1pct << ',' << log.detection_at_0pct << ',' << log.auc << ',' << log.calibration_pairs << ','
+        << log.calibrated_k << ',' << log.detection_at_calibrated_k << ',' << log.realised_false_alarm_calibrated << '\n';
     s << "held_out=" << log.name << " pairs=" << log.pairs << " k=" << log.k << " realised_false_alarm=" << log.realised_false_alarm
       << " (of " << log.false_alarm_negatives << " negatives)"
       << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
-      << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc << "\n";
+      << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc;
+    if (log.calibration_pairs)
+      s << " calibration_pairs=" << log.calibration_pairs << " calibrated_k=" << log.calibrated_k
+        << " realised_false_alarm_calibrated=" << log.realised_false_alarm_calibrated
+        << " detection_at_calibrated_k=" << log.detection_at_calibrated_k;
+    s << "\n";
   }
+  if (calibration_count)
+    s << "calibration: min_distance=" << calibration.min_distance << " drift_per_metre=" << calibration.drift_per_metre
+      << " max_path=" << calibration.max_path << " odometry=" << (drift ? "drifted" : "as logged")
+      << " truly_over_10m_apart=" << calibration_purity.str() << "\nmean_realised_false_alarm_calibrated="
+      << result.mean_realised_false_alarm_calibrated << " best=" << result.best_realised_false_alarm_calibrated
+      << " worst=" << result.worst_realised_false_alarm_calibrated
+      << " mean_detection_at_calibrated_k=" << result.mean_detection_at_calibrated_k << "\n";
   s << "mean_realised_false_alarm=" << result.mean_realised_false_alarm
     << " worst_realised_false_alarm=" << result.worst_realised_false_alarm << " mean_detection_at_k=" << result.mean_detection_at_k
     << "\nmean_detection_at_0pct_fa=" << result.mean_detection_at_0pct << " mean_auc=" << result.mean_auc << "\n";

@@ -180,32 +180,6 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
   return choice;
 }
 
-/// --drift moderate|strong and --drift-* (each overrides the preset; any of them alone starts
-/// from moderate): the odometry degraded before mapping, for logs whose odometry is perfect.
-std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
-  const char* fields[] = {"drift", "drift-scale-bias", "drift-heading", "drift-noise-m", "drift-noise-rad", "drift-noise-share", "drift-seed"};
-  bool any = false;
-  for (const char* f : fields) any = any || args.has(f);
-  if (!any) return std::nullopt;
-  llc::OdometryDrift drift;  // moderate: the defaults
-  const std::string preset = args.get("drift", "moderate");
-  if (preset == "strong") {
-    drift.scale_bias *= 2, drift.heading_drift *= 2, drift.noise_translation *= 2, drift.noise_rotation *= 2, drift.noise_fraction *= 2;
-  } else if (preset != "moderate") {
-    throw ToolError("--drift must be 'moderate' or 'strong', not '" + preset + "'");
-  }
-  drift.scale_bias = args.number("drift-scale-bias", drift.scale_bias);
-  drift.heading_drift = args.number("drift-heading", drift.heading_drift);
-  drift.noise_translation = args.number("drift-noise-m", drift.noise_translation);
-  drift.noise_rotation = args.number("drift-noise-rad", drift.noise_rotation);
-  drift.noise_fraction = args.number("drift-noise-share", drift.noise_fraction);
-  const long seed = args.integer("drift-seed", 1);
-  if (seed < 0) throw ToolError("--drift-seed must be zero or more");
-  drift.seed = std::uint64_t(seed);
-  const std::string invalid = drift.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
-  return drift;
-}
 
 }  // namespace
 
@@ -315,6 +289,8 @@ int runSlam(const Args& args) {
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"
+         << "classifier_threshold=" << c.classifier_threshold << "  (K at the end; loops/calibration moves it)\n"
+         << "calibration_pairs=" << c.calibration_pairs << "\n"
          << "candidates_not_aligned=" << c.not_aligned << "  (the place gate: the back end says not one place)\n"
          << "aligned=" << c.aligned << "\n"
          << "loops_accepted=" << c.loops_accepted << "\n"

@@ -45,8 +45,9 @@ const std::vector<Command>& commands() {
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
-                  "ablation-repeats", "target-false-alarm", "false-alarm-negatives"},
-                 with(kFeatureFlags, llc_tool::kAlignerFlags)),
+                  "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",
+                  "calibration-min-distance", "calibration-drift-per-metre", "calibration-max-path"},
+                 with(with(kFeatureFlags, llc_tool::kAlignerFlags), llc_tool::kDriftFlags)),
             kInputFlags),
        with({"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"}, kFeatureSwitches),
        "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
@@ -55,7 +56,10 @@ const std::vector<Command>& commands() {
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
-       "      (each log scored by a model, stumps and K, trained on the other logs only)"},
+       "      [--calibration-pairs 0 [--calibration-min-distance 10] [--calibration-drift-per-metre 0.3]\n"
+       "       [--calibration-max-path 50] [--drift moderate|strong ...]]\n"
+       "      (each log scored by a model, stumps and K, trained on the other logs only; with calibration\n"
+       "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
       {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},

@@ -164,4 +164,31 @@ void ensureDirectory(const std::string& path) {
     throw ToolError(path + ": not a folder");
 }
 
+const std::vector<std::string> kDriftFlags = {"drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+                                              "drift-noise-rad", "drift-noise-share", "drift-seed"};
+
+std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
+  bool any = false;
+  for (const std::string& f : kDriftFlags) any = any || args.has(f);
+  if (!any) return std::nullopt;
+  llc::OdometryDrift drift;  // moderate: the defaults
+  const std::string preset = args.get("drift", "moderate");
+  if (preset == "strong") {
+    drift.scale_bias *= 2, drift.heading_drift *= 2, drift.noise_translation *= 2, drift.noise_rotation *= 2, drift.noise_fraction *= 2;
+  } else if (preset != "moderate") {
+    throw ToolError("--drift must be 'moderate' or 'strong', not '" + preset + "'");
+  }
+  drift.scale_bias = args.number("drift-scale-bias", drift.scale_bias);
+  drift.heading_drift = args.number("drift-heading", drift.heading_drift);
+  drift.noise_translation = args.number("drift-noise-m", drift.noise_translation);
+  drift.noise_rotation = args.number("drift-noise-rad", drift.noise_rotation);
+  drift.noise_fraction = args.number("drift-noise-share", drift.noise_fraction);
+  const long seed = args.integer("drift-seed", 1);
+  if (seed < 0) throw ToolError("--drift-seed must be zero or more");
+  drift.seed = std::uint64_t(seed);
+  const std::string invalid = drift.validate();
+  if (!invalid.empty()) throw ToolError(invalid);
+  return drift;
+}
+
 }  // namespace llc_tool

@@ -3,12 +3,14 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "laser_loop_closure/core/adaboost.hpp"
 #include "laser_loop_closure/core/features.hpp"
+#include "laser_loop_closure/core/odometry_drift.hpp"
 #include "laser_loop_closure/core/pair_labeling.hpp"
 #include "laser_loop_closure/core/scan_sequence.hpp"
 #include "laser_loop_closure/ros/drive_input.hpp"
@@ -62,5 +64,12 @@ std::string defaultModelPath();
 std::string configFilePath(const std::string& name);
 
 void ensureDirectory(const std::string& path);
+
+/// The flags odometryDrift reads.
+extern const std::vector<std::string> kDriftFlags;
+/// --drift moderate|strong and --drift-* (each overrides the preset; any of them alone starts
+/// from moderate): the odometry degraded before use, for logs whose odometry is perfect.
+/// Nothing when no drift flag is given.
+std::optional<llc::OdometryDrift> odometryDrift(const Args& args);
 
 }  // namespace llc_tool

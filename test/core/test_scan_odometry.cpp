@@ -125,3 +125,35 @@ TEST(ScanOdometry, PredictionOptionsAreValidated) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(ScanOdometry, TheFrontEndFeedsTheCalibrationPairsItsOwnOdometryPutsSurelyApart) {
+  // 140 m of straight corridor, a keyframe every 1.4 m: keyframes 15+ m apart and at most 50 m
+  // driven apart are surely two places by the front end's own odometry.
+  for (const bool enabled : {true, false}) {
+    llc::LoopDetectorOptions loops;
+    loops.calibration.enabled = enabled;
+    loops.calibration.min_pairs = 200;
+    llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, loops);
+    const std::vector<Wall> walls = corridor();
+    for (int k = 0; k <= 200; ++k) {
+      llc::Scan scan = corridorScan(walls, k);
+      scan.stamp = 100.0 + 0.1 * k;
+      const llc::FrontEndStep step = front.addScan(scan, nullptr);
+      if (step.keyframe) front.detectLoops(step.keyframe_index);
+    }
+    const std::size_t pairs = front.counters().calibration_pairs;
+    if (!enabled) {
+      EXPECT_EQ(pairs, 0u);
+      EXPECT_DOUBLE_EQ(front.detector().threshold(), llc_test::defaultModel().classifier.thresholdK());
+      continue;
+    }
+    EXPECT_GT(pairs, 200u);
+    EXPECT_LE(pairs, loops.calibration.pairs_per_keyframe * front.keyframeCount());
+    EXPECT_EQ(front.detector().calibrator().seen(), pairs);
+    EXPECT_TRUE(front.detector().calibrator().calibrated());
+  }
+}
+
+}  // namespace

@@ -403,6 +403,49 @@ TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
   EXPECT_THROW(detector.setModel(other), std::invalid_argument);
 }
 
+TEST(LoopDetector, CalibrationSetsKFromTheScoresOfSurelyDifferentPairs) {
+  llc::SimDriveOptions drive_options;
+  drive_options.length_m = 80.0;
+  const llc::SimWorld world(llc::simWorldOptions(drive_options));
+  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  llc::LoopDetectorOptions options;
+  options.calibration.enabled = true;
+  options.calibration.min_pairs = 30;
+  options.calibration.target_false_alarm = 0.1;
+  llc::LoopDetector detector(defaultModel(), llc::ScanAlignerOptions{}, options);
+  for (std::size_t i = 0; i < drive.frames.size(); i += 3) detector.add(frameScan(drive, drive.frames[i]));
+  ASSERT_GE(detector.size(), 20u);
+  const double model_k = defaultModel().classifier.thresholdK();
+  EXPECT_DOUBLE_EQ(detector.threshold(), model_k);
+  // Keyframe q against the ten oldest, for q = 10, 11, 12: 30 pairs, then K is their 90% quantile.
+  std::vector<double> fed;
+  for (std::size_t q = 10; q < 13; ++q) {
+    std::vector<std::size_t> others(10);
+    for (std::size_t j = 0; j < 10; ++j) others[j] = j, fed.push_back(detector.pairScore(j, q));
+    EXPECT_EQ(detector.calibrate(q, others), 10u);
+    if (q < 12) EXPECT_DOUBLE_EQ(detector.threshold(), model_k) << "too few pairs yet";
+  }
+  EXPECT_EQ(detector.calibrator().seen(), 30u);
+  EXPECT_DOUBLE_EQ(detector.threshold(), llc::thresholdForFalseAlarm(fed, 0.1));
+  // pairScore is the score detect() gives the pair.
+  const llc::LoopDetectionResult result = detector.detect(detector.size() - 1);
+  for (const llc::LoopClosure& loop : result.aligned)
+    EXPECT_NEAR(loop.score, detector.pairScore(loop.from, loop.to), 1e-5);
+  // A new model: the scores were the old model's, so the calibration starts again.
+  detector.setModel(defaultModel());
+  EXPECT_EQ(detector.calibrator().seen(), 0u);
+  EXPECT_DOUBLE_EQ(detector.threshold(), model_k);
+  // A threshold set by hand is never overridden.
+  options.score_threshold = 0.3;
+  llc::LoopDetector fixed(defaultModel(), llc::ScanAlignerOptions{}, options);
+  for (std::size_t i = 0; i < 13; ++i) fixed.add(frameScan(drive, drive.frames[3 * i]));
+  for (std::size_t q = 10; q < 13; ++q) fixed.calibrate(q, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9});
+  EXPECT_TRUE(fixed.calibrator().calibrated());
+  EXPECT_DOUBLE_EQ(fixed.threshold(), 0.3);
+  options.calibration.max_path = -1.0;
+  EXPECT_THROW(llc::LoopDetector(defaultModel(), llc::ScanAlignerOptions{}, options), std::invalid_argument);
+}
+
 TEST(LoopDetector, ParameterCovarianceOfALeftPerturbation) {
   // A pure rotation d_theta about the target origin moves a pose at (2, 0) by (0, 2 d_theta).
   Eigen::Matrix3d c = Eigen::Matrix3d::Zero();

@@ -26,6 +26,12 @@ struct HeldOutLog {
   double detection_at_1pct = 0.0;     ///< best detection with <= 1% false alarm on this log (oracle K)
   double detection_at_0pct = 0.0;     ///< best detection with no false alarm on this log (oracle K)
   double auc = 0.0;
+  // With calibration pairs (ThresholdCalibration): K fitted on the held-out log's own
+  // surely-different pairs (by its odometry, no label), and what that K gives.
+  std::size_t calibration_pairs = 0;
+  double calibrated_k = 0.0;
+  double detection_at_calibrated_k = 0.0;
+  double realised_false_alarm_calibrated = 0.0;  ///< over the same negatives as realised_false_alarm
   std::vector<double> scores;         ///< each pair's score, in the log's row order
 };
 
@@ -35,6 +41,8 @@ struct LeaveOneLogOutResult {
   double mean_detection_at_1pct = 0.0, mean_detection_at_0pct = 0.0, mean_auc = 0.0;
   double mean_detection_at_k = 0.0, mean_realised_false_alarm = 0.0;
   double worst_realised_false_alarm = 0.0;  ///< the largest over the logs
+  double mean_detection_at_calibrated_k = 0.0, mean_realised_false_alarm_calibrated = 0.0;
+  double best_realised_false_alarm_calibrated = 0.0, worst_realised_false_alarm_calibrated = 0.0;  ///< smallest, largest
 };
 
 /// Fits a classifier (stumps and K) on a training set. It must see nothing but its argument.
@@ -45,7 +53,13 @@ using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& train
 /// extra_negatives (optional, one set per log, label 0): more negatives of that log, scored
 /// only for its realised false-alarm rate (a balanced set of 35 negatives cannot tell 1% from
 /// 2.9%); never used for fitting.
+/// calibration_pairs (optional, one set per log, labels ignored): pairs of that log that its
+/// own odometry says are surely two places (sampleSurelyDifferentPairs); the held-out model's
+/// K is fitted again on their scores for calibration_false_alarm (thresholdForFalseAlarm), as
+/// a robot would in that building, and scored like the model's own K.
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
-                                    const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives = nullptr);
+                                    const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives = nullptr,
+                                    const std::vector<TrainingSet>* calibration_pairs = nullptr,
+                                    double calibration_false_alarm = 0.01);
 
 }  // namespace llc

@@ -13,6 +13,7 @@
 #include "laser_loop_closure/core/features.hpp"
 #include "laser_loop_closure/core/keyframe_store.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/threshold_calibration.hpp"
 
 namespace llc {
 
@@ -26,6 +27,9 @@ struct LoopDetectorOptions {
   /// optimistic): standard deviations, as the back end's chi-square gate sees them.
   double translation_sigma = 0.05;  ///< m
   double rotation_sigma = 0.01;     ///< rad
+  /// K fitted again in this building from surely-different keyframe pairs (used only when
+  /// score_threshold is 0, i.e. the model's K would be used).
+  ThresholdCalibrationOptions calibration{};
   std::string validate() const;
 };
 
@@ -84,7 +88,19 @@ class LoopDetector {
   std::vector<double> describe(const Scan& scan) { return extractor_.extract(scan); }
   const PreparedScan& prepared(std::size_t index) const { return *prepared_.at(index); }
   /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
+  /// The calibration starts again (its scores were the old model's).
   void setModel(const ClassifierModel& model);
+
+  /// The classifier's score of keyframe `query` against keyframe `stored`, as detect() scores
+  /// it. Throws std::out_of_range.
+  double pairScore(std::size_t stored, std::size_t query) const;
+  /// Feeds the calibration the scores of keyframe `index` against `surely_elsewhere` (older
+  /// keyframes the odometry puts surely at other places) and applies the calibrated K when
+  /// score_threshold is 0. Returns how many pairs were scored.
+  std::size_t calibrate(std::size_t index, const std::vector<std::size_t>& surely_elsewhere);
+  /// The K candidates must reach now.
+  double threshold() const { return classifier_.thresholdK(); }
+  const ThresholdCalibrator& calibrator() const { return calibrator_; }
 
  private:
   ClassifierModel model_;
@@ -94,6 +110,7 @@ class LoopDetector {
   FeatureExtractor extractor_;
   KeyframeStore store_;
   std::vector<std::shared_ptr<const PreparedScan>> prepared_;
+  ThresholdCalibrator calibrator_;
 };
 
 /// A covariance of a small motion applied in the target frame (ICP's) as the covariance of

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/slam_back_end.hpp"
 #include "laser_loop_closure/core/scan_odometry.hpp"
 
@@ -22,6 +23,7 @@ struct FrontEndCounters {
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment
+  std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0;
 };
 
@@ -82,6 +84,16 @@ class SlamFrontEnd {
   // the robot's frame; zero after a restore) and the stamp of the last scan used.
   Pose2 velocity_;
   double last_scan_stamp_ = 0.0;
+  // The threshold calibration's view of the drive: each keyframe's pose by this front end's
+  // own odometry and the length driven to it. Keyframes before chain_start_ (a restored
+  // session) have no place in this chain.
+  std::vector<Pose2> chain_;
+  std::vector<double> path_;
+  std::size_t chain_start_ = 0;
+  Random calibration_random_{1};
+  /// Older keyframes of this chain that the odometry puts surely elsewhere than `index` (at
+  /// most calibration.pairs_per_keyframe, drawn at random when there are more).
+  std::vector<std::size_t> surelyElsewhere(std::size_t index);
 };
 
 }  // namespace llc

@@ -63,6 +63,14 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/threads", loops.threads);
   visit("loops/translation_sigma", loops.translation_sigma);
   visit("loops/rotation_sigma", loops.rotation_sigma);
+  visit("loops/calibration/enabled", loops.calibration.enabled);
+  visit("loops/calibration/target_false_alarm", loops.calibration.target_false_alarm);
+  visit("loops/calibration/min_distance", loops.calibration.min_distance);
+  visit("loops/calibration/drift_per_metre", loops.calibration.drift_per_metre);
+  visit("loops/calibration/max_path", loops.calibration.max_path);
+  visit("loops/calibration/min_pairs", loops.calibration.min_pairs);
+  visit("loops/calibration/max_pairs", loops.calibration.max_pairs);
+  visit("loops/calibration/pairs_per_keyframe", loops.calibration.pairs_per_keyframe);
 
   ScanAlignerOptions& aligner = options.slam.aligner;
   visit("aligner/max_range", aligner.max_range);

@@ -44,6 +44,8 @@ struct SlamCounters {
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
   std::size_t not_aligned = 0;           ///< candidates the place gate kept from alignment
+  std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
+  double classifier_threshold = 0.0;     ///< the K candidates must reach now (calibrated or not)
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0, seconds_backend = 0.0;
 };
 
