@@ -43,7 +43,8 @@ LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const 
       if (extra.size() && extra.dimension != test.dimension) throw std::invalid_argument("leave-one-log-out: extra negatives of another dimension");
       for (std::size_t i = 0; i < extra.size(); ++i) {
         if (extra.labels[i] != 0) throw std::invalid_argument("leave-one-log-out: an extra negative labelled 1");
-        negative_scores.push_back(model.score(extra.row(i)));
+        out.extra_scores.push_back(model.score(extra.row(i)));
+        negative_scores.push_back(out.extra_scores.back());
       }
     }
     out.false_alarm_negatives = negative_scores.size();

@@ -1,5 +1,6 @@
 // llc evaluate: the paper's section V on labelled pairs.
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -93,12 +94,14 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   const long extra_count = args.integer("false-alarm-negatives", 0);
   if (extra_count < 0) throw ToolError("--false-alarm-negatives must be zero or more");
   std::vector<llc::TrainingSet> extra;
+  std::vector<std::vector<llc::LabeledPair>> extra_pairs;
   for (const PairData& item : data) {
     std::vector<llc::Pose2> truth;
     for (const llc::LoggedScan& s : item.sequence.scans) truth.push_back(s.truth);
     const std::vector<llc::LabeledPair> negatives =
         llc::sampleNegativePairs(truth, llc::PairLabelingOptions{}.negative_min_distance, std::size_t(extra_count), training.seed);
     extra.push_back(llc::pairTrainingSet(item.features, negatives, features.feature_set));
+    extra_pairs.push_back(negatives);
   }
   // --calibration-pairs N: K fitted again per held-out log on N pairs its own odometry (drifted
   // with --drift*, else as logged) says are surely two places (ThresholdCalibration).
@@ -131,6 +134,42 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     std::cerr << "llc evaluate: model " << ++fitted << " of " << logs.size() << " (" << set.size() << " pairs)\n";
     return llc::trainClassifierModel(set, features, training).model.classifier;
   }, &extra, calibration_count ? &calibration_sets : nullptr, calibration.target_false_alarm);
+  // --validate: the loop stage held out. Each pair the held-out model's own K lets through
+  // (labelled pairs and extra negatives) is aligned and shape-validated, as a robot would;
+  // alignment fits nothing, so it needs no holding out itself.
+  struct StageCounts {
+    std::size_t positives_passed = 0, positives_confirmed = 0, negatives_passed = 0, negatives_accepted = 0;
+  };
+  std::vector<StageCounts> stage(data.size());
+  if (args.has("validate")) {
+    const llc::ScanAligner aligner(alignerOptions(args));
+    std::ofstream stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
+    stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,reject_reason\n";
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      const llc::HeldOutLog& log = result.logs[i];
+      PreparedScanCache prepared(aligner, data[i].sequence);
+      const std::vector<llc::LoggedScan>& scans = data[i].sequence.scans;
+      auto accepted = [&](const llc::LabeledPair& p, bool extra_pair, double score) {
+        const llc::ScanAlignmentResult a = aligner.align(*prepared.get(p.a), *prepared.get(p.b));
+        const llc::ShapeValidationResult& v = a.validation;
+        stage_csv << log.name << ',' << p.a << ',' << p.b << ',' << p.label << ',' << extra_pair << ',' << score << ','
+                  << a.accepted << ',' << v.inlier_share << ',' << v.seen_through_share << ',' << v.position_std << ','
+                  << std::hypot(scans[p.b].truth.x - scans[p.a].truth.x, scans[p.b].truth.y - scans[p.a].truth.y) << ",\""
+                  << a.reject_reason << "\"\n";
+        return a.accepted;
+      };
+      for (std::size_t r = 0; r < data[i].pairs.size(); ++r) {
+        if (log.scores[r] < log.k) continue;
+        const llc::LabeledPair& p = data[i].pairs[r];
+        if (p.label == 1) ++stage[i].positives_passed, stage[i].positives_confirmed += accepted(p, false, log.scores[r]);
+        else ++stage[i].negatives_passed, stage[i].negatives_accepted += accepted(p, false, log.scores[r]);
+      }
+      for (std::size_t r = 0; r < extra_pairs[i].size(); ++r)
+        if (log.extra_scores[r] >= log.k)
+          ++stage[i].negatives_passed, stage[i].negatives_accepted += accepted(extra_pairs[i][r], true, log.extra_scores[r]);
+      std::cerr << "llc evaluate: loop stage on " << log.name << " done\n";
+    }
+  }
   std::ofstream csv = openCsv(out_dir + "/leave_one_log_out.csv");
   csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,"
          "detection_at_0pct_fa,auc,calibration_pairs,calibrated_k,detection_at_calibrated_k,realised_false_alarm_calibrated\n";
@@ -148,11 +187,28 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
       << " (of " << log.false_alarm_negatives << " negatives)"
       << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
       << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc;
+    if (args.has("validate")) {
+      const StageCounts& c = stage[&log - result.logs.data()];
+      s << " stage_true_confirmed=" << c.positives_confirmed << "/" << log.positives << " (" << c.positives_passed
+        << " passed K) stage_false_accepted=" << c.negatives_accepted << "/" << c.negatives_passed << " (of "
+        << log.false_alarm_negatives << " negatives)";
+    }
     if (log.calibration_pairs)
       s << " calibration_pairs=" << log.calibration_pairs << " calibrated_k=" << log.calibrated_k
         << " realised_false_alarm_calibrated=" << log.realised_false_alarm_calibrated
         << " detection_at_calibrated_k=" << log.detection_at_calibrated_k;
     s << "\n";
+  }
+  if (args.has("validate")) {
+    StageCounts total;
+    std::size_t positives = 0;
+    for (std::size_t i = 0; i < stage.size(); ++i) {
+      total.positives_confirmed += stage[i].positives_confirmed, total.negatives_accepted += stage[i].negatives_accepted;
+      total.negatives_passed += stage[i].negatives_passed, positives += result.logs[i].positives;
+    }
+    s << "loop_stage_held_out: true_pairs_confirmed=" << total.positives_confirmed << "/" << positives
+      << " false_pairs_accepted=" << total.negatives_accepted << " (of " << total.negatives_passed
+      << " negatives that passed K)\n";
   }
   if (calibration_count)
     s << "calibration: min_distance=" << calibration.min_distance << " drift_per_metre=" << calibration.drift_per_metre
@@ -285,6 +341,8 @@ int runEvaluate(const Args& args) {
   std::ostringstream validated_text;
   if (args.has("validate")) {
     const llc::ScanAligner aligner(alignerOptions(args));
+    std::ofstream stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
+    stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,reject_reason\n";
     const std::vector<char> accepted = validateAll(data, aligner);
     std::vector<llc::CrossValidationRun> validated = runs;
     std::size_t negatives_called = 0, negatives_refused = 0;

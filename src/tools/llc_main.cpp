@@ -58,6 +58,7 @@ const std::vector<Command>& commands() {
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
        "      [--calibration-pairs 0 [--calibration-min-distance 10] [--calibration-drift-per-metre 0.3]\n"
        "       [--calibration-max-path 50] [--drift moderate|strong ...]]\n"
+       "      [--validate [alignment options]]   (the loop stage held out: pairs at or above K aligned, validated)\n"
        "      (each log scored by a model, stumps and K, trained on the other logs only; with calibration\n"
        "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
