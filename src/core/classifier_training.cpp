@@ -99,4 +99,13 @@ TrainingSet keyframeTrainingSet(const std::vector<std::vector<double>>& keyframe
   return pairTrainingSet(keyframe_features, labelled.pairs, feature_set);
 }
 
+TrainingSet selfLabelledTrainingSet(const std::vector<std::vector<double>>& keyframe_features,
+                                    const std::vector<Pose2>& optimised_poses, FeatureSet feature_set,
+                                    bool full_circle, std::size_t min_keyframe_gap, std::vector<LabeledPair>* pairs) {
+  PairLabelingOptions labeling;
+  labeling.full_circle = full_circle;
+  labeling.min_index_gap = min_keyframe_gap;
+  return keyframeTrainingSet(keyframe_features, optimised_poses, feature_set, labeling, pairs);
+}
+
 }  // namespace llc

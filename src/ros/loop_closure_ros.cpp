@@ -268,12 +268,10 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
       const std::size_t n = std::min(optimised_poses_.size(), front_->keyframeCount());
       std::vector<std::vector<double>> features;
       for (std::size_t k = 0; k < n; ++k) features.push_back(front_->detector().features(k));
-      llc::PairLabelingOptions labeling;
-      labeling.full_circle = keyframes_full_circle_;
-      labeling.min_index_gap = system_.slam.loops.min_keyframe_gap;
       const std::vector<llc::Pose2> poses(optimised_poses_.begin(), optimised_poses_.begin() + long(n));
       try {
-        session = llc::keyframeTrainingSet(features, poses, running.features.feature_set, labeling);
+        session = llc::selfLabelledTrainingSet(features, poses, running.features.feature_set, keyframes_full_circle_,
+                                               system_.slam.loops.min_keyframe_gap);
       } catch (const std::exception& e) {
         response.message = std::string("not trained: ") + e.what();
         return true;

@@ -8,6 +8,8 @@
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
+#include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/session_io.hpp"
 
 namespace llc_tool {
 
@@ -15,8 +17,36 @@ int runTrain(const Args& args) {
   const std::string model_path = args.required("model");
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<std::string> specs = args.all("data");
-  const std::vector<PairData> data = loadPairData(specs, features, args);
-  const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
+  const std::vector<PairData> data =
+      specs.empty() && args.has("from-session") ? std::vector<PairData>{} : loadPairData(specs, features, args);
+  llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
+  // --from-session S (any number): self-training, the session's keyframe pairs labelled by
+  // its optimised map added to the labelled pairs (the session's features must be this set's).
+  const long min_gap = args.integer("min-keyframe-gap", long(llc::LoopDetectorOptions{}.min_keyframe_gap));
+  if (min_gap < 1) throw ToolError("--min-keyframe-gap must be at least 1");
+  std::ostringstream session_text;
+  for (const std::string& path : args.all("from-session")) {
+    llc::SlamSession session;
+    try {
+      session = llc::loadSession(path);
+    } catch (const llc::SessionError& e) {
+      throw ToolError(e.what());
+    }
+    if (!session.features.empty() && session.features.front().size() != llc::featureCount(features.feature_set))
+      throw ToolError(path + ": its keyframe features are not those of --features " + llc::toString(features.feature_set));
+    bool full_circle = true;
+    for (const llc::Keyframe& k : session.keyframes) full_circle = full_circle && k.scan.full_circle;
+    std::vector<llc::LabeledPair> pairs;
+    const llc::TrainingSet own = llc::selfLabelledTrainingSet(session.features, session.poses, features.feature_set,
+                                                              full_circle, std::size_t(min_gap), &pairs);
+    std::size_t positives = 0;
+    for (const llc::LabeledPair& p : pairs) positives += p.label == 1;
+    set.append(own);
+    std::cout << "session " << path << ": " << session.keyframes.size() << " keyframes, " << positives << " positive and "
+              << pairs.size() - positives << " negative pairs labelled by its optimised map\n";
+    session_text << (session_text.tellp() ? " " : "") << path;
+  }
+  if (set.size() == 0) throw ToolError("no training pairs: give --data LOG:PAIRS and/or --from-session SESSION");
 
   llc::ClassifierTrainingOptions options;
   options.rounds = int(args.integer("rounds", options.rounds));
@@ -34,6 +64,7 @@ int runTrain(const Args& args) {
   std::ostringstream data_text;
   for (const std::string& spec : specs) data_text << (data_text.tellp() ? " " : "") << spec;
   model.provenance["data"] = data_text.str();
+  if (session_text.tellp()) model.provenance["self_training_sessions"] = session_text.str();
   if (args.has("k")) {
     const double k = args.number("k", 0.5);
     if (!(k >= 0.0 && k <= 1.0)) throw ToolError("--k must lie in [0, 1]");
@@ -61,7 +92,8 @@ int runScore(const Args& args) {
   std::ofstream out(out_path);
   if (!out) throw ToolError(out_path + ": cannot write");
   out << "a,b,label,score\n" << std::setprecision(17);
-  std::vector<double> row;
+  std::vector<double> row, scores;
+  std::vector<int> labels;
   std::size_t matches = 0, total = 0;
   for (const PairData& item : data)
     for (const llc::LabeledPair& p : item.pairs) {
@@ -69,10 +101,14 @@ int runScore(const Args& args) {
       const double score = model.classifier.score(row.data());
       matches += score >= model.classifier.thresholdK();
       ++total;
+      scores.push_back(score), labels.push_back(p.label);
       out << p.a << ',' << p.b << ',' << p.label << ',' << score << '\n';
     }
+  if (!out) throw ToolError(out_path + ": write failed");
   std::cout << "pairs=" << total << " matches=" << matches << " (K=" << model.classifier.thresholdK()
-            << ", model " << model_path << ") -> " << out_path << "\n";
+            << ", model " << model_path << ") -> " << out_path << "\n"
+            << "detection_at_1pct_fa=" << llc::detectionAtFalseAlarm(scores, labels, 0.01)
+            << " auc=" << llc::areaUnderCurve(scores, labels) << "  (best threshold on these pairs)\n";
   return 0;
 }
 

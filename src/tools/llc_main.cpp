@@ -38,11 +38,15 @@ const std::vector<Command>& commands() {
        "features --log LOG --out FEATURES.csv [--features paper|extended] [--r-max 50]\n"
        "      [--g-max-dist 2.5] [--g-min-size 3] [--open-ring]"},
       {"train", llc_tool::runTrain,
-       with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed"}, kFeatureFlags),
+       with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
+                  "min-keyframe-gap"},
+                 kFeatureFlags),
             kInputFlags),
        kFeatureSwitches,
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
-       "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]"},
+       "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]\n"
+       "      [--from-session SESSION [--min-keyframe-gap 30]]   (self-training: adds the session's keyframe\n"
+       "       pairs labelled by its optimised map; --data may then be left out)"},
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
                   "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",

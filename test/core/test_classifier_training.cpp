@@ -107,4 +107,38 @@ TEST(ClassifierTraining, BadInputIsRefusedWithAReason) {
   EXPECT_THROW(llc::pairTrainingSet({std::vector<double>(20)}, {{0, 3, 1}}, kSet), std::out_of_range);
 }
 
+TEST(SelfLabelledTrainingSet, NeverLabelsTwoKeyframesCloserThanTheGapAsARevisit) {
+  // A robot that stands still for 40 keyframes, drives 30 m away and comes back: every pair of
+  // the standing keyframes is at one place, but only pairs at least the gap apart may be
+  // positives (closer ones are odometry neighbours, not revisits).
+  std::vector<llc::Pose2> poses;
+  for (int k = 0; k < 40; ++k) poses.push_back({0.0, 0.0, 0.0});
+  for (int k = 1; k <= 30; ++k) poses.push_back({double(k), 0.0, 0.0});
+  for (int k = 29; k >= 0; --k) poses.push_back({double(k), 0.0, M_PI});
+  std::vector<std::vector<double>> features(poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) features[k] = std::vector<double>(llc::featureCount(kSet), double(k));
+  for (const std::size_t gap : {std::size_t(10), std::size_t(30)}) {
+    for (const bool full_circle : {false, true}) {
+      std::vector<llc::LabeledPair> pairs;
+      const llc::TrainingSet set = llc::selfLabelledTrainingSet(features, poses, kSet, full_circle, gap, &pairs);
+      ASSERT_EQ(set.size(), pairs.size());
+      std::size_t positives = 0;
+      for (const llc::LabeledPair& p : pairs) {
+        const double distance = std::hypot(poses[p.b].x - poses[p.a].x, poses[p.b].y - poses[p.a].y);
+        if (p.label == 1) {
+          ++positives;
+          EXPECT_GE(p.b - p.a, gap) << p.a << "-" << p.b;
+          EXPECT_LT(distance, 1.5);
+          // Partial scans: the way back (heading pi) never matches the way out (heading 0).
+          if (!full_circle) EXPECT_LT(std::abs(poses[p.b].theta - poses[p.a].theta), M_PI / 4);
+        } else {
+          EXPECT_GT(distance, 10.0);
+        }
+      }
+      EXPECT_GT(positives, 0u);
+      EXPECT_EQ(2 * positives, pairs.size()) << "balanced";
+    }
+  }
+}
+
 }  // namespace

@@ -53,4 +53,14 @@ TrainingSet keyframeTrainingSet(const std::vector<std::vector<double>>& keyframe
                                 const std::vector<Pose2>& poses, FeatureSet feature_set,
                                 const PairLabelingOptions& labeling, std::vector<LabeledPair>* pairs = nullptr);
 
+/// Self-training: the robot's own keyframe pairs labelled by its optimised map (keyframe
+/// pairs the map puts within the labelling radius and heading are positives, pairs far apart
+/// negatives), never two keyframes fewer than min_keyframe_gap apart in index as a positive
+/// (those are odometry neighbours, not revisits). full_circle: every keyframe scan covers 360
+/// degrees (then any heading may be a positive).
+TrainingSet selfLabelledTrainingSet(const std::vector<std::vector<double>>& keyframe_features,
+                                    const std::vector<Pose2>& optimised_poses, FeatureSet feature_set,
+                                    bool full_circle, std::size_t min_keyframe_gap,
+                                    std::vector<LabeledPair>* pairs = nullptr);
+
 }  // namespace llc

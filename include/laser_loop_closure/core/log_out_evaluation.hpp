@@ -33,6 +33,7 @@ struct HeldOutLog {
   double detection_at_calibrated_k = 0.0;
   double realised_false_alarm_calibrated = 0.0;  ///< over the same negatives as realised_false_alarm
   std::vector<double> scores;         ///< each pair's score, in the log's row order
+  std::vector<double> extra_scores;   ///< each extra negative's score, in its row order
 };
 
 struct LeaveOneLogOutResult {
