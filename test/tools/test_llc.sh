@@ -84,6 +84,11 @@ check "align: global-search-below out of range" 1 "global_search_below must be i
 check "align: min-relative-overlap out of range" 1 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --min-relative-overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align: icp-fixed-pairs-after below 1" 1 "fixed_pairs_after must be >= 1" -- "$LLC" align --icp-fixed-pairs-after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
+check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "^session .*: [0-9]+ keyframes, [1-9][0-9]* positive and [1-9][0-9]* negative pairs labelled by its optimised map$" -- "$LLC" train --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self.yaml" --rounds 20 --repeats 1
+check "train --from-session beside --data" 0 "^pairs=(1[3-9][0-9]|[2-9][0-9]{2}|[0-9]{4,}) " -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self2.yaml" --rounds 20 --repeats 1
+printf 'not a session' > "$TMP/corrupt.llcsession"
+check "train --from-session refuses a corrupt session" 1 "corrupt.llcsession" -- "$LLC" train --from-session "$TMP/corrupt.llcsession" --model "$TMP/sim/self3.yaml"
+check "score prints detection at 1% FA" 0 "^detection_at_1pct_fa=[0-9.]+ auc=[0-9.]+" -- "$LLC" score --model "$TMP/sim/self.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/self_scores.csv"
 check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/crf.yaml" --epochs 2
 check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
 check "align: corrupt CRF weights" 1 "bad.yaml: not a laser_loop_closure CRF weights file" -- "$LLC" align --crf-weights "$TMP/bad.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a5.csv"
