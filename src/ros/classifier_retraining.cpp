@@ -38,6 +38,10 @@ RetrainingOutcome retrainClassifier(const laser_loop_closure::TrainClassifier::R
         set.append(part);
         data_text += (data_text.empty() ? "" : " ") + spec;
       }
+      if (request.with_session) {
+        set.append(session);
+        data_text += " + " + session_text;
+      }
     }
     response.pairs = set.size();
     llc::ClassifierTrainingResult trained = llc::trainClassifierModel(set, running.features, options);

@@ -263,7 +263,7 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
   {
     std::lock_guard<std::mutex> lock(mutex_);
     running = front_->detector().model();
-    if (request.data.empty()) {
+    if (request.data.empty() || request.with_session) {
       // Keyframes the back end has placed (the path may lag a keyframe or two behind).
       const std::size_t n = std::min(optimised_poses_.size(), front_->keyframeCount());
       std::vector<std::vector<double>> features;

@@ -78,6 +78,15 @@ TEST(ClassifierRetraining, PairsFromALogFileAndBadRequestsAreAnswered) {
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_EQ(r.pairs, pairs.size());
   EXPECT_EQ(llc::loadClassifierModel(dir.file("from_log.yaml")).provenance.at("data"), request.data[0]);
+  // with_session: the session's pairs beside the file's (self-training).
+  const llc::TrainingSet session = circleSession();
+  request.with_session = true;
+  request.model_path = dir.file("with_session.yaml");
+  r = llc_ros::retrainClassifier(request, running, session, "session: test", "unused.yaml").response;
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.pairs, pairs.size() + session.size());
+  EXPECT_EQ(llc::loadClassifierModel(dir.file("with_session.yaml")).provenance.at("data"), request.data[0] + " + session: test");
+  request.with_session = false;
 
   request.data = {dir.file("missing.log") + ":" + dir.file("pairs.csv")};
   r = llc_ros::retrainClassifier(request, running, no_session, "", "unused.yaml").response;
