@@ -30,6 +30,14 @@ const double kInf = std::numeric_limits<double>::infinity();
 using llc_test::defaultModel;
 using llc_test::frameScan;
 
+/// The simulated drive through the default world, length_m of route.
+llc::SimDrive simulatedDrive(double length_m) {
+  llc::SimDriveOptions options;
+  options.length_m = length_m;
+  const llc::SimWorld world(llc::simWorldOptions(options));
+  return llc::simulateDrive(world, options);
+}
+
 TEST(TrajectoryError, RigidlyMovedCopyHasNoErrorAndTheMotionIsFound) {
   const std::vector<llc::Pose2> truth = {{0, 0, 0}, {1, 0, 0.1}, {2, 1, 0.5}, {1, 3, 2.0}};
   const llc::Pose2 motion{3.0, -2.0, 0.7};
@@ -341,10 +349,7 @@ TEST(SlamPipeline, OptionsAreValidatedOnce) {
 }
 
 TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
-  llc::SimDriveOptions drive_options;
-  drive_options.length_m = 80.0;
-  const llc::SimWorld world(llc::simWorldOptions(drive_options));
-  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  const llc::SimDrive drive = simulatedDrive(80.0);
   llc::LoopDetectorOptions options;
   options.min_keyframe_gap = 5;
   options.stop_at_first_accepted = false;
@@ -405,10 +410,7 @@ TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
 }
 
 TEST(LoopDetector, CalibrationSetsKFromTheScoresOfSurelyDifferentPairs) {
-  llc::SimDriveOptions drive_options;
-  drive_options.length_m = 80.0;
-  const llc::SimWorld world(llc::simWorldOptions(drive_options));
-  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  const llc::SimDrive drive = simulatedDrive(80.0);
   llc::LoopDetectorOptions options;
   options.calibration.enabled = true;
   options.calibration.min_pairs = 30;
@@ -452,10 +454,7 @@ TEST(LoopDetector, TheDefaultModelKnowsAPlaceAtHalfTheBeams) {
   // beams over 180 degrees): a model must not depend on the beam count. The front scanner of
   // the simulated drive (361 beams) against the same scan with every second beam (181 beams,
   // twice the step) must be one place.
-  llc::SimDriveOptions drive_options;
-  drive_options.length_m = 600.0;
-  const llc::SimWorld world(llc::simWorldOptions(drive_options));
-  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  const llc::SimDrive drive = simulatedDrive(600.0);
   auto frontScan = [&](const llc::SimFrame& frame, std::size_t step) {
     llc::ScannerGeometry g;
     g.angle_min = llc::simBeamAngle(drive.front, 0);
@@ -551,10 +550,7 @@ TEST_P(SlamOnShortDrive, ScanMatchingBeatsDeadReckoning) {
 INSTANTIATE_TEST_SUITE_P(WheelsOrNot, SlamOnShortDrive, ::testing::Bool());
 
 TEST(SlamPipeline, PlaceGateSparesAlignmentsButNoTrueLoop) {
-  llc::SimDriveOptions drive_options;
-  drive_options.length_m = 500.0;
-  const llc::SimWorld world(llc::simWorldOptions(drive_options));
-  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  const llc::SimDrive drive = simulatedDrive(500.0);
   struct Run {
     llc::SlamCounters counters;
     std::vector<llc::Pose2> poses, truth;
