@@ -178,7 +178,8 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
     << " rounds=" << training.rounds << " k_folds=" << training.folds << " target_false_alarm=" << training.target_false_alarm
     << " seed=" << training.seed << "\n";
-  for (const llc::HeldOutLog& log : result.logs) {
+  for (std::size_t i = 0; i < result.logs.size(); ++i) {
+    const llc::HeldOutLog& log = result.logs[i];
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
         << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.false_alarm_negatives << ','
         << log.detection_at_1pct << ',' << log.detection_at_0pct << ',' << log.auc << ',' << log.calibration_pairs << ','
@@ -188,7 +189,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
       << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
       << " detection_at_0pct_fa=" << log.detection_at_0pct << " auc=" << log.auc;
     if (args.has("validate")) {
-      const StageCounts& c = stage[&log - result.logs.data()];
+      const StageCounts& c = stage[i];
       s << " stage_true_confirmed=" << c.positives_confirmed << "/" << log.positives << " (" << c.positives_passed
         << " passed K) stage_false_accepted=" << c.negatives_accepted << "/" << c.negatives_passed << " (of "
         << log.false_alarm_negatives << " negatives)";
