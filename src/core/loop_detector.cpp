@@ -2,6 +2,7 @@
 
 #include "laser_loop_closure/core/file_util.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -18,6 +19,8 @@ StrongClassifier withThreshold(const StrongClassifier& classifier, double thresh
 
 std::string LoopDetectorOptions::validate() const {
   if (max_candidates == 0) return "max_candidates must be >= 1";
+  if (checked_candidates != 0 && checked_candidates < max_candidates)
+    return "checked_candidates must be 0 or >= max_candidates";
   if (!(score_threshold >= 0.0 && score_threshold <= 1.0)) return "score_threshold must be in [0, 1] (0: the model's K)";
   if (threads == 0) return "threads must be >= 1";
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
@@ -113,11 +116,14 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
   result.compared = index > options_.min_keyframe_gap ? index - options_.min_keyframe_gap : 0;
   if (result.compared > 0) {
     const std::vector<double> query = store_.features(index);
+    // Without a check, only max_candidates can ever be aligned: no need to rank more.
+    const std::size_t wanted = check ? std::max(options_.checked_candidates, options_.max_candidates) : options_.max_candidates;
     const std::vector<LoopCandidate> candidates =
-        store_.query(classifier_, query.data(), result.compared, options_.max_candidates, options_.threads);
+        store_.query(classifier_, query.data(), result.compared, wanted, options_.threads);
     result.candidates = candidates.size();
     result.classify_seconds = secondsSince(start);
     for (const LoopCandidate& candidate : candidates) {
+      if (result.aligned.size() == options_.max_candidates) break;
       std::string refused;
       if (check) {
         const auto check_start = std::chrono::steady_clock::now();

@@ -1,6 +1,9 @@
 #include "laser_loop_closure/core/scan_odometry.hpp"
 
+#include <Eigen/Cholesky>
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <stdexcept>
 
@@ -14,6 +17,9 @@ std::string ScanOdometryOptions::validate() const {
   if (!(keyframe_angle > 0.0)) return "keyframe_angle must be > 0";
   if (!(max_correction_translation > 0.0)) return "max_correction_translation must be > 0";
   if (!(max_correction_rotation > 0.0)) return "max_correction_rotation must be > 0";
+  if (!(max_wheel_disagreement >= 0.0)) return "max_wheel_disagreement must be >= 0 (0: off)";
+  if (wheel_noise_window < WheelNoiseScale::min_samples)
+    return "wheel_noise_window must be >= " + std::to_string(WheelNoiseScale::min_samples);
   if (!(min_overlap_share >= 0.0 && min_overlap_share <= 1.0)) return "min_overlap_share must be in [0, 1]";
   if (!(overlap_distance > 0.0)) return "overlap_distance must be > 0";
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
@@ -44,14 +50,33 @@ Eigen::Matrix3d ScanOdometry::stepCovariance(const Pose2& motion, bool matched) 
   return Eigen::Vector3d(translation * translation, translation * translation, rotation * rotation).asDiagonal();
 }
 
+void WheelNoiseScale::add(double disagreement) {
+  if (!(disagreement >= 0.0) || !std::isfinite(disagreement)) return;
+  if (recent_.size() < window_) {
+    recent_.push_back(disagreement);
+  } else {
+    recent_[next_] = disagreement;
+    next_ = (next_ + 1) % window_;
+  }
+}
+
+double WheelNoiseScale::scale() const {
+  if (recent_.size() < min_samples) return std::numeric_limits<double>::infinity();
+  std::vector<double> sorted = recent_;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  return std::max(1.0, sorted[sorted.size() / 2] / 2.366);
+}
+
 OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
-                                 bool guess_from_wheels) const {
+                                 bool guess_from_wheels, double wheel_noise_scale) const {
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
   step.motion = guess;
+  // Wheels noisier than modelled get the covariance they earn (infinite scale: not known yet).
+  const double wheel_scale = std::isfinite(wheel_noise_scale) ? std::max(1.0, wheel_noise_scale) : 1.0;
   auto finish = [&](std::string reason) {
     step.reject_reason = std::move(reason);
-    step.covariance = stepCovariance(step.motion, step.matched);
+    step.covariance = stepCovariance(step.motion, step.matched) * (step.matched ? 1.0 : wheel_scale);
     step.seconds = secondsSince(start);
     return step;
   };
@@ -62,6 +87,15 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
                             std::abs(correction.theta) > options_.max_correction_rotation))
     return finish("icp moved too far from wheel odometry");
+  Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
+  bool disputed = false;
+  if (guess_from_wheels) {
+    // In the step's parameters (x, y, theta), as its covariance is.
+    disagreement = Eigen::Vector3d(icp.pose.x - guess.x, icp.pose.y - guess.y, normalizeAngle(icp.pose.theta - guess.theta));
+    step.wheel_disagreement = disagreement.dot(stepCovariance(guess, false).ldlt().solve(disagreement));
+    disputed = options_.max_wheel_disagreement > 0.0 &&
+               step.wheel_disagreement > options_.max_wheel_disagreement * wheel_noise_scale;
+  }
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;
@@ -70,7 +104,15 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share");
   step.motion = icp.pose;
   step.matched = true;
-  return finish("");
+  finish("");
+  if (disputed) {
+    // Which one is wrong is not known: on the drifted logs ICP's minimum, on the raw Intel log
+    // the wheels (either as the mean measured the same). ICP's step is kept with a covariance
+    // that holds the wheels' within one standard deviation too, so loops can mend either.
+    step.disputed = true;
+    step.covariance = stepCovariance(guess, false) * wheel_scale + disagreement * disagreement.transpose();
+  }
+  return step;
 }
 
 }  // namespace llc

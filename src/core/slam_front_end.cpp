@@ -9,7 +9,7 @@ namespace llc {
 
 SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
                            const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
-    : odometry_(odometry), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
+    : odometry_(odometry), wheel_noise_(odometry.wheel_noise_window), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
 
 Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
 
@@ -71,7 +71,8 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
       if (!odometry_.movedEnough(guess)) return step;  // not a keyframe: nothing more to do
       prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true);
+      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale());
+      wheel_noise_.add(step.odometry.wheel_disagreement);
     } else {
       // No wheels: every scan is matched to the newest keyframe to know when it moved enough,
       // from where the last velocity says it is now.
@@ -93,6 +94,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       }
     }
     ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
+    counters_.disputed_steps += step.odometry.disputed;
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
     step.odometry.reject_reason = "a new chain after a restored session";

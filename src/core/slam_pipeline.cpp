@@ -45,7 +45,7 @@ SlamCounters SlamPipeline::counters() const {
   const BackEndCounters& b = back_.counters();
   SlamCounters c;
   c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
-  c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps;
+  c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;

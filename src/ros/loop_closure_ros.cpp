@@ -340,6 +340,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("keyframes", c.keyframes);
   status.add("steps matched by ICP", c.matched_steps);
   status.add("steps from wheel odometry alone", c.wheel_steps);
+  status.add("steps where ICP and wheels disagreed", c.disputed_steps);
   status.add("pairs classified", c.pairs_classified);
   status.add("candidates", c.candidates);
   status.add("classifier threshold K", front_->detector().threshold());

@@ -53,9 +53,13 @@ struct TruthCheck {
   double slam_rms = 0.0, odometry_rms = 0.0, path_length = 0.0;
   std::size_t true_loop_keyframes = 0, closed = 0, wrong_loops = 0;
   std::size_t true_pairs_not_aligned = 0;  ///< candidates the place gate skipped that were true revisits
+  llc::RevisitFates fates;                 ///< where the true revisits not closed were lost
+  std::string wrong_loop_lines;            ///< one report line per wrong applied loop
   /// Odometry steps and applied loops against the truth: RMS errors, and the mean of
   /// e^T C^-1 e with the covariance C the back end was given (3 when C is honest).
   double step_rms_m = 0.0, step_rms_rad = 0.0, step_nees = 0.0, loop_nees = 0.0;
+  /// Per odometry step k (keyframe k-1 -> k): its error against the truth, as x, y, theta.
+  std::vector<Eigen::Vector3d> step_errors;
 };
 
 /// e = truth^-1 * measured, as x, y, theta.
@@ -89,6 +93,7 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
     check.step_rms_m += e.head<2>().squaredNorm();
     check.step_rms_rad += e(2) * e(2);
     check.step_nees += e.dot(steps[k].covariance.ldlt().solve(e));
+    check.step_errors.push_back(e);
   }
   if (truth.size() > 1) {
     const double n = double(truth.size() - 1);
@@ -107,7 +112,42 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
   check.wrong_loops = loops.wrong_loops;
   check.loop_nees = loops.loop_nees;
   check.true_pairs_not_aligned = llc::countTrueRevisitPairs(truth, full_circle, not_aligned, truth_options);
+  check.fates = llc::revisitFates(truth, full_circle, slam.loops(), not_aligned, truth_options);
+  std::ostringstream wrong;
+  wrong << std::setprecision(4);
+  for (const llc::LoopRecord& record : slam.loops()) {
+    if (!record.applied) continue;
+    const llc::Pose2 e = llc::between(llc::between(truth[record.loop.from], truth[record.loop.to]), record.loop.pose);
+    const llc::Pose2 d = llc::between(truth[record.loop.from], truth[record.loop.to]);
+    if (std::hypot(e.x, e.y) > truth_options.wrong_translation || std::abs(e.theta) > truth_options.wrong_rotation)
+      wrong << "wrong_loop: scans " << keyframes[record.loop.from].scan_index << " -> " << keyframes[record.loop.to].scan_index
+            << " truly " << std::hypot(d.x, d.y) << " m apart, off the truth by " << std::hypot(e.x, e.y) << " m "
+            << e.theta * 180.0 / M_PI << " deg, score " << record.loop.score << ", inlier share " << record.loop.inlier_share
+            << ", innovation chi2 " << record.innovation_chi2 << "\n";
+  }
+  check.wrong_loop_lines = wrong.str();
   return check;
+}
+
+/// Each odometry step against the truth (with --evaluate): where a front end loses its way.
+void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::OdometryStep>& steps,
+                     const TruthCheck& truth, const std::string& path) {
+  std::ofstream out(path);
+  out << "keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,error_theta,sigma_x,sigma_y,sigma_theta,"
+         "wheel_dx,wheel_dy,wheel_dtheta\n";
+  const auto& keyframes = slam.keyframes();
+  for (std::size_t k = 1; k <= truth.step_errors.size(); ++k) {
+    const llc::OdometryStep& step = steps[k];
+    const Eigen::Vector3d& e = truth.step_errors[k - 1];
+    const bool wheels = keyframes[k - 1].has_wheel_odometry && keyframes[k].has_wheel_odometry;
+    const llc::Pose2 wheel = wheels ? llc::between(keyframes[k - 1].wheel_odometry, keyframes[k].wheel_odometry)
+                                    : llc::Pose2{NAN, NAN, NAN};
+    out << k << "," << keyframes[k].scan_index << "," << (step.matched ? 1 : 0) << "," << std::setprecision(4)
+        << step.overlap_share << "," << step.motion.x << "," << step.motion.y << "," << step.motion.theta << "," << e(0)
+        << "," << e(1) << "," << e(2) << "," << std::sqrt(step.covariance(0, 0)) << "," << std::sqrt(step.covariance(1, 1))
+        << "," << std::sqrt(step.covariance(2, 2)) << "," << wheel.x << "," << wheel.y << "," << wheel.theta << "\n";
+  }
+  if (!out) throw ToolError("cannot write " + path);
 }
 
 void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions& map_options, const std::string& dir) {
@@ -277,6 +317,7 @@ int runSlam(const Args& args) {
   const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, args.number("positive-distance", 1.5),
                                              args.number("positive-heading-deg", 45.0) * M_PI / 180.0,
                                              has_truth);
+  if (truth.available) writeStepErrors(slam, steps, truth, dir + "/odometry_steps.csv");
   std::ostringstream report;
   report << std::setprecision(4);
   report << "input=" << input << "\n"
@@ -287,6 +328,7 @@ int runSlam(const Args& args) {
          << "odometry_offset=" << offset.offset << "\n" << offset.table
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
+         << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"
          << "classifier_threshold=" << c.classifier_threshold << "  (K at the end; loops/calibration moves it)\n"
@@ -310,6 +352,13 @@ int runSlam(const Args& args) {
            << "true_loop_keyframes_closed=" << truth.closed << "\n"
            << "wrong_loops_accepted=" << truth.wrong_loops << "\n"
            << "true_pairs_not_aligned=" << truth.true_pairs_not_aligned << "  (candidates the place gate skipped that truly revisit)\n"
+           << "open_revisits=" << truth.fates.open << "  (true-revisit keyframes not closed; where their best true candidate stopped:)\n"
+           << "open_no_true_candidate=" << truth.fates.no_true_candidate << "\n"
+           << "open_place_gate=" << truth.fates.place_gate << "\n"
+           << "open_alignment=" << truth.fates.alignment << "\n"
+           << "open_back_end_gate=" << truth.fates.back_end_gate << "\n"
+           << "open_wrong_pose=" << truth.fates.wrong_pose << "\n"
+           << truth.wrong_loop_lines
            << "odometry_step_error_rms_m=" << truth.step_rms_m << "\n"
            << "odometry_step_error_rms_rad=" << truth.step_rms_rad << "\n"
            << "odometry_step_nees=" << truth.step_nees << "  (3 when the step covariance is honest)\n"
@@ -323,7 +372,7 @@ int runSlam(const Args& args) {
   for (const auto& reason : loop_reasons) report << "loop_refused: " << reason.first << " = " << reason.second << "\n";
   report << "seconds=" << seconds << "\n";
   std::ofstream(dir + "/report.txt") << report.str();
-  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt}\n";
+  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv" : "") << "}\n";
   return 0;
 }
 

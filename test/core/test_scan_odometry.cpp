@@ -2,6 +2,7 @@
 // through a stretch that scan matching cannot measure.
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -154,6 +155,86 @@ TEST(ScanOdometry, TheFrontEndFeedsTheCalibrationPairsItsOwnOdometryPutsSurelyAp
     EXPECT_EQ(front.detector().calibrator().seen(), pairs);
     EXPECT_TRUE(front.detector().calibrator().calibrated());
   }
+}
+
+/// A 12 x 8 m room with a pillar and two niches, as 360 beams see it from `pose`.
+llc::Scan roomScan(const llc::Pose2& pose) {
+  const std::vector<Wall> walls = {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},   {-6, 4, -6, -4},
+                                   {1, 1, 2, 1},    {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1},
+                                   {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i)
+    scan.ranges[i] = castRay(walls, pose.x, pose.y, pose.theta + scan.bearings[i]);
+  return scan;
+}
+
+TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
+  const llc::Pose2 truth{1.0, 0.2, 0.1};
+  const llc::ScanAligner aligner;
+  const auto first = aligner.prepare(roomScan({}));
+  const auto second = aligner.prepare(roomScan(truth));
+  const llc::ScanOdometry odometry;  // max_wheel_disagreement 9 under the wheel covariance
+  // chi2 of a guess off the truth (where ICP lands) under the wheel covariance of that guess:
+  // sigma 5 x (0.02 + 0.01 x distance) m, so about 3.3 for 0.3 m and 13 for 0.6 m.
+  const auto chi2 = [&](const llc::Pose2& guess) {
+    const Eigen::Vector3d d(truth.x - guess.x, truth.y - guess.y, truth.theta - guess.theta);
+    return d.dot(odometry.stepCovariance(guess, false).inverse() * d);
+  };
+  const llc::Pose2 near_guess = llc::compose(truth, {0.3, 0.0, 0.0});
+  const llc::OdometryStep near = odometry.match(*first, *second, near_guess, true);
+  ASSERT_TRUE(near.matched) << near.reject_reason;
+  EXPECT_FALSE(near.disputed);
+  EXPECT_NEAR(near.wheel_disagreement, chi2(near_guess), 0.1 * chi2(near_guess));
+  EXPECT_TRUE(near.covariance.isApprox(odometry.stepCovariance(near.motion, true)));
+
+  const llc::Pose2 far_guess = llc::compose(truth, {0.6, 0.0, 0.0});
+  ASSERT_GT(chi2(far_guess), 10.0);
+  const llc::OdometryStep far = odometry.match(*first, *second, far_guess, true);
+  ASSERT_TRUE(far.matched) << far.reject_reason;
+  EXPECT_TRUE(far.disputed);
+  EXPECT_NEAR(far.wheel_disagreement, chi2(far_guess), 0.1 * chi2(far_guess));
+  EXPECT_NEAR(far.motion.x, truth.x, 0.01);  // ICP's motion is kept ...
+  EXPECT_NEAR(far.motion.y, truth.y, 0.01);
+  const Eigen::Vector3d d(far_guess.x - far.motion.x, far_guess.y - far.motion.y, far_guess.theta - far.motion.theta);
+  EXPECT_LE(d.dot(far.covariance.inverse() * d), 1.0 + 1e-9);  // ... and the wheels' lies within one sigma
+
+  // Wheels known to be four times noisier than modelled: 0.6 m is no dispute.
+  EXPECT_FALSE(odometry.match(*first, *second, far_guess, true, 4.0).disputed);
+  llc::ScanOdometryOptions off;
+  off.max_wheel_disagreement = 0.0;
+  const llc::OdometryStep unchecked = llc::ScanOdometry(off).match(*first, *second, far_guess, true);
+  EXPECT_FALSE(unchecked.disputed);
+  EXPECT_TRUE(unchecked.covariance.isApprox(odometry.stepCovariance(unchecked.motion, true)));
+  // Without wheels there is nothing to disagree with.
+  EXPECT_LT(odometry.match(*first, *second, far_guess, false).wheel_disagreement, 0.0);
+}
+
+TEST(WheelNoiseScale, IsUnknownUntilTwentyStepsThenTheMedianOverTheChiSquareMedianAtLeastOne) {
+  llc::WheelNoiseScale scale(100);
+  for (int i = 0; i < 19; ++i) scale.add(2.366 * 3.0);
+  EXPECT_TRUE(std::isinf(scale.scale()));
+  scale.add(2.366 * 3.0);
+  EXPECT_NEAR(scale.scale(), 3.0, 1e-9);
+  scale.add(-1.0);  // no comparison: ignored
+  scale.add(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_NEAR(scale.scale(), 3.0, 1e-9);
+
+  llc::WheelNoiseScale quiet(100);
+  for (int i = 0; i < 50; ++i) quiet.add(0.1);
+  EXPECT_DOUBLE_EQ(quiet.scale(), 1.0);  // quieter than modelled: the model stays
+  // Only the last 100 count: 100 large values push out the 50 small ones.
+  for (int i = 0; i < 100; ++i) quiet.add(2.366 * 10.0);
+  EXPECT_NEAR(quiet.scale(), 10.0, 1e-9);
+}
+
+TEST(ScanOdometry, WheelDisagreementOptionsAreValidated) {
+  llc::ScanOdometryOptions options;
+  options.max_wheel_disagreement = -1.0;
+  EXPECT_NE(options.validate().find("max_wheel_disagreement"), std::string::npos);
+  options = {};
+  options.wheel_noise_window = 5;
+  EXPECT_NE(options.validate().find("wheel_noise_window"), std::string::npos);
+  EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
 }
 
 }  // namespace

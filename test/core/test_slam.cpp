@@ -399,6 +399,23 @@ TEST(LoopDetector, FindsARevisitTurnedRoundAndAlignsIt) {
   EXPECT_TRUE(passed.not_aligned.empty());
   for (std::size_t k = 0; k < passed.aligned.size(); ++k) EXPECT_EQ(passed.aligned[k].pose.x, result.aligned[k].pose.x);
 
+  // checked_candidates: a refused candidate frees its slot for the next best one.
+  llc::LoopDetectorOptions wider = options;
+  wider.checked_candidates = 10;
+  llc::LoopDetector refilling(defaultModel(), llc::ScanAlignerOptions{}, wider);
+  for (std::size_t i = 0; i < drive.frames.size(); i += 3) refilling.add(frameScan(drive, drive.frames[i]));
+  refilling.add(llc::rotateScan(frameScan(drive, drive.frames[0]), 2.0));
+  const std::size_t first_best = result.aligned.front().from;
+  const llc::LoopDetectionResult refilled = refilling.detect(
+      query, [&](std::size_t from, std::size_t) { return from == first_best ? std::string("not here") : std::string(); });
+  ASSERT_GT(refilled.candidates, options.max_candidates) << "the test needs more candidates than max_candidates";
+  EXPECT_EQ(refilled.aligned.size(), options.max_candidates);
+  ASSERT_EQ(refilled.not_aligned.size(), 1u);
+  EXPECT_EQ(refilled.not_aligned.front().from, first_best);
+  for (const llc::LoopClosure& candidate : refilled.aligned) EXPECT_NE(candidate.from, first_best);
+  wider.checked_candidates = 2;  // fewer than max_candidates
+  EXPECT_NE(wider.validate().find("checked_candidates"), std::string::npos);
+
   const llc::LoopClosure& loop = result.aligned.front();
   // Its covariance is at least the floor, and positive definite.
   EXPECT_GE(loop.covariance(0, 0), options.translation_sigma * options.translation_sigma);
@@ -605,6 +622,47 @@ TEST(LoopTruth, TrueRevisitPairsAreCountedByDistanceAndHeading) {
   EXPECT_EQ(llc::countTrueRevisitPairs(truth, {true, true, true, true}, pairs), 2u);
   // Partial scans: 0-1 faces the other way, so only 0-3 counts.
   EXPECT_EQ(llc::countTrueRevisitPairs(truth, {false, false, false, false}, pairs), 1u);
+}
+
+TEST(LoopTruth, EachOpenRevisitIsCountedAtTheFurthestStageItsTrueCandidatesReached) {
+  // Keyframes 0..4 at x = 0, 10, 20, 30, 40; keyframes 5..9 revisit them (gap 2).
+  std::vector<llc::Pose2> truth;
+  for (int k = 0; k < 10; ++k) truth.push_back({10.0 * (k % 5), 0.0, 0.0});
+  const std::vector<bool> full(10, true);
+  llc::LoopTruthOptions options;
+  options.min_keyframe_gap = 2;
+  auto loop = [&](std::size_t from, std::size_t to, bool accepted, bool applied, double off = 0.0) {
+    llc::LoopRecord record;
+    record.loop.from = from, record.loop.to = to;
+    record.loop.pose = llc::between(truth[from], truth[to]);
+    record.loop.pose.x += off;
+    record.loop.accepted = accepted;
+    record.applied = applied;
+    return record;
+  };
+  llc::LoopClosure skipped;
+  skipped.from = 2, skipped.to = 7;
+  llc::LoopClosure skipped_too;
+  skipped_too.from = 3, skipped_too.to = 8;
+  const std::vector<llc::LoopRecord> loops{
+      loop(0, 5, true, true),           // closed
+      loop(1, 6, false, false),         // refused by alignment
+      loop(3, 8, true, false),          // refused by the gate (beats its skip below)
+      loop(4, 9, true, true, 5.0),      // applied 5 m off: wrong
+      loop(0, 7, true, true, -20.0)};   // a false pair (20 m apart) called one place: no stage for 7
+  const std::vector<llc::LoopClosure> not_aligned{skipped, skipped_too};
+  const llc::RevisitFates fates = llc::revisitFates(truth, full, loops, not_aligned, options);
+  EXPECT_EQ(fates.open, 4u);  // 6, 7, 8, 9
+  EXPECT_EQ(fates.alignment, 1u);
+  EXPECT_EQ(fates.place_gate, 1u);
+  EXPECT_EQ(fates.back_end_gate, 1u);
+  EXPECT_EQ(fates.wrong_pose, 1u);
+  EXPECT_EQ(fates.no_true_candidate, 0u);
+  EXPECT_EQ(llc::checkLoopsAgainstTruth(truth, full, loops, options).closed, 1u);
+  // With no candidates at all, every revisit is open for want of one.
+  const llc::RevisitFates none = llc::revisitFates(truth, full, {}, {}, options);
+  EXPECT_EQ(none.open, 5u);
+  EXPECT_EQ(none.no_true_candidate, 5u);
 }
 
 }  // namespace

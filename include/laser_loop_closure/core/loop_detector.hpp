@@ -20,6 +20,10 @@ namespace llc {
 struct LoopDetectorOptions {
   std::size_t min_keyframe_gap = 30;  ///< keyframes; the most recent ones are never loop candidates
   std::size_t max_candidates = 3;     ///< candidates (score >= threshold) aligned per keyframe, best first
+  /// Candidates a CandidateCheck (the place gate) looks at, best first, to find max_candidates
+  /// it lets through: a refused one frees its slot for the next. 0: max_candidates (a refused
+  /// one's slot stays empty). More closes more revisits, and lets more aliased places through.
+  std::size_t checked_candidates = 0;
   double score_threshold = 0.0;       ///< on the normalised score; 0 = the model's K
   bool stop_at_first_accepted = true;  ///< align no further candidate once one is accepted
   std::size_t threads = 1;            ///< threads of the classifier query
@@ -48,7 +52,7 @@ struct LoopClosure {
 struct LoopDetectionResult {
   std::size_t keyframe = 0;
   std::size_t compared = 0;    ///< stored keyframes the classifier saw
-  std::size_t candidates = 0;  ///< of those, at or above the threshold (at most max_candidates kept)
+  std::size_t candidates = 0;  ///< of those, at or above the threshold (at most checked_candidates kept)
   std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
   /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
   std::vector<LoopClosure> not_aligned;

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "laser_loop_closure/core/icp.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
@@ -18,6 +19,14 @@ struct ScanOdometryOptions {
   bool scan_matching = true;       ///< refine each step by ICP (false: wheel odometry alone)
   double max_correction_translation = 1.0;  ///< m; an ICP result farther from the wheel guess is not trusted
   double max_correction_rotation = 0.6;     ///< rad; likewise for its heading
+  /// Squared Mahalanobis distance of ICP's result from the wheel guess, under the covariance of a
+  /// wheel step (wheel_sigma_scale, widened by WheelNoiseScale when the robot's wheels disagree
+  /// with ICP more than that as a rule), above which the step is disputed: ICP's motion with a
+  /// covariance that also holds the wheels' (a wrong ICP minimum with a matched step's tight
+  /// covariance bends the map for good; a wide one lets loops mend it). 0: off.
+  double max_wheel_disagreement = 9.0;
+  /// Recent matched steps whose disagreement with the wheels sets WheelNoiseScale.
+  std::size_t wheel_noise_window = 100;
   double min_overlap_share = 0.5;  ///< share of the new scan's points within overlap_distance of the old one, or ICP is not trusted
   double overlap_distance = 0.3;   ///< m
   /// Standard deviations of a matched step: a floor, plus a share of the distance moved and,
@@ -45,6 +54,27 @@ struct OdometryStep {
   double overlap_share = 0.0;      ///< after ICP
   double seconds = 0.0;
   std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
+  /// Squared Mahalanobis distance of ICP's result from the wheel guess under the modelled wheel
+  /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
+  double wheel_disagreement = -1.0;
+  bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
+};
+
+/// How much noisier than modelled the robot's wheels are: the median disagreement of recent
+/// ICP steps with the wheels over the median of a chi-square of 3 DoF (2.366), at least 1
+/// (the model is a floor). Until min_samples steps were seen it is infinite: no step is judged
+/// against wheels whose noise is not known yet.
+class WheelNoiseScale {
+ public:
+  static constexpr std::size_t min_samples = 20;
+  explicit WheelNoiseScale(std::size_t window = 100) : window_(window) {}
+  void add(double disagreement);
+  double scale() const;
+
+ private:
+  std::size_t window_;
+  std::vector<double> recent_;  ///< a ring of the last window_ values
+  std::size_t next_ = 0;
 };
 
 class ScanOdometry {
@@ -57,8 +87,10 @@ class ScanOdometry {
   bool movedEnough(const Pose2& motion) const;
   /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
   /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
+  /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
+  /// max_wheel_disagreement and for a disputed step.
   OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
-                     bool guess_from_wheels) const;
+                     bool guess_from_wheels, double wheel_noise_scale = 1.0) const;
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
 

@@ -29,6 +29,23 @@ struct LoopTruthCheck {
 LoopTruthCheck checkLoopsAgainstTruth(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
                                       const std::vector<LoopRecord>& loops, const LoopTruthOptions& options = {});
 
+/// Where each true-revisit keyframe that no right loop closed was lost: the furthest stage
+/// that one of its true candidates (a candidate pair that is a true revisit) reached.
+struct RevisitFates {
+  std::size_t open = 0;                 ///< true-revisit keyframes not closed (the sum of the rest)
+  std::size_t no_true_candidate = 0;    ///< the classifier (or its top max_candidates) offered no true pair
+  std::size_t place_gate = 0;           ///< true candidates offered, all skipped before alignment
+  std::size_t alignment = 0;            ///< a true candidate aligned, refused by alignment or validation
+  std::size_t back_end_gate = 0;        ///< a true candidate accepted by alignment, refused by the chi2 gate
+  std::size_t wrong_pose = 0;           ///< a true candidate applied, but its pose off the truth (a wrong loop)
+};
+
+/// The fates of the true-revisit keyframes of checkLoopsAgainstTruth that were not closed, from
+/// every loop the back end met and the candidates skipped before alignment (not_aligned).
+RevisitFates revisitFates(const std::vector<Pose2>& truth, const std::vector<bool>& full_circle,
+                          const std::vector<LoopRecord>& loops, const std::vector<LoopClosure>& not_aligned,
+                          const LoopTruthOptions& options = {});
+
 /// How many of these pairs (from, to: keyframes) are true revisits by the same test as
 /// true_loop_keyframes (distance, and heading for partial scans; the gap is not asked).
 /// Pairs naming keyframes beyond truth are ignored.

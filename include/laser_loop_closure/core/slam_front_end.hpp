@@ -19,6 +19,7 @@ namespace llc {
 struct FrontEndCounters {
   std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
+  std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
@@ -69,6 +70,7 @@ class SlamFrontEnd {
 
  private:
   ScanOdometry odometry_;
+  WheelNoiseScale wheel_noise_;
   LoopDetector detector_;
   ClassifierModel model_;
   ScanAlignerOptions aligner_options_;

@@ -43,6 +43,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/scan_matching", odometry.scan_matching);
   visit("odometry/max_correction_translation", odometry.max_correction_translation);
   visit("odometry/max_correction_rotation", odometry.max_correction_rotation);
+  visit("odometry/max_wheel_disagreement", odometry.max_wheel_disagreement);
+  visit("odometry/wheel_noise_window", odometry.wheel_noise_window);
   visit("odometry/min_overlap_share", odometry.min_overlap_share);
   visit("odometry/overlap_distance", odometry.overlap_distance);
   visit("odometry/translation_sigma", odometry.translation_sigma);
@@ -58,6 +60,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   LoopDetectorOptions& loops = options.slam.loops;
   visit("loops/min_keyframe_gap", loops.min_keyframe_gap);
   visit("loops/max_candidates", loops.max_candidates);
+  visit("loops/checked_candidates", loops.checked_candidates);
   visit("loops/score_threshold", loops.score_threshold);
   visit("loops/stop_at_first_accepted", loops.stop_at_first_accepted);
   visit("loops/threads", loops.threads);

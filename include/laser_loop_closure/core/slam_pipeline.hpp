@@ -39,6 +39,7 @@ struct SlamOptions {
 struct SlamCounters {
   std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
+  std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
