@@ -34,6 +34,13 @@ Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d
   return jacobian * target_frame_covariance * jacobian.transpose();
 }
 
+Eigen::Matrix3d loopCovariance(const Pose2& pose, const Eigen::Matrix3d& icp_covariance, const LoopDetectorOptions& options) {
+  const Eigen::Vector3d floor(options.translation_sigma * options.translation_sigma,
+                              options.translation_sigma * options.translation_sigma,
+                              options.rotation_sigma * options.rotation_sigma);
+  return poseParameterCovariance(pose, icp_covariance) + Eigen::Matrix3d(floor.asDiagonal());
+}
+
 LoopDetector::LoopDetector(const ClassifierModel& model, const ScanAlignerOptions& aligner,
                            const LoopDetectorOptions& options)
     : model_(model),
@@ -101,10 +108,7 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   loop.accepted = alignment.accepted;
   loop.reject_reason = alignment.reject_reason;
   loop.seconds = alignment.seconds;
-  const Eigen::Vector3d floor(options_.translation_sigma * options_.translation_sigma,
-                              options_.translation_sigma * options_.translation_sigma,
-                              options_.rotation_sigma * options_.rotation_sigma);
-  loop.covariance = poseParameterCovariance(alignment.pose, alignment.covariance) + Eigen::Matrix3d(floor.asDiagonal());
+  loop.covariance = loopCovariance(alignment.pose, alignment.covariance, options_);
   return loop;
 }
 

@@ -6,12 +6,16 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
+#include <memory>
 #include <sstream>
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
 #include "laser_loop_closure/core/log_out_evaluation.hpp"
+#include "laser_loop_closure/core/loop_detector.hpp"
+#include "laser_loop_closure/core/odometry_prior_gate.hpp"
 #include "laser_loop_closure/core/pair_labeling.hpp"
 #include "laser_loop_closure/core/random.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
@@ -137,36 +141,59 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   // --validate: the loop stage held out. Each pair the held-out model's own K lets through
   // (labelled pairs and extra negatives) is aligned and shape-validated, as a robot would;
   // alignment fits nothing, so it needs no holding out itself.
+  // With --drift, the last step too: the back end's chi-square gate with the front end's
+  // odometry chain (ICP seeded by the drifted wheels) between the two scans as its only prior.
   struct StageCounts {
     std::size_t positives_passed = 0, positives_confirmed = 0, negatives_passed = 0, negatives_accepted = 0;
+    std::size_t positives_through_gate = 0, negatives_through_gate = 0;
+    std::size_t wrong_poses_through = 0;  ///< through everything, with a pose off the truth (either label)
   };
   std::vector<StageCounts> stage(data.size());
   if (args.has("validate")) {
     const llc::ScanAligner aligner(alignerOptions(args));
     std::ofstream stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
-    stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,reject_reason\n";
+    stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,"
+                 "error_m,error_deg,gate_chi2,through_gate,reject_reason\n";
+    const llc::LoopDetectorOptions loop_options;  // the loop covariance's floors, as in mapping
     for (std::size_t i = 0; i < data.size(); ++i) {
       const llc::HeldOutLog& log = result.logs[i];
       PreparedScanCache prepared(aligner, data[i].sequence);
       const std::vector<llc::LoggedScan>& scans = data[i].sequence.scans;
-      auto accepted = [&](const llc::LabeledPair& p, bool extra_pair, double score) {
+      std::unique_ptr<llc::OdometryPriorGate> gate;
+      if (drift) {
+        std::vector<llc::Pose2> odometry;
+        std::vector<llc::Scan> log_scans;
+        for (const llc::LoggedScan& s : scans) odometry.push_back(s.odometry), log_scans.push_back(s.scan);
+        gate = std::make_unique<llc::OdometryPriorGate>(llc::OdometryPriorGate::fromFrontEnd(
+            log_scans, llc::driftOdometry(odometry, *drift), llc::ScanOdometryOptions{}, aligner.options(), features));
+      }
+      StageCounts& counts = stage[i];
+      auto judge = [&](llc::LabeledPair p, bool extra_pair, double score) {
+        if (p.a > p.b) std::swap(p.a, p.b);  // the older scan first, as a loop is
         const llc::ScanAlignmentResult a = aligner.align(*prepared.get(p.a), *prepared.get(p.b));
         const llc::ShapeValidationResult& v = a.validation;
+        const llc::Pose2 error = llc::between(llc::between(scans[p.a].truth, scans[p.b].truth), a.pose);
+        double chi2 = std::numeric_limits<double>::quiet_NaN();
+        bool through = a.accepted;
+        if (a.accepted && gate) {
+          const llc::Pose2 loop = a.pose;
+          chi2 = gate->chi2(p.a, p.b, loop, llc::loopCovariance(loop, a.covariance, loop_options));
+          through = !gate->refuses(p.a, p.b, loop, llc::loopCovariance(loop, a.covariance, loop_options));
+        }
         stage_csv << log.name << ',' << p.a << ',' << p.b << ',' << p.label << ',' << extra_pair << ',' << score << ','
                   << a.accepted << ',' << v.inlier_share << ',' << v.seen_through_share << ',' << v.position_std << ','
-                  << std::hypot(scans[p.b].truth.x - scans[p.a].truth.x, scans[p.b].truth.y - scans[p.a].truth.y) << ",\""
-                  << a.reject_reason << "\"\n";
-        return a.accepted;
+                  << std::hypot(scans[p.b].truth.x - scans[p.a].truth.x, scans[p.b].truth.y - scans[p.a].truth.y) << ','
+                  << std::hypot(error.x, error.y) << ',' << std::abs(error.theta) * 180.0 / M_PI << ',' << chi2 << ','
+                  << through << ",\"" << a.reject_reason << "\"\n";
+        if (p.label == 1) ++counts.positives_passed, counts.positives_confirmed += a.accepted, counts.positives_through_gate += through;
+        else ++counts.negatives_passed, counts.negatives_accepted += a.accepted, counts.negatives_through_gate += through;
+        // What bends a map is a wrong pose, as llc slam counts wrong loops (1 m or 0.1 rad off).
+        if (through && (std::hypot(error.x, error.y) > 1.0 || std::abs(error.theta) > 0.1)) ++counts.wrong_poses_through;
       };
-      for (std::size_t r = 0; r < data[i].pairs.size(); ++r) {
-        if (log.scores[r] < log.k) continue;
-        const llc::LabeledPair& p = data[i].pairs[r];
-        if (p.label == 1) ++stage[i].positives_passed, stage[i].positives_confirmed += accepted(p, false, log.scores[r]);
-        else ++stage[i].negatives_passed, stage[i].negatives_accepted += accepted(p, false, log.scores[r]);
-      }
+      for (std::size_t r = 0; r < data[i].pairs.size(); ++r)
+        if (log.scores[r] >= log.k) judge(data[i].pairs[r], false, log.scores[r]);
       for (std::size_t r = 0; r < extra_pairs[i].size(); ++r)
-        if (log.extra_scores[r] >= log.k)
-          ++stage[i].negatives_passed, stage[i].negatives_accepted += accepted(extra_pairs[i][r], true, log.extra_scores[r]);
+        if (log.extra_scores[r] >= log.k) judge(extra_pairs[i][r], true, log.extra_scores[r]);
       std::cerr << "llc evaluate: loop stage on " << log.name << " done\n";
     }
   }
@@ -193,6 +220,9 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
       s << " stage_true_confirmed=" << c.positives_confirmed << "/" << log.positives << " (" << c.positives_passed
         << " passed K) stage_false_accepted=" << c.negatives_accepted << "/" << c.negatives_passed << " (of "
         << log.false_alarm_negatives << " negatives)";
+      if (drift)
+        s << " through_gate_true=" << c.positives_through_gate << " through_gate_false=" << c.negatives_through_gate
+          << " through_gate_wrong_pose=" << c.wrong_poses_through;
     }
     if (log.calibration_pairs)
       s << " calibration_pairs=" << log.calibration_pairs << " calibrated_k=" << log.calibrated_k
@@ -206,10 +236,19 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     for (std::size_t i = 0; i < stage.size(); ++i) {
       total.positives_confirmed += stage[i].positives_confirmed, total.negatives_accepted += stage[i].negatives_accepted;
       total.negatives_passed += stage[i].negatives_passed, positives += result.logs[i].positives;
+      total.positives_through_gate += stage[i].positives_through_gate;
+      total.negatives_through_gate += stage[i].negatives_through_gate;
+      total.wrong_poses_through += stage[i].wrong_poses_through;
     }
     s << "loop_stage_held_out: true_pairs_confirmed=" << total.positives_confirmed << "/" << positives
       << " false_pairs_accepted=" << total.negatives_accepted << " (of " << total.negatives_passed
       << " negatives that passed K)\n";
+    if (drift)
+      s << "loop_stage_with_gate: true_pairs_through=" << total.positives_through_gate << "/" << positives
+        << " false_pairs_through=" << total.negatives_through_gate << " wrong_poses_through=" << total.wrong_poses_through
+        << " (the back end's chi2 gate, prior: the front end's odometry chain on the drifted wheels, no loop)\n";
+    else
+      s << "loop_stage_with_gate: not run (give --drift: the logs' own odometry is their truth)\n";
   }
   if (calibration_count)
     s << "calibration: min_distance=" << calibration.min_distance << " drift_per_metre=" << calibration.drift_per_metre

@@ -7,6 +7,7 @@
 #include <limits>
 #include <vector>
 
+#include "laser_loop_closure/core/odometry_prior_gate.hpp"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "test_util.hpp"
 
@@ -235,6 +236,51 @@ TEST(ScanOdometry, WheelDisagreementOptionsAreValidated) {
   options.wheel_noise_window = 5;
   EXPECT_NE(options.validate().find("wheel_noise_window"), std::string::npos);
   EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
+}
+
+TEST(OdometryPriorGate, TestsALoopAgainstTheChainAsTheBackEndWould) {
+  // Keyframes at scans 0, 10, 20, 1 m apart along x; each step sigma 0.1 m, heading all but exact.
+  std::vector<llc::Pose2> odometry;
+  for (int i = 0; i <= 20; ++i) odometry.push_back({0.1 * i, 0.0, 0.0});
+  llc::OdometryStep step;
+  step.motion = {1.0, 0.0, 0.0};
+  step.covariance = Eigen::Vector3d(0.01, 0.01, 1e-10).asDiagonal();
+  const std::vector<llc::OdometryStep> steps(3, step);
+  llc::OdometryPriorGate gate(odometry, {0, 10, 20}, steps);
+  EXPECT_EQ(gate.keyframes(), 3u);
+  const Eigen::Matrix3d loop_covariance = Eigen::Vector3d(0.01, 0.01, 1e-10).asDiagonal();
+  // The chain predicts 2 m from scan 0 to scan 20: a loop saying so has no innovation ...
+  EXPECT_NEAR(gate.chi2(0, 20, {2.0, 0.0, 0.0}, loop_covariance), 0.0, 1e-6);
+  // ... 0.3 m more: 0.09 / (0.01 + 0.01 + 0.01) = 3 (two steps and the loop).
+  EXPECT_NEAR(gate.chi2(0, 20, {2.3, 0.0, 0.0}, loop_covariance), 3.0, 1e-3);
+  EXPECT_FALSE(gate.refuses(0, 20, {2.3, 0.0, 0.0}, loop_covariance));
+  EXPECT_TRUE(gate.refuses(0, 20, {3.0, 0.0, 0.0}, loop_covariance));  // 1 / 0.03 = 33 > 16.27
+  // Scan 5 lies 0.5 m past keyframe 0 by the wheels: 1.5 m on from it is the same prediction.
+  EXPECT_NEAR(gate.chi2(5, 20, {1.5, 0.0, 0.0}, loop_covariance), 0.0, 1e-6);
+  // Within one keyframe only the loop is uncertain: 0.2 m off is 0.04 / 0.01 = 4.
+  EXPECT_NEAR(gate.chi2(2, 7, {0.7, 0.0, 0.0}, loop_covariance), 4.0, 1e-6);
+  EXPECT_THROW(gate.chi2(20, 0, {}, loop_covariance), std::invalid_argument);
+  EXPECT_THROW(gate.chi2(0, 21, {}, loop_covariance), std::out_of_range);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10}, steps), std::invalid_argument);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10, 10}, steps), std::invalid_argument);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10, 30}, steps), std::invalid_argument);
+}
+
+TEST(OdometryPriorGate, BuiltByTheFrontEndItPassesTheTrueLoopAndRefusesAShiftedOne) {
+  // A room driven along x at 0.25 m per scan, the wheels exact: ICP keyframe steps.
+  std::vector<llc::Scan> scans;
+  std::vector<llc::Pose2> odometry;
+  for (int i = 0; i <= 16; ++i) {
+    odometry.push_back({-2.0 + 0.25 * i, 0.5, 0.0});
+    scans.push_back(roomScan(odometry.back()));
+    scans.back().stamp = 0.1 * i;
+  }
+  llc::OdometryPriorGate gate = llc::OdometryPriorGate::fromFrontEnd(
+      scans, odometry, llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, llc_test::defaultModel().features);
+  EXPECT_EQ(gate.keyframes(), 5u);  // every 1 m: scans 0, 4, 8, 12, 16
+  const Eigen::Matrix3d loop_covariance = Eigen::Vector3d(0.0025, 0.0025, 1e-4).asDiagonal();
+  EXPECT_FALSE(gate.refuses(0, 16, {4.0, 0.0, 0.0}, loop_covariance));
+  EXPECT_TRUE(gate.refuses(0, 16, {7.0, 0.0, 0.0}, loop_covariance));
 }
 
 }  // namespace

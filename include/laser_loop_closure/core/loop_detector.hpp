@@ -121,4 +121,8 @@ class LoopDetector {
 /// the pose's own x, y, theta: J C J^T with J the Jacobian of exp(delta) * pose.
 Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance);
 
+/// A loop's covariance as the back end gets it: ICP's (poseParameterCovariance) plus the floors
+/// translation_sigma and rotation_sigma of `options`.
+Eigen::Matrix3d loopCovariance(const Pose2& pose, const Eigen::Matrix3d& icp_covariance, const LoopDetectorOptions& options);
+
 }  // namespace llc
