@@ -12,6 +12,7 @@
 #include "laser_loop_closure/ros/map_publishing.hpp"
 #include "laser_loop_closure/ros/msg_conversion.hpp"
 #include "laser_loop_closure/ros/parameters.hpp"
+#include "laser_loop_closure/ros/tf_bridge.hpp"
 
 namespace llc_ros {
 
@@ -30,6 +31,8 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   loadNodeParameters(
       private_nh, "esdf_backend", &options_,
       [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &system_);
+  options_.map_frame = tfFrame(options_.map_frame);  // tf2 refuses tf1's leading slash
+  options_.odom_frame = tfFrame(options_.odom_frame);
   back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);

@@ -20,6 +20,7 @@ std::string LoopClosureNodeOptions::validate() const {
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
   if (publish_odometry_tf && use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
+  if (wheel_odometry_wait_scans < 0) return "wheel_odometry_wait_scans must be 0 (wait for ever) or more";
   return "";
 }
 
@@ -38,6 +39,7 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   loadNodeParameters(
       private_nh, "loop_closure", &options_,
       [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &system_);
+  options_.odom_frame = tfFrame(options_.odom_frame);  // "/odom" is tf1's spelling of "odom"
   if (options_.model_path.empty())
     options_.model_path = ros::package::getPath("laser_loop_closure") + "/config/classifier.yaml";
   llc::ClassifierModel model;
@@ -94,12 +96,29 @@ LoopClosureRos::~LoopClosureRos() {
 void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg) {
   PendingScan pending;
   pending.msg = msg;
+  std::vector<PendingScan> released;  // scans the tf filter held when the wheels were given up
+  bool gave_up = false;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     pending.index = scans_received_++;
-    if (odometry_filter_) awaiting_odometry_[msg.get()] = pending.index;
+    if (odometry_filter_ && !without_wheels_ && options_.wheel_odometry_wait_scans > 0 && filter_passed_ == 0 &&
+        scans_received_ > std::size_t(options_.wheel_odometry_wait_scans)) {
+      without_wheels_ = true;
+      gave_up = true;
+      for (auto& waiting : awaiting_odometry_) released.push_back(std::move(waiting.second));
+      awaiting_odometry_.clear();
+      std::sort(released.begin(), released.end(), [](const PendingScan& a, const PendingScan& b) { return a.index < b.index; });
+      ROS_WARN("loop_closure: %d scans and not one odometry transform (%s -> '%s'): mapping without wheel odometry "
+               "from now on (%zu scans still waiting included), and broadcasting %s -> '%s' from scan matching (set "
+               "use_wheel_odometry false to say so, or wheel_odometry_wait_scans 0 to wait for the wheels)",
+               options_.wheel_odometry_wait_scans, options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str(),
+               released.size(), options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str());
+    }
+    if (odometry_filter_ && !without_wheels_) awaiting_odometry_[msg.get()] = pending;
   }
-  if (odometry_filter_)
+  if (gave_up) odometry_filter_->clear();
+  for (PendingScan& earlier : released) enqueue(std::move(earlier));
+  if (odometry_filter_ && !without_wheels_)
     odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
   else
     enqueue(std::move(pending));
@@ -111,8 +130,9 @@ void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::Const
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     const auto found = awaiting_odometry_.find(msg.get());
-    if (found != awaiting_odometry_.end()) {
-      pending.index = found->second;
+    if (found == awaiting_odometry_.end()) return;  // released without wheels meanwhile
+    {
+      pending.index = found->second.index;
       awaiting_odometry_.erase(found);
     }
     ++filter_passed_;
@@ -137,7 +157,7 @@ void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstP
                           "' at the scan's stamp): " + failureName(reason);
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
-    awaiting_odometry_.erase(msg.get());
+    if (awaiting_odometry_.erase(msg.get()) == 0) return;  // released without wheels meanwhile
     ++filter_failed_;
     last_filter_problem_ = why;
   }
@@ -178,7 +198,7 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", step.skip_reason.c_str());
     return;
   }
-  if (options_.publish_odometry_tf) publishOdometry(step, msg.header, &keyframe);
+  if (options_.publish_odometry_tf || without_wheels_) publishOdometry(step, msg.header, &keyframe);
   if (!step.keyframe) return;
   keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
   keyframe.scan_index = pending.index;
@@ -211,7 +231,7 @@ void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_ms
   geometry_msgs::TransformStamped t;
   t.header.stamp = scan_header.stamp;
   t.header.frame_id = options_.odom_frame;
-  t.child_frame_id = scan_header.frame_id;
+  t.child_frame_id = tfFrame(scan_header.frame_id);
   t.transform = toTransformMsg(pose);
   odometry_broadcaster_.sendTransform(t);
 }
@@ -304,11 +324,12 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
 }
 
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0;
+  std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0;
   std::string filter_problem;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     received = scans_received_, passed = filter_passed_, failed = filter_failed_, lookup_failed = lookup_failed_;
+    awaiting = awaiting_odometry_.size();
     filter_problem = last_filter_problem_;
   }
   const llc::ScanBacklogCounters backlog = backlog_->counters();
@@ -324,7 +345,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   else
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");
   status.add("scans received", received);
-  status.add("scans waiting for their odometry transform", options_.use_wheel_odometry ? received - passed - failed : 0);
+  status.add("scans waiting for their odometry transform", awaiting);
+  status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
   status.add("scans waiting for the front end", backlog.waiting);
   status.add("lag behind the newest scan (s)", backlog.lag);

@@ -1,6 +1,7 @@
 #include "laser_loop_closure/ros/scan_merger_ros.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "laser_loop_closure/ros/parameters.hpp"
@@ -13,6 +14,9 @@ std::string ScanMergerOptions::validate() const {
   if (!(back_timeout >= max_pair_gap)) return "back_timeout must be at least max_pair_gap";
   if (output_beams < 8) return "output_beams must be at least 8";
   if (queue_size < 1) return "queue_size must be at least 1";
+  if (mount_wait_scans < 0) return "mount_wait_scans must be 0 (never) or more";
+  if (!std::isfinite(mount_x) || !std::isfinite(mount_y) || !std::isfinite(mount_yaw))
+    return "mount_x, mount_y and mount_yaw must be finite";
   return "";
 }
 
@@ -28,7 +32,8 @@ ScanMergerOptions readOptions(const ros::NodeHandle& private_nh) {
 ScanMergerRos::ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : options_(readOptions(private_nh)),
       tf_listener_(tf_buffer_, nh),
-      mounts_(tf_buffer_, options_.base_frame),
+      mounts_(tf_buffer_, options_.base_frame,
+              FallbackMount{{options_.mount_x, options_.mount_y, options_.mount_yaw}, options_.mount_wait_scans}),
       diagnostics_(nh, private_nh) {
   front_filter_.subscribe(nh, "scan_front", options_.queue_size);
   back_filter_.subscribe(nh, "scan_back", options_.queue_size);
@@ -47,7 +52,15 @@ ScanMergerRos::ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
 bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
   std::string error;
   ScannerMount mount;
-  if (!mounts_.lookup(msg.header.frame_id, &mount, &error) || !toBaseScan(msg, mount, scan, &error)) {
+  bool fell_back = false;
+  const bool mounted = mounts_.lookup(msg.header.frame_id, &mount, &error, &fell_back);
+  if (fell_back)
+    ROS_WARN("scan_merger: tf has no mounting of scanner frame '%s' on '%s' after %d scans: taking it to sit at "
+             "x %.3f m, y %.3f m, yaw %.3f rad (parameters mount_x, mount_y, mount_yaw; set mount_wait_scans 0 to "
+             "wait for tf instead)",
+             tfFrame(msg.header.frame_id).c_str(), mounts_.baseFrame().c_str(), options_.mount_wait_scans, options_.mount_x,
+             options_.mount_y, options_.mount_yaw);
+  if (!mounted || !toBaseScan(msg, mount, scan, &error)) {
     ++rejected_;
     // A new kind of problem is said at once; the same one again at most every 5 s.
     if (error != last_problem_)
@@ -89,7 +102,7 @@ void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
 
 void ScanMergerRos::publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg) {
   std_msgs::Header header = front_msg.header;
-  header.frame_id = options_.base_frame;
+  header.frame_id = mounts_.baseFrame();
   // A scan not newer than the last one (the front went alone while the back was only late) is
   // skipped; a jump back of a second or more is a restart (a looped bag) and goes through.
   if (!last_published_stamp_.isZero() && header.stamp <= last_published_stamp_ &&
@@ -120,6 +133,7 @@ void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
   status.add("merged scans", merged_);
   status.add("front-only scans", front_only_);
   status.add("skipped scans", rejected_);
+  status.add("scanner frames on the fallback mount", mounts_.fallbacks());
   status.add("skipped scans, not newer than the last", out_of_order_);
   status.add("last problem", last_problem_);
 }

@@ -7,11 +7,21 @@
 
 namespace llc_ros {
 
-bool MountCache::lookup(const std::string& frame, ScannerMount* mount, std::string* error) {
+std::string tfFrame(const std::string& frame_id) {
+  const std::size_t first = frame_id.find_first_not_of('/');
+  return first == std::string::npos ? std::string() : frame_id.substr(first);
+}
+
+bool MountCache::lookup(const std::string& frame_id, ScannerMount* mount, std::string* error, bool* fell_back) {
+  const std::string frame = tfFrame(frame_id);
   const auto found = cache_.find(frame);
   if (found != cache_.end()) {
     *mount = found->second;
     return true;
+  }
+  if (frame.empty()) {
+    *error = "the scan has no frame_id";
+    return false;
   }
   ScannerMount fresh;
   if (frame != base_) {
@@ -20,7 +30,13 @@ bool MountCache::lookup(const std::string& frame, ScannerMount* mount, std::stri
       t = buffer_.lookupTransform(base_, frame, ros::Time(0));
     } catch (const tf2::TransformException& e) {
       *error = "no mounting of scanner frame '" + frame + "' on '" + base_ + "' in tf: " + e.what();
-      return false;
+      if (fallback_.after_failures <= 0 || ++failures_[frame] < fallback_.after_failures) return false;
+      // tf will not tell: the robot's description has no such frame (a bag with no /tf).
+      fresh.pose = fallback_.pose;
+      ++fallbacks_;
+      if (fell_back) *fell_back = true;
+      *mount = cache_.emplace(frame, fresh).first->second;
+      return true;
     }
     if (!toPlanarMount(t.transform, &fresh.pose, &fresh.upside_down, error)) {
       *error = "scanner frame '" + frame + "': " + *error;
@@ -34,7 +50,7 @@ bool MountCache::lookup(const std::string& frame, ScannerMount* mount, std::stri
 bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const std::string& child,
                  const ros::Time& stamp, llc::Pose2* pose, std::string* error) {
   try {
-    const geometry_msgs::TransformStamped t = buffer.lookupTransform(parent, child, stamp);
+    const geometry_msgs::TransformStamped t = buffer.lookupTransform(tfFrame(parent), tfFrame(child), stamp);
     geometry_msgs::Pose p;
     p.position.x = t.transform.translation.x;
     p.position.y = t.transform.translation.y;

@@ -120,12 +120,23 @@ TEST_F(MergerTest, KeepsPublishingThroughBadInput) {
   EXPECT_GE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool*) { f->header.frame_id = "laser_upside_down"; }), 15)
       << "an upside-down front scanner";
 
+  EXPECT_GE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan* b, bool*) {
+              f->header.frame_id = "/laser_front";
+              b->header.frame_id = "//laser_back";
+            }),
+            15)
+      << "frame ids spelt the tf1 way, with a leading slash";
+
   // Malformed geometry, a frame with no tf and a tilted mount: skipped, with a warning. At most
   // one scan comes out: the previous phase's last pair, which ApproximateTime only releases
   // when it sees the next messages.
   EXPECT_LE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool*) { f->angle_increment = 0.0f; }), 1);
   EXPECT_LE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool*) { f->header.frame_id = "laser_unknown"; }), 1);
   EXPECT_LE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool*) { f->header.frame_id = "laser_tilted"; }), 1);
+  // The frame with no tf again (spelt with a slash): after mount_wait_scans (30) of its scans
+  // it is taken to sit at the fallback mount, and its scans come out again.
+  EXPECT_GE(phase([](sensor_msgs::LaserScan* f, sensor_msgs::LaserScan*, bool*) { f->header.frame_id = "/laser_unknown"; }), 5)
+      << "a scanner frame tf never mounts, on the fallback mount";
 
   // The back scanner stops: after back_timeout the front goes alone (180-degree scans).
   const int partial_before = counts_.partial;

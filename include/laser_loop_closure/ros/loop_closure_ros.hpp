@@ -44,6 +44,11 @@ struct LoopClosureNodeOptions {
   /// Without wheel odometry: broadcast odom_frame -> the scan's frame from scan matching, and
   /// give each keyframe its pose in odom_frame, so that the back end publishes map -> odom_frame.
   bool publish_odometry_tf = false;
+  /// With use_wheel_odometry: when this many scans came and not one got its odometry transform
+  /// (a bag or robot with no odometry in tf), map without wheels from then on (those scans
+  /// too) and broadcast odom_frame -> the scan's frame from scan matching, with one warning
+  /// (0: wait for the wheels for ever).
+  int wheel_odometry_wait_scans = 50;
   int tf_queue_size = 100;           ///< scans waiting for their odometry transform (none waits on a clock); when full the oldest is dropped
   int queue_size = 200;              ///< scans (odometry attached) waiting for the worker thread; when full the oldest is dropped
   /// s of scan time the worker may fall behind the newest scan before it skips the oldest
@@ -59,6 +64,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("odom_frame", o.odom_frame);
   visit("use_wheel_odometry", o.use_wheel_odometry);
   visit("publish_odometry_tf", o.publish_odometry_tf);
+  visit("wheel_odometry_wait_scans", o.wheel_odometry_wait_scans);
   visit("tf_queue_size", o.tf_queue_size);
   visit("queue_size", o.queue_size);
   visit("max_lag", o.max_lag);
@@ -126,7 +132,10 @@ class LoopClosureRos {
   // Receiving side (the nodelet's queue and the tf filter): counts and scan numbers.
   std::mutex receive_mutex_;
   std::size_t scans_received_ = 0, filter_passed_ = 0, filter_failed_ = 0, lookup_failed_ = 0;
-  std::map<const laser_loop_closure::Scan360*, std::size_t> awaiting_odometry_;  ///< scan -> its number
+  /// No odometry transform ever came (wheel_odometry_wait_scans): scans skip the tf filter, and
+  /// the worker broadcasts odom -> base itself. Set once, on the receiving thread.
+  std::atomic<bool> without_wheels_{false};
+  std::map<const laser_loop_closure::Scan360*, PendingScan> awaiting_odometry_;  ///< scans in the tf filter
   std::string last_filter_problem_;
 
   std::mutex mutex_;     ///< guards everything below and front_

@@ -31,6 +31,12 @@ struct ScanMergerOptions {
   double back_timeout = 0.5;    ///< s of wall time with no back scan arriving: publish the front alone
   int output_beams = 720;       ///< beams of the published LaserScan over 360 degrees (constant size)
   int queue_size = 20;          ///< messages kept per subscription and synchroniser
+  /// A scanner frame tf has no mounting for after mount_wait_scans of its scans (a bag with no
+  /// /tf) is taken to sit here on the base frame, with one warning (0: wait for tf for ever).
+  int mount_wait_scans = 20;
+  double mount_x = 0.0;         ///< m
+  double mount_y = 0.0;         ///< m
+  double mount_yaw = 0.0;       ///< rad
   std::string validate() const;
 };
 
@@ -41,6 +47,10 @@ void visitScanMergerParameters(ScanMergerOptions& o, Visit&& visit) {
   visit("back_timeout", o.back_timeout);
   visit("output_beams", o.output_beams);
   visit("queue_size", o.queue_size);
+  visit("mount_wait_scans", o.mount_wait_scans);
+  visit("mount_x", o.mount_x);
+  visit("mount_y", o.mount_y);
+  visit("mount_yaw", o.mount_yaw);
 }
 
 class ScanMergerRos {

@@ -12,19 +12,38 @@
 
 namespace llc_ros {
 
-/// Mountings of scanner frames on the base frame, looked up once per frame_id and kept.
+/// A frame id as tf2 names it: without the leading slashes of tf1 ("/laser" is "laser").
+std::string tfFrame(const std::string& frame_id);
+
+/// The mount a scanner frame gets when tf never tells one: after `after_failures` lookups of
+/// that frame found no transform (0: never).
+struct FallbackMount {
+  llc::Pose2 pose;  ///< in the base frame (m, rad)
+  int after_failures = 0;
+};
+
+/// Mountings of scanner frames on the base frame, looked up once per frame_id and kept. Frame
+/// ids are compared as tfFrame gives them.
 class MountCache {
  public:
-  MountCache(const tf2_ros::Buffer& buffer, std::string base_frame) : buffer_(buffer), base_(std::move(base_frame)) {}
+  MountCache(const tf2_ros::Buffer& buffer, const std::string& base_frame, FallbackMount fallback = {})
+      : buffer_(buffer), base_(tfFrame(base_frame)), fallback_(fallback) {}
   /// False with a reason when tf has no transform yet (try again later) or the mount is
-  /// tilted out of the base plane (refused; the reason says so and it is not cached).
-  bool lookup(const std::string& frame, ScannerMount* mount, std::string* error);
+  /// tilted out of the base plane (refused; the reason says so and it is not cached). After
+  /// fallback.after_failures lookups without a transform the fallback mount is kept for the
+  /// frame and *fell_back (when given) is set, once, so the caller can say so.
+  bool lookup(const std::string& frame, ScannerMount* mount, std::string* error, bool* fell_back = nullptr);
   const std::string& baseFrame() const { return base_; }
+  /// Scanner frames on the fallback mount.
+  std::size_t fallbacks() const { return fallbacks_; }
 
  private:
   const tf2_ros::Buffer& buffer_;
   std::string base_;
+  FallbackMount fallback_;
   std::map<std::string, ScannerMount> cache_;
+  std::map<std::string, int> failures_;
+  std::size_t fallbacks_ = 0;
 };
 
 /// The planar pose of `child` in `parent` at `stamp`, from what the buffer holds now: it never
