@@ -27,6 +27,9 @@ std::string ScanOdometryOptions::validate() const {
     return "the per-metre and per-radian sigmas must be >= 0";
   if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
+  if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
+  if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
+    return "min_velocity_interval must be finite and >= 0";
   const std::string error = icp.validate();
   return error.empty() ? "" : "icp: " + error;
 }

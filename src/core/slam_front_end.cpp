@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/slam_front_end.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -47,6 +48,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
     last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
     last_keyframe_wheels_ = keyframes.back().wheel_odometry;
   }
+  has_last_wheels_ = has_jump_ = false;  // a jump is judged between scans of this run only
   return "";
 }
 
@@ -68,6 +70,33 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   if (has_keyframe_) {
     const std::size_t last = detector_.size() - 1;
     if (wheel_odometry && last_keyframe_has_wheels_) {
+      if (has_last_wheels_) {
+        const ScanOdometryOptions& o = odometry_.options();
+        const Pose2 moved = between(last_wheels_, *wheel_odometry);
+        // At least 1 s: logs hold scans whose stamps stand still while the robot moves (the
+        // corrected csail log turns 1.15 rad in 0 s). A heading is never judged: any turn
+        // fits in a second at max_turn_rate, and a log's stamps say too little to do better.
+        const double dt = std::max(scan.stamp - last_wheels_stamp_, 1.0);
+        if (std::hypot(moved.x, moved.y) > o.max_speed * dt) {
+          const Pose2 since = between(before_jump_wheels_, *wheel_odometry);
+          if (has_jump_ && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - before_jump_stamp_, 1.0)) {
+            // Back where they were going: the jump was a spike, and the old reference holds.
+            last_keyframe_wheels_ = before_jump_reference_;
+            has_jump_ = false;
+          } else {
+            // No robot moves so: measure from a reference that leaves the jump out (as if the
+            // robot stood still meanwhile); ICP at the next keyframe finds what it really did.
+            before_jump_reference_ = last_keyframe_wheels_, before_jump_wheels_ = last_wheels_;
+            before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
+            last_keyframe_wheels_ = compose(*wheel_odometry, inverse(between(last_keyframe_wheels_, last_wheels_)));
+          }
+          ++counters_.wheel_jumps;
+          step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
+                            std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
+                            " s (beyond max_speed): left out";
+        }
+      }
+      last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
       if (!odometry_.movedEnough(guess)) return step;  // not a keyframe: nothing more to do
       prepared = detector_.aligner().prepare(scan);
@@ -82,9 +111,13 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       const Pose2 guess = predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt})
                                   : tracked_motion_;
       step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, false);
-      if (predict && step.odometry.matched) {
+      if (predict && step.odometry.matched && dt >= odometry_.options().min_velocity_interval) {
         const Pose2 moved = between(tracked_motion_, step.odometry.motion);
-        velocity_ = {moved.x / dt, moved.y / dt, moved.theta / dt};
+        const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};
+        // A velocity no robot has says the stamps are out of step with the scans: not kept.
+        if (std::hypot(velocity.x, velocity.y) <= odometry_.options().max_speed &&
+            std::abs(velocity.theta) <= odometry_.options().max_turn_rate)
+          velocity_ = velocity;
       }
       last_scan_stamp_ = scan.stamp;
       tracked_motion_ = step.odometry.motion;
@@ -107,6 +140,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   last_scan_stamp_ = scan.stamp;
   last_keyframe_has_wheels_ = wheel_odometry != nullptr;
   if (wheel_odometry) last_keyframe_wheels_ = *wheel_odometry;
+  has_jump_ = false;  // a new reference: a jump before it is history
   tracked_motion_ = Pose2{};
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);

@@ -278,7 +278,7 @@ int runSlam(const Args& args) {
               << path << (args.has("continue-odometry") ? " (odometry continues)\n" : " (a new chain)\n");
   }
   Progress progress(sequence.scans.size(), !args.has("quiet"));
-  std::size_t first_skip_reported = 0, loosely_linked = 0;
+  std::size_t first_skip_reported = 0, loosely_linked = 0, wheel_jumps = 0;
   std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
   std::vector<llc::OdometryStep> steps;  // per keyframe (the first one's is empty)
   std::vector<llc::LoopClosure> not_aligned;  // candidates the place gate skipped
@@ -293,6 +293,8 @@ int runSlam(const Args& args) {
     if (!step.skip_reason.empty() && first_skip_reported++ == 0)
       std::cerr << "warning: scan " << i << " skipped: " << step.skip_reason << " (later skips are only counted)\n";
     if (step.keyframe) steps.push_back(step.odometry);
+    if (!step.wheel_jump.empty() && wheel_jumps++ == 0)
+      std::cerr << "warning: scan " << i << ": " << step.wheel_jump << " (later ones are only counted)\n";
     if (step.keyframe && !step.back_end_note.empty() && loosely_linked++ == 0)
       std::cerr << "warning: keyframe " << step.keyframe_index << ": " << step.back_end_note << " (later ones are only counted)\n";
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
@@ -328,6 +330,7 @@ int runSlam(const Args& args) {
          << "odometry_offset=" << offset.offset << "\n" << offset.table
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
+         << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"

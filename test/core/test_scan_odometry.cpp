@@ -283,4 +283,69 @@ TEST(OdometryPriorGate, BuiltByTheFrontEndItPassesTheTrueLoopAndRefusesAShiftedO
   EXPECT_TRUE(gate.refuses(0, 16, {7.0, 0.0, 0.0}, loop_covariance));
 }
 
+TEST(ScanOdometry, WheelOdometryThatJumpsFasterThanAnyRobotIsLeftOut) {
+  // Across the room at 1 m/s, a scan every 0.1 s; the wheels are exact but for a one-scan spike
+  // of 1e9 m at scan 20 and, from scan 50 on, a jump of 1e9 m with the heading flipped.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  llc::Pose2 chain, truth_last_keyframe;
+  std::size_t keyframes = 0, jumps_said = 0;
+  for (int i = 0; i <= 80; ++i) {
+    const llc::Pose2 truth{-4.0 + 0.1 * i, 0.5, 0.0};
+    llc::Scan scan = roomScan(truth);
+    scan.stamp = 0.1 * i;
+    llc::Pose2 wheels = truth;
+    if (i == 20) wheels.x += 1e9;
+    if (i >= 50) wheels = llc::compose({1e9, -3.0, M_PI}, truth);
+    const llc::FrontEndStep step = front.addScan(scan, &wheels);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    jumps_said += !step.wheel_jump.empty();
+    if (!step.keyframe) continue;
+    if (keyframes++ > 0) chain = llc::compose(chain, step.odometry.motion);
+    ASSERT_TRUE(llc::isFinite(step.odometry.motion));
+    truth_last_keyframe = truth;
+  }
+  EXPECT_EQ(front.counters().wheel_jumps, 3u);  // the spike up, back down, and the step
+  EXPECT_EQ(jumps_said, 3u);
+  EXPECT_GE(keyframes, 7u);
+  // The chain from the first keyframe (at x = -4) ends where the robot did.
+  EXPECT_NEAR(chain.x, truth_last_keyframe.x + 4.0, 0.1);
+  EXPECT_NEAR(chain.y, 0.0, 0.1);
+  EXPECT_NEAR(chain.theta, 0.0, 0.02);
+}
+
+TEST(ScanOdometry, StampsMilliSecondsApartDoNotMakeAVelocity) {
+  // Without wheels, scans of a log can be 0.5 ms apart: a velocity from them would be 200x the
+  // robot's and throw the next prediction far off. Every other scan comes 0.5 ms after the one
+  // before (and the motion still shows between them, as the scans were not taken then).
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  llc::Pose2 chain, truth_last_keyframe;
+  std::size_t keyframes = 0;
+  double stamp = 0.0;
+  for (int i = 0; i <= 60; ++i) {
+    const llc::Pose2 truth{-3.0 + 0.1 * i, 0.5, 0.0};
+    llc::Scan scan = roomScan(truth);
+    stamp += (i % 2) ? 0.0005 : 0.2;
+    scan.stamp = stamp;
+    const llc::FrontEndStep step = front.addScan(scan, nullptr);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    if (!step.keyframe) continue;
+    if (keyframes++ > 0) chain = llc::compose(chain, step.odometry.motion);
+    truth_last_keyframe = truth;
+  }
+  EXPECT_GE(keyframes, 5u);
+  EXPECT_NEAR(chain.x, truth_last_keyframe.x + 3.0, 0.2);
+  EXPECT_NEAR(chain.y, 0.0, 0.2);
+}
+
+TEST(ScanOdometry, SpeedLimitsAreValidated) {
+  llc::ScanOdometryOptions options;
+  options.max_speed = 0.0;
+  EXPECT_NE(options.validate().find("max_speed"), std::string::npos);
+  options = {};
+  options.min_velocity_interval = -1.0;
+  EXPECT_NE(options.validate().find("min_velocity_interval"), std::string::npos);
+}
+
 }  // namespace

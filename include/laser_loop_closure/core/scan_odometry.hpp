@@ -42,6 +42,14 @@ struct ScanOdometryOptions {
   /// too far from the keyframe for any match (false: no motion model).
   bool predict_motion = true;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
+  /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
+  /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
+  /// (stamps out of step with their scans) is not predicted from.
+  double max_speed = 50.0;       ///< m/s
+  double max_turn_rate = 10.0;   ///< rad/s
+  /// Scans closer in time than this do not update the velocity (their stamps say too little:
+  /// a log's scans can come 0.5 ms apart and out of order).
+  double min_velocity_interval = 0.01;  ///< s
   IcpOptions icp{};                ///< ICP of consecutive keyframes
   std::string validate() const;
 };

@@ -20,6 +20,7 @@ struct FrontEndCounters {
   std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
+  std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
@@ -34,6 +35,9 @@ struct FrontEndStep {
   std::size_t keyframe_index = 0;
   OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
   std::string skip_reason;    ///< non-empty: the scan was not used (and why)
+  /// Non-empty: the wheel odometry jumped farther than max_speed allows since the scan before
+  /// (what it did); that jump was left out of the motion.
+  std::string wheel_jump;
 };
 
 class SlamFrontEnd {
@@ -80,7 +84,15 @@ class SlamFrontEnd {
   bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
   double last_keyframe_stamp_ = 0.0;
   bool last_keyframe_has_wheels_ = false;
-  Pose2 last_keyframe_wheels_;
+  Pose2 last_keyframe_wheels_;   ///< the wheel reading the newest keyframe's motion is measured from
+  Pose2 last_wheels_;            ///< the scan before's wheel reading, to see jumps
+  double last_wheels_stamp_ = 0.0;
+  bool has_last_wheels_ = false;
+  /// The last jump, to tell a spike (the wheels come back) from a step: the reference and the
+  /// reading before it (cleared when a keyframe takes a new reference).
+  Pose2 before_jump_reference_, before_jump_wheels_;
+  double before_jump_stamp_ = 0.0;
+  bool has_jump_ = false;
   Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
   // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
   // the robot's frame; zero after a restore) and the stamp of the last scan used.

@@ -55,6 +55,9 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/wheel_sigma_scale", odometry.wheel_sigma_scale);
   visit("odometry/predict_motion", odometry.predict_motion);
   visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
+  visit("odometry/max_speed", odometry.max_speed);
+  visit("odometry/max_turn_rate", odometry.max_turn_rate);
+  visit("odometry/min_velocity_interval", odometry.min_velocity_interval);
   visitIcpParameters("odometry/icp/", odometry.icp, visit);
 
   LoopDetectorOptions& loops = options.slam.loops;
