@@ -30,6 +30,7 @@ std::string ScanOdometryOptions::validate() const {
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
     return "min_velocity_interval must be finite and >= 0";
+  if (!(restart_after_jump_back > 0.0)) return "restart_after_jump_back must be > 0";
   const std::string error = icp.validate();
   return error.empty() ? "" : "icp: " + error;
 }

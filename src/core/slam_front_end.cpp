@@ -43,6 +43,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   velocity_ = Pose2{};
   has_keyframe_ = continue_odometry && !keyframes.empty();
   restart_pending_ = !continue_odometry && !keyframes.empty();
+  restart_reason_ = "a new chain after a restored session";
   if (has_keyframe_) {
     last_keyframe_stamp_ = last_scan_stamp_ = keyframes.back().stamp;
     last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
@@ -63,7 +64,18 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   if (!std::isfinite(scan.stamp)) return skip("stamp is not finite");
   if (scan.ranges.size() != scan.bearings.size()) return skip("ranges and bearings differ in count");
   if (wheel_odometry && !isFinite(*wheel_odometry)) return skip("wheel odometry is not finite");
-  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) return skip("time went backwards");
+  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) {
+    if (last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back) return skip("time went backwards");
+    // A looped bag or a reset clock: a new chain from this scan on, as after a restored session.
+    step.time_jump = "time jumped back " + std::to_string(last_keyframe_stamp_ - scan.stamp) +
+                     " s: a new odometry chain, placed by its first loop closure";
+    ++counters_.time_jumps;
+    has_keyframe_ = false;
+    restart_pending_ = true;
+    restart_reason_ = "a new chain after time jumped back";
+    tracked_motion_ = velocity_ = Pose2{};
+    has_last_wheels_ = has_jump_ = false;
+  }
 
   const auto start = std::chrono::steady_clock::now();
   std::shared_ptr<const PreparedScan> prepared;
@@ -130,7 +142,8 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     counters_.disputed_steps += step.odometry.disputed;
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
-    step.odometry.reject_reason = "a new chain after a restored session";
+    step.odometry.reject_reason = restart_reason_;
+    chain_start_ = detector_.size();  // this keyframe starts the chain the calibration walks
     restart_pending_ = false;
   }
   counters_.seconds_odometry += secondsSince(start);

@@ -46,7 +46,7 @@ SlamCounters SlamPipeline::counters() const {
   SlamCounters c;
   c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
-  c.wheel_jumps = f.wheel_jumps;
+  c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
@@ -61,6 +61,7 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   SlamStepResult step;
   step.skip_reason = std::move(front.skip_reason);
   step.wheel_jump = std::move(front.wheel_jump);
+  step.time_jump = std::move(front.time_jump);
   if (!front.keyframe) return step;
   step.keyframe = true;
   step.keyframe_index = front.keyframe_index;

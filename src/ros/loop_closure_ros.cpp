@@ -198,6 +198,7 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", step.skip_reason.c_str());
     return;
   }
+  if (!step.time_jump.empty()) ROS_WARN("loop_closure: scan %zu: %s", pending.index, step.time_jump.c_str());
   if (!step.wheel_jump.empty()) ROS_WARN_THROTTLE(5.0, "loop_closure: scan %zu: %s", pending.index, step.wheel_jump.c_str());
   if (options_.publish_odometry_tf || without_wheels_) publishOdometry(step, msg.header, &keyframe);
   if (!step.keyframe) return;
@@ -365,6 +366,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("steps from wheel odometry alone", c.wheel_steps);
   status.add("steps where ICP and wheels disagreed", c.disputed_steps);
   status.add("wheel odometry jumps left out", c.wheel_jumps);
+  status.add("stamps that jumped back (new odometry chains)", c.time_jumps);
   status.add("pairs classified", c.pairs_classified);
   status.add("candidates", c.candidates);
   status.add("classifier threshold K", front_->detector().threshold());

@@ -293,6 +293,7 @@ int runSlam(const Args& args) {
     if (!step.skip_reason.empty() && first_skip_reported++ == 0)
       std::cerr << "warning: scan " << i << " skipped: " << step.skip_reason << " (later skips are only counted)\n";
     if (step.keyframe) steps.push_back(step.odometry);
+    if (!step.time_jump.empty()) std::cerr << "warning: scan " << i << ": " << step.time_jump << "\n";
     if (!step.wheel_jump.empty() && wheel_jumps++ == 0)
       std::cerr << "warning: scan " << i << ": " << step.wheel_jump << " (later ones are only counted)\n";
     if (step.keyframe && !step.back_end_note.empty() && loosely_linked++ == 0)
@@ -330,6 +331,7 @@ int runSlam(const Args& args) {
          << "odometry_offset=" << offset.offset << "\n" << offset.table
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
+         << "time_jumps_back=" << c.time_jumps << "  (stamps back by more than restart_after_jump_back: new odometry chains)\n"
          << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "pairs_tested=" << c.pairs_classified << "\n"

@@ -348,4 +348,35 @@ TEST(ScanOdometry, SpeedLimitsAreValidated) {
   EXPECT_NE(options.validate().find("min_velocity_interval"), std::string::npos);
 }
 
+TEST(ScanOdometry, StampsThatJumpBackStartANewChainAndSlightlyOlderOnesAreSkipped) {
+  // Across the room twice, as a bag played in a loop: the second pass has the first's stamps
+  // and wheel odometry again.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  std::size_t keyframes_second_pass = 0, time_jumps_said = 0;
+  llc::FrontEndStep first_of_second_pass;
+  for (int pass = 0; pass < 2; ++pass)
+    for (int i = 0; i <= 60; ++i) {
+      const llc::Pose2 truth{-3.0 + 0.1 * i, 0.5, 0.0};
+      llc::Scan scan = roomScan(truth);
+      scan.stamp = 100.0 + 0.1 * i;
+      const llc::FrontEndStep step = front.addScan(scan, &truth);
+      ASSERT_TRUE(step.skip_reason.empty()) << "pass " << pass << " scan " << i << ": " << step.skip_reason;
+      time_jumps_said += !step.time_jump.empty();
+      if (pass == 1 && step.keyframe && keyframes_second_pass++ == 0) first_of_second_pass = step;
+    }
+  EXPECT_EQ(front.counters().time_jumps, 1u);
+  EXPECT_EQ(time_jumps_said, 1u);
+  EXPECT_GE(keyframes_second_pass, 6u);  // mapping goes on (before: every scan skipped)
+  EXPECT_NE(first_of_second_pass.odometry.reject_reason.find("time jumped back"), std::string::npos);
+  EXPECT_TRUE(first_of_second_pass.odometry.covariance.isApprox(llc::SlamFrontEnd::restartCovariance()));
+
+  // 0.5 s older than the newest keyframe: out of order, skipped; no new chain.
+  llc::Scan late = roomScan({3.0, 0.5, 0.0});
+  late.stamp = 100.0 + 6.0 - 0.5;
+  const llc::Pose2 wheels{3.0, 0.5, 0.0};
+  EXPECT_EQ(front.addScan(late, &wheels).skip_reason, "time went backwards");
+  EXPECT_EQ(front.counters().time_jumps, 1u);
+}
+
 }  // namespace

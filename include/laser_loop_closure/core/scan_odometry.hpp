@@ -50,6 +50,10 @@ struct ScanOdometryOptions {
   /// Scans closer in time than this do not update the velocity (their stamps say too little:
   /// a log's scans can come 0.5 ms apart and out of order).
   double min_velocity_interval = 0.01;  ///< s
+  /// A scan older than the newest keyframe by more than this starts a new odometry chain (a bag
+  /// played in a loop, a clock reset), placed by its first loop closure; by less it is skipped
+  /// as out of order.
+  double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
   IcpOptions icp{};                ///< ICP of consecutive keyframes
   std::string validate() const;
 };

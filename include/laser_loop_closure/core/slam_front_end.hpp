@@ -21,6 +21,7 @@ struct FrontEndCounters {
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
@@ -38,6 +39,9 @@ struct FrontEndStep {
   /// Non-empty: the wheel odometry jumped farther than max_speed allows since the scan before
   /// (what it did); that jump was left out of the motion.
   std::string wheel_jump;
+  /// Non-empty: the scan was older than the newest keyframe by more than
+  /// restart_after_jump_back, and starts a new odometry chain (what happened).
+  std::string time_jump;
 };
 
 class SlamFrontEnd {
@@ -82,6 +86,7 @@ class SlamFrontEnd {
   FrontEndCounters counters_;
   bool has_keyframe_ = false;
   bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
+  std::string restart_reason_;    ///< why it does (the step's reject_reason)
   double last_keyframe_stamp_ = 0.0;
   bool last_keyframe_has_wheels_ = false;
   Pose2 last_keyframe_wheels_;   ///< the wheel reading the newest keyframe's motion is measured from

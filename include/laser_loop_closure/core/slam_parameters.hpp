@@ -58,6 +58,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/max_speed", odometry.max_speed);
   visit("odometry/max_turn_rate", odometry.max_turn_rate);
   visit("odometry/min_velocity_interval", odometry.min_velocity_interval);
+  visit("odometry/restart_after_jump_back", odometry.restart_after_jump_back);
   visitIcpParameters("odometry/icp/", odometry.icp, visit);
 
   LoopDetectorOptions& loops = options.slam.loops;

@@ -41,6 +41,7 @@ struct SlamCounters {
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
@@ -61,6 +62,7 @@ struct SlamStepResult {
   std::string back_end_note;    ///< when keyframe: non-empty if the back end could not use its odometry as given (SlamBackEnd::addKeyframe)
   std::string skip_reason;      ///< non-empty: the scan was not used (and why)
   std::string wheel_jump;       ///< non-empty: its wheel odometry jumped and was left out (FrontEndStep)
+  std::string time_jump;        ///< non-empty: its stamp jumped back and it starts a new chain (FrontEndStep)
 };
 
 class SlamPipeline {
