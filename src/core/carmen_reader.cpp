@@ -67,12 +67,20 @@ bool readLine(gzFile file, std::string* line) {
   return !line->empty();
 }
 
+std::string tooManyValues(std::size_t extra, std::size_t beams) {
+  return std::to_string(extra) + " more values than a line with " + std::to_string(beams) +
+         " beams holds (ranges beyond the beam count?)";
+}
+
 /// FLASER/RLASER: n r_1..r_n x y theta odom_x odom_y odom_theta ipc_timestamp host logger_ts
 CarmenLaser parseFlaser(const Fields& f, std::size_t line) {
   CarmenLaser laser;
   laser.line = line;
   const std::size_t n = f.count(1, "beam count");
   if (f.size() < n + 9) f.fail("expected " + std::to_string(n) + " ranges, 6 pose values and a timestamp");
+  // Type, count, ranges, 6 pose values, ipc timestamp, host, logger timestamp: more fields
+  // mean more ranges than the count says, which would be read as pose and stamp.
+  if (f.size() > n + 11) f.fail(tooManyValues(f.size() - (n + 11), n));
   laser.ranges.resize(n);
   for (std::size_t i = 0; i < n; ++i) laser.ranges[i] = f.number(2 + i, "range");
   laser.geometry = carmenFlaserGeometry(n);
@@ -99,6 +107,7 @@ CarmenLaser parseRobotLaser(const Fields& f, std::size_t line) {
   for (std::size_t i = 0; i < n; ++i) laser.ranges[i] = f.number(9 + i, "range");
   const std::size_t m = f.count(9 + n, "remission count");
   const std::size_t tail = 10 + n + m;
+  if (f.size() > tail + 14) f.fail(tooManyValues(f.size() - (tail + 14), n));
   laser.pose = f.pose(tail, "laser pose");
   laser.odometry = f.pose(tail + 3, "robot pose");
   laser.stamp = f.number(tail + 11, "timestamp");

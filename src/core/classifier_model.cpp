@@ -157,6 +157,11 @@ ClassifierModel loadClassifierModel(const std::string& path, const FeatureOption
       refuse(path, where + ": alpha must be finite and not negative");
     parsed.push_back(s);
   }
+  double total_alpha = 0.0;
+  for (const Stump& stump : parsed) total_alpha += stump.alpha;
+  if (!(total_alpha > 0.0))
+    refuse(path, "no stump has a positive alpha (rounds: " + std::to_string(rounds) +
+                     "): such a model cannot tell one place from another");
   model.classifier = StrongClassifier(std::move(parsed), k);
   if (const YAML::Node provenance = root["provenance"]; provenance && provenance.IsMap())
     for (const auto& entry : provenance)

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <numeric>
 
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/random.hpp"
 
 namespace llc {
@@ -76,9 +77,11 @@ void saveCrfWeights(const CrfWeights& weights, const std::map<std::string, std::
   out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
   for (const auto& [key, value] : provenance) out << YAML::Key << key << YAML::Value << value;
   out << YAML::EndMap << YAML::EndMap;
-  std::ofstream file(path);
-  file << out.c_str() << "\n";
-  if (!file) throw CrfWeightsError(path + ": cannot write");
+  try {
+    writeFileAtomically(path, std::string(out.c_str()) + "\n");
+  } catch (const std::runtime_error& e) {
+    throw CrfWeightsError(e.what());
+  }
 }
 
 CrfWeights loadCrfWeights(const std::string& path) {

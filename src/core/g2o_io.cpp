@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/se2_jacobians.hpp"
 
 namespace llc {
@@ -85,8 +86,7 @@ PoseGraph2 readG2o(const std::string& path) {
 }
 
 void writeG2o(const PoseGraph2& graph, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw G2oError(path + ": cannot write");
+  AtomicTextFile out(path);
   out << std::setprecision(17);
   for (std::size_t i = 0; i < graph.poses.size(); ++i)
     out << "VERTEX_SE2 " << i << ' ' << graph.poses[i].x << ' ' << graph.poses[i].y << ' ' << graph.poses[i].theta << '\n';
@@ -96,7 +96,11 @@ void writeG2o(const PoseGraph2& graph, const std::string& path) {
         << e.measurement.theta << ' ' << m(0, 0) << ' ' << m(0, 1) << ' ' << m(0, 2) << ' ' << m(1, 1) << ' '
         << m(1, 2) << ' ' << m(2, 2) << '\n';
   }
-  if (!out) throw G2oError(path + ": write failed");
+  try {
+    out.commit();
+  } catch (const std::runtime_error& e) {
+    throw G2oError(e.what());
+  }
 }
 
 Eigen::Vector3d edgeError(const PoseEdge& edge, const std::vector<Pose2>& poses) {

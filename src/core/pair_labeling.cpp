@@ -8,6 +8,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/random.hpp"
 
 namespace llc {
@@ -95,11 +96,14 @@ std::vector<LabeledPair> sampleNegativePairs(const std::vector<Pose2>& poses, do
 }
 
 void writePairs(const std::string& path, const std::vector<LabeledPair>& pairs) {
-  std::ofstream out(path);
-  if (!out) throw PairFileError(path + ": cannot write");
+  AtomicTextFile out(path);
   out << "a,b,label\n";
   for (const LabeledPair& p : pairs) out << p.a << ',' << p.b << ',' << p.label << '\n';
-  if (!out) throw PairFileError(path + ": write failed");
+  try {
+    out.commit();
+  } catch (const std::runtime_error& e) {
+    throw PairFileError(e.what());
+  }
 }
 
 std::vector<LabeledPair> readPairs(const std::string& path, std::size_t scan_count) {

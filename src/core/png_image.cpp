@@ -8,6 +8,8 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "laser_loop_closure/core/file_util.hpp"
+
 namespace llc {
 namespace {
 
@@ -91,9 +93,7 @@ void RgbImage::savePng(const std::string& path) const {
   appendChunk(png, "IHDR", header);
   appendChunk(png, "IDAT", compressed);
   appendChunk(png, "IEND", "");
-  std::ofstream out(path, std::ios::binary);
-  out.write(png.data(), std::streamsize(png.size()));
-  if (!out) throw std::runtime_error(path + ": cannot write");
+  writeFileAtomically(path, png);
 }
 
 }  // namespace llc

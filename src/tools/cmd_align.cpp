@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/crf_training.hpp"
 #include "laser_loop_closure/core/scan_aligner.hpp"
@@ -89,7 +90,7 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
   options.validation.free_space_margin = args.number("free-space-margin", options.validation.free_space_margin);
   options.validation.max_position_std = args.number("validation-max-position-std", options.validation.max_position_std);
   const long in_view = args.integer("validation-only-in-view", options.validation.only_in_view ? 1 : 0);
-  if (in_view != 0 && in_view != 1) throw ToolError("--validation-only-in-view must be 0 or 1");
+  if (in_view != 0 && in_view != 1) throw UsageError("--validation-only-in-view must be 0 or 1");
   options.validation.only_in_view = in_view == 1;
   if (args.has("crf-weights")) {
     try {
@@ -99,7 +100,7 @@ llc::ScanAlignerOptions alignerOptions(const Args& args) {
     }
   }
   const std::string error = options.validate();
-  if (!error.empty()) throw ToolError(error);
+  if (!error.empty()) throw UsageError(error);
   return options;
 }
 
@@ -109,6 +110,9 @@ int runAlign(const Args& args) {
   Tolerance tolerance;
   tolerance.translation = args.number("tolerance-m", 0.2);
   tolerance.rotation = args.number("tolerance-deg", 2.0) * M_PI / 180.0;
+  if (!(tolerance.translation > 0.0 && tolerance.rotation > 0.0))
+    throw UsageError("--tolerance-m and --tolerance-deg must be > 0");
+  checkOutputFile("out", out_path);
   std::unique_ptr<llc::ClassifierModel> model;
   if (args.has("model")) {
     try {
@@ -120,8 +124,7 @@ int runAlign(const Args& args) {
   const std::vector<PairData> data =
       loadPairData(args.all("data"), model ? model->features : llc::FeatureOptions{}, args);
   const bool compare = args.has("compare-pcl");
-  std::ofstream out(out_path);
-  if (!out) throw ToolError(out_path + ": cannot write");
+  llc::AtomicTextFile out(out_path);
   const bool truth_check = args.has("truth-check");
   out << "a,b,label,x,y,theta,inlier_share,accepted,ms";
   if (truth_check)
@@ -196,7 +199,7 @@ int runAlign(const Args& args) {
       }
     }
   }
-  if (!out) throw ToolError(out_path + ": write failed");
+  out.commit();
   std::cout << std::fixed << std::setprecision(4);
   std::cout << "pairs=" << candidates << (model ? " (accepted by the classifier)" : "") << " positives=" << positives
             << " -> " << out_path << "\n";
@@ -237,7 +240,8 @@ int runTrainCrf(const Args& args) {
   training.epochs = int(args.integer("epochs", training.epochs));
   training.seed = std::uint64_t(args.integer("seed", long(training.seed)));
   const std::string invalid = training.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
+  if (!invalid.empty()) throw UsageError(invalid);
+  checkOutputFile("out", out_path);
   const std::vector<std::string> specs = args.all("data");
   const std::vector<PairData> data = loadPairData(specs, llc::FeatureOptions{}, args);
   std::vector<std::shared_ptr<const llc::PreparedScan>> keep;

@@ -8,9 +8,11 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
 #include "laser_loop_closure/core/log_out_evaluation.hpp"
@@ -24,9 +26,9 @@
 namespace llc_tool {
 namespace {
 
-std::ofstream openCsv(const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw ToolError(path + ": cannot write");
+/// A CSV output: nothing reaches the disk before its commit(), which checks every byte.
+llc::AtomicTextFile openCsv(const std::string& path) {
+  llc::AtomicTextFile out(path);
   out << std::setprecision(10);
   return out;
 }
@@ -74,7 +76,7 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 /// leave_one_log_out.csv and summary.txt.
 int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const llc::FeatureOptions& features,
                       const std::string& out_dir, std::chrono::steady_clock::time_point start) {
-  if (data.size() < 2) throw ToolError("--leave-one-log-out needs at least two --data items");
+  if (data.size() < 2) throw UsageError("--leave-one-log-out needs at least two --data items");
   llc::ClassifierTrainingOptions training;
   training.rounds = int(args.integer("rounds", 50));
   training.folds = int(args.integer("folds", 10));
@@ -82,7 +84,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   training.seed = std::uint64_t(args.integer("seed", 1));
   training.target_false_alarm = args.number("target-false-alarm", 0.01);
   const std::string invalid = training.validate();
-  if (invalid.size()) throw ToolError(invalid);
+  if (invalid.size()) throw UsageError(invalid);
   std::vector<llc::TrainingSet> logs;
   std::vector<std::string> names;
   for (const PairData& item : data) {
@@ -96,7 +98,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   // --false-alarm-negatives N: N more negatives per log (farther apart than llc pairs' 10 m by
   // the log's true poses), scored only for the realised false-alarm rate.
   const long extra_count = args.integer("false-alarm-negatives", 0);
-  if (extra_count < 0) throw ToolError("--false-alarm-negatives must be zero or more");
+  if (extra_count < 0) throw UsageError("--false-alarm-negatives must be zero or more");
   std::vector<llc::TrainingSet> extra;
   std::vector<std::vector<llc::LabeledPair>> extra_pairs;
   for (const PairData& item : data) {
@@ -110,13 +112,13 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   // --calibration-pairs N: K fitted again per held-out log on N pairs its own odometry (drifted
   // with --drift*, else as logged) says are surely two places (ThresholdCalibration).
   const long calibration_count = args.integer("calibration-pairs", 0);
-  if (calibration_count < 0) throw ToolError("--calibration-pairs must be zero or more");
+  if (calibration_count < 0) throw UsageError("--calibration-pairs must be zero or more");
   llc::ThresholdCalibrationOptions calibration;
   calibration.target_false_alarm = training.target_false_alarm;
   calibration.min_distance = args.number("calibration-min-distance", calibration.min_distance);
   calibration.drift_per_metre = args.number("calibration-drift-per-metre", calibration.drift_per_metre);
   calibration.max_path = args.number("calibration-max-path", calibration.max_path);
-  if (const std::string invalid = calibration.validate(); !invalid.empty()) throw ToolError(invalid);
+  if (const std::string invalid = calibration.validate(); !invalid.empty()) throw UsageError(invalid);
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   std::vector<llc::TrainingSet> calibration_sets;
   std::ostringstream calibration_purity;  // how many calibration pairs are truly over 10 m apart
@@ -151,7 +153,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   std::vector<StageCounts> stage(data.size());
   if (args.has("validate")) {
     const llc::ScanAligner aligner(alignerOptions(args));
-    std::ofstream stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
+    llc::AtomicTextFile stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
     stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,"
                  "error_m,error_deg,gate_chi2,through_gate,reject_reason\n";
     const llc::LoopDetectorOptions loop_options;  // the loop covariance's floors, as in mapping
@@ -196,8 +198,9 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
         if (log.extra_scores[r] >= log.k) judge(extra_pairs[i][r], true, log.extra_scores[r]);
       std::cerr << "llc evaluate: loop stage on " << log.name << " done\n";
     }
+    stage_csv.commit();
   }
-  std::ofstream csv = openCsv(out_dir + "/leave_one_log_out.csv");
+  llc::AtomicTextFile csv = openCsv(out_dir + "/leave_one_log_out.csv");
   csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,"
          "detection_at_0pct_fa,auc,calibration_pairs,calibrated_k,detection_at_calibrated_k,realised_false_alarm_calibrated\n";
   std::ostringstream s;
@@ -262,9 +265,8 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     << "\nmean_detection_at_0pct_fa=" << result.mean_detection_at_0pct << " mean_auc=" << result.mean_auc << "\n";
   s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
   s << std::setprecision(4) << "mean_detection_at_1pct_fa=" << result.mean_detection_at_1pct << "\n";
-  std::ofstream text(out_dir + "/summary.txt");
-  text << s.str();
-  if (!text) throw ToolError(out_dir + "/summary.txt: write failed");
+  csv.commit();
+  llc::writeFileAtomically(out_dir + "/summary.txt", s.str());
   std::cout << s.str() << std::flush;
   return 0;
 }
@@ -274,8 +276,16 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
 int runEvaluate(const Args& args) {
   const auto start = std::chrono::steady_clock::now();
   const std::string out_dir = args.required("out");
-  ensureDirectory(out_dir);
   const llc::FeatureOptions features = featureOptions(args);
+  // The flags read late in the run, checked before it starts.
+  const int max_rounds = int(args.integer("curve-max-rounds", 1000));
+  const int curve_repeats = int(args.integer("curve-repeats", 1));
+  if (max_rounds < 1 || curve_repeats < 1) throw UsageError("--curve-max-rounds and --curve-repeats must be >= 1");
+  const int ablation_repeats = int(args.integer("ablation-repeats", 1));
+  if (ablation_repeats < 1) throw UsageError("--ablation-repeats must be >= 1");
+  std::optional<llc::ScanAlignerOptions> aligner_options;
+  if (args.has("validate")) aligner_options = alignerOptions(args);
+  prepareOutputFolder("out", out_dir);
   const std::vector<PairData> data = loadPairData(args.all("data"), features, args);
   if (args.has("leave-one-log-out")) return runLeaveOneLogOut(args, data, features, out_dir, start);
   const llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
@@ -286,7 +296,7 @@ int runEvaluate(const Args& args) {
   cv.seed = std::uint64_t(args.integer("seed", 1));
   cv.adaboost.rounds = int(args.integer("rounds", 50));
   const std::string invalid = cv.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
+  if (!invalid.empty()) throw UsageError(invalid);
   std::size_t positives = 0;
   for (int y : set.labels) positives += y == 1;
   std::cout << "pairs=" << set.size() << " positives=" << positives << " negatives=" << set.size() - positives
@@ -302,11 +312,12 @@ int runEvaluate(const Args& args) {
   const llc::CrossValidationSummary summary = llc::summarize(runs, set.labels);
 
   {  // ROC averaged over repeats, and the pooled scores of the first repeat.
-    std::ofstream roc = openCsv(out_dir + "/roc.csv");
+    llc::AtomicTextFile roc = openCsv(out_dir + "/roc.csv");
     roc << "false_alarm,detection\n";
     for (std::size_t g = 0; g < summary.roc_false_alarm.size(); ++g)
       roc << summary.roc_false_alarm[g] << ',' << summary.roc_detection[g] << '\n';
-    std::ofstream scores = openCsv(out_dir + "/scores.csv");
+    roc.commit();
+    llc::AtomicTextFile scores = openCsv(out_dir + "/scores.csv");
     scores << "data,a,b,label,score" << (rotation ? ",rotation_deg,score_rotated" : "") << '\n';
     std::size_t row = 0;
     for (std::size_t d = 0; d < data.size(); ++d)
@@ -316,27 +327,26 @@ int runEvaluate(const Args& args) {
         scores << '\n';
         ++row;
       }
+    scores.commit();
   }
 
   // Figure 3: error against T.
   std::vector<llc::ErrorRates> by_rounds;
   if (!args.has("no-curve")) {
-    const int max_rounds = int(args.integer("curve-max-rounds", 1000));
-    const int curve_repeats = int(args.integer("curve-repeats", 1));
-    if (max_rounds < 1 || curve_repeats < 1) throw ToolError("--curve-max-rounds and --curve-repeats must be >= 1");
     by_rounds = llc::errorByRounds(set, max_rounds, cv.folds, curve_repeats, cv.seed);
-    std::ofstream curve = openCsv(out_dir + "/error_vs_rounds.csv");
+    llc::AtomicTextFile curve = openCsv(out_dir + "/error_vs_rounds.csv");
     curve << "rounds,false_alarm,missed_detection,total\n";
     for (std::size_t t = 0; t < by_rounds.size(); ++t)
       curve << t + 1 << ',' << by_rounds[t].false_alarm << ',' << by_rounds[t].missed_detection << ','
             << by_rounds[t].total() << '\n';
+    curve.commit();
   }
 
   // Table I test 1: features in the order AdaBoost picks them, trained on all pairs.
   const llc::AdaBoostResult full = llc::AdaBoostTrainer(cv.adaboost).train(set);
   const std::vector<std::string>& names = llc::pairFeatureNames(features.feature_set);
   {
-    std::ofstream order = openCsv(out_dir + "/feature_order.csv");
+    llc::AtomicTextFile order = openCsv(out_dir + "/feature_order.csv");
     order << "round,feature,name,polarity,threshold,alpha,cv_total_error\n";
     for (std::size_t t = 0; t < full.rounds.size(); ++t) {
       const llc::Stump& s = full.rounds[t].stump;
@@ -345,22 +355,23 @@ int runEvaluate(const Args& args) {
       if (t < by_rounds.size()) order << by_rounds[t].total();
       order << '\n';
     }
+    order.commit();
   }
 
   // Table I test 2: remove one feature at a time and retrain.
   if (!args.has("no-ablation")) {
     llc::CrossValidationOptions ablation = cv;
-    ablation.repeats = int(args.integer("ablation-repeats", 1));
-    if (ablation.repeats < 1) throw ToolError("--ablation-repeats must be >= 1");
+    ablation.repeats = ablation_repeats;
     const llc::ErrorRates all = llc::summarize(llc::crossValidate(set, ablation), set.labels, 2).at_half;
     const std::vector<llc::ErrorRates> without = llc::errorWithoutEachFeature(set, ablation);
-    std::ofstream removal = openCsv(out_dir + "/feature_removal.csv");
+    llc::AtomicTextFile removal = openCsv(out_dir + "/feature_removal.csv");
     removal << "feature,name,false_alarm,missed_detection,total,increase\n";
     removal << "0,none," << all.false_alarm << ',' << all.missed_detection << ',' << all.total() << ",0\n";
     for (std::size_t f = 0; f < without.size(); ++f)
       removal << f + 1 << ',' << names[f] << ',' << without[f].false_alarm << ','
               << without[f].missed_detection << ',' << without[f].total() << ','
               << without[f].total() - all.total() << '\n';
+    removal.commit();
   }
 
   // Rotation test at the operating point K (1% false alarm) and at K = 0.5.
@@ -380,8 +391,8 @@ int runEvaluate(const Args& args) {
   // and its scans align and pass shape validation; a refused pair scores -1, below every K.
   std::ostringstream validated_text;
   if (args.has("validate")) {
-    const llc::ScanAligner aligner(alignerOptions(args));
-    std::ofstream stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
+    const llc::ScanAligner aligner(*aligner_options);
+    llc::AtomicTextFile stage_csv = openCsv(out_dir + "/loop_stage.csv");  // every pair aligned: what decided it
     stage_csv << "log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,reject_reason\n";
     const std::vector<char> accepted = validateAll(data, aligner);
     std::vector<llc::CrossValidationRun> validated = runs;
@@ -392,9 +403,10 @@ int runEvaluate(const Args& args) {
         if (!accepted[i]) run.scores[i] = -1.0;
       }
     const llc::CrossValidationSummary v = llc::summarize(validated, set.labels);
-    std::ofstream roc = openCsv(out_dir + "/roc_validated.csv");
+    llc::AtomicTextFile roc = openCsv(out_dir + "/roc_validated.csv");
     roc << "false_alarm,detection\n";
     for (std::size_t g = 0; g < v.roc_false_alarm.size(); ++g) roc << v.roc_false_alarm[g] << ',' << v.roc_detection[g] << '\n';
+    roc.commit();
     std::size_t positives_refused = 0, negatives_refused_all = 0;
     for (std::size_t i = 0; i < accepted.size(); ++i)
       (set.labels[i] == 1 ? positives_refused : negatives_refused_all) += !accepted[i];
@@ -420,11 +432,7 @@ int runEvaluate(const Args& args) {
   s << validated_text.str();
   s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
   s << std::setprecision(4) << "detection_at_1pct_fa=" << summary.detection_at_1pct << "\nauc=" << summary.auc << "\n";
-  {
-    std::ofstream text(out_dir + "/summary.txt");
-    text << s.str();
-    if (!text) throw ToolError(out_dir + "/summary.txt: write failed");
-  }
+  llc::writeFileAtomically(out_dir + "/summary.txt", s.str());
   // Plots, when the plotting helper is known (scripts/llc sets LLC_PLOTTER); it reads the
   // files written above, so it runs before the summary goes out (whose last two lines are
   // the headline numbers).

@@ -13,7 +13,7 @@ namespace llc_tool {
 
 int runGraph(const Args& args) {
   const std::string in_path = args.required("g2o"), out_path = args.required("out");
-  if (args.has("incremental") && args.has("batch")) throw ToolError("--incremental and --batch exclude each other");
+  if (args.has("incremental") && args.has("batch")) throw UsageError("--incremental and --batch exclude each other");
   const bool batch = args.has("batch");
   llc::EsdfOptions options;
   options.relinearize_translation = args.number("relinearize-translation", options.relinearize_translation);
@@ -26,8 +26,9 @@ int runGraph(const Args& args) {
   options.loop_chi2_threshold = args.number("loop-chi2", options.loop_chi2_threshold);
   options.max_information = args.number("max-information", options.max_information);
   const std::string invalid = options.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
+  if (!invalid.empty()) throw UsageError(invalid);
   const bool gate = args.has("gate");
+  checkOutputFile("out", out_path);
   llc::PoseGraph2 graph;
   try {
     graph = llc::readG2o(in_path);

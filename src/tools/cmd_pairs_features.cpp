@@ -5,12 +5,12 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 
 namespace llc_tool {
 
 int runPairs(const Args& args) {
   const std::string log = args.required("log"), out = args.required("out");
-  const llc::ScanSequence sequence = loadSequence(log, args);
   llc::PairLabelingOptions options;
   options.positive_max_distance = args.number("positive-distance", options.positive_max_distance);
   options.positive_max_heading =
@@ -19,21 +19,27 @@ int runPairs(const Args& args) {
   const long per_class = args.integer("max-per-class", long(options.max_pairs_per_class));
   const long seed = args.integer("seed", long(options.seed));
   if (gap < 0 || per_class < 1 || seed < 0)
-    throw ToolError("--min-gap must be >= 0, --max-per-class >= 1 and --seed >= 0");
+    throw UsageError("--min-gap must be >= 0, --max-per-class >= 1 and --seed >= 0");
   options.min_index_gap = std::size_t(gap);
   options.max_pairs_per_class = std::size_t(per_class);
   options.seed = std::uint64_t(seed);
   options.negative_min_distance = args.number("negative-distance", options.negative_min_distance);
+  const std::string invalid = options.validate();
+  if (!invalid.empty()) throw UsageError(invalid);
+  checkOutputFile("out", out);
+
+  const llc::ScanSequence sequence = loadSequence(log, args);
   bool all_full = true;
   for (const llc::LoggedScan& s : sequence.scans) all_full = all_full && s.scan.full_circle;
   options.full_circle = args.has("full-circle") || (all_full && !args.has("partial"));
-  const std::string invalid = options.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
-
   std::vector<llc::Pose2> poses;
   for (const llc::LoggedScan& s : sequence.scans) poses.push_back(s.truth);
   const llc::PairLabelingResult result = llc::labelPairs(poses, options);
-  llc::writePairs(out, result.pairs);
+  try {
+    llc::writePairs(out, result.pairs);
+  } catch (const llc::PairFileError& e) {
+    throw ToolError(e.what());
+  }
   std::cout << "scans=" << poses.size() << " positive_candidates=" << result.positive_candidates
             << " pairs=" << result.pairs.size() << " (" << result.pairs.size() / 2 << " per class, "
             << (options.full_circle ? "any heading" : "heading-gated") << ") -> " << out << "\n";
@@ -43,10 +49,10 @@ int runPairs(const Args& args) {
 int runFeatures(const Args& args) {
   const std::string log = args.required("log"), out_path = args.required("out");
   const llc::FeatureOptions options = featureOptions(args);
+  checkOutputFile("out", out_path);
   const llc::ScanSequence sequence = loadSequence(log, args);
   const std::vector<std::vector<double>> features = extractAll(sequence, options);
-  std::ofstream out(out_path);
-  if (!out) throw ToolError(out_path + ": cannot write");
+  llc::AtomicTextFile out(out_path);
   out << "index,stamp";
   for (const std::string& name : llc::featureNames(options.feature_set)) out << ',' << name;
   out << '\n' << std::setprecision(17);
@@ -55,6 +61,7 @@ int runFeatures(const Args& args) {
     for (double v : features[i]) out << ',' << v;
     out << '\n';
   }
+  out.commit();
   std::cout << "scans=" << features.size() << " features=" << (features.empty() ? 0 : features[0].size())
             << " -> " << out_path << "\n";
   return 0;

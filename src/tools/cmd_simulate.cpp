@@ -48,7 +48,7 @@ int runSimulate(const Args& args) {
   const std::string out_dir = args.required("out");
   llc::SimDriveOptions options;
   const long seed = args.integer("seed", 1);
-  if (seed < 0) throw ToolError("--seed must be zero or more");
+  if (seed < 0) throw UsageError("--seed must be zero or more");
   options.seed = std::uint64_t(seed);
   options.length_m = args.number("length-m", 2000.0);
   options.rate_hz = args.number("rate-hz", 10.0);
@@ -56,10 +56,10 @@ int runSimulate(const Args& args) {
   const std::string scanners = args.get("scanners", "front,back");
   if (scanners == "front,back" || scanners == "back,front") options.back_scanner = true;
   else if (scanners == "front") options.back_scanner = false;
-  else throw ToolError("--scanners must be 'front,back' or 'front', not '" + scanners + "'");
+  else throw UsageError("--scanners must be 'front,back' or 'front', not '" + scanners + "'");
   const std::string invalid = options.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
-  ensureDirectory(out_dir);
+  if (!invalid.empty()) throw UsageError(invalid);
+  prepareOutputFolder("out", out_dir);
 
   const auto start = std::chrono::steady_clock::now();
   const llc::SimWorld world(llc::simWorldOptions(options));

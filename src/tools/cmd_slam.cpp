@@ -14,6 +14,7 @@
 #include <Eigen/Cholesky>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/session_io.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/map_picture.hpp"
@@ -132,7 +133,7 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
 /// Each odometry step against the truth (with --evaluate): where a front end loses its way.
 void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::OdometryStep>& steps,
                      const TruthCheck& truth, const std::string& path) {
-  std::ofstream out(path);
+  llc::AtomicTextFile out(path);
   out << "keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,error_theta,sigma_x,sigma_y,sigma_theta,"
          "wheel_dx,wheel_dy,wheel_dtheta\n";
   const auto& keyframes = slam.keyframes();
@@ -147,18 +148,18 @@ void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::Odome
         << "," << e(1) << "," << e(2) << "," << std::sqrt(step.covariance(0, 0)) << "," << std::sqrt(step.covariance(1, 1))
         << "," << std::sqrt(step.covariance(2, 2)) << "," << wheel.x << "," << wheel.y << "," << wheel.theta << "\n";
   }
-  if (!out) throw ToolError("cannot write " + path);
+  out.commit();
 }
 
 void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions& map_options, const std::string& dir) {
   const auto& keyframes = slam.keyframes();
   const auto& poses = slam.poses();
-  std::ofstream trajectory(dir + "/trajectory.csv");
+  llc::AtomicTextFile trajectory(dir + "/trajectory.csv");
   trajectory << "index,stamp,x,y,theta\n" << std::setprecision(10);
   for (std::size_t k = 0; k < keyframes.size(); ++k)
     trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
                << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
-  std::ofstream loops(dir + "/loops.csv");
+  llc::AtomicTextFile loops(dir + "/loops.csv");
   loops << "a,b,accepted,score,inlier_share\n";
   std::vector<llc::PictureLoop> picture_loops;
   for (const llc::LoopRecord& record : slam.loops()) {
@@ -168,7 +169,8 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
     if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
   }
-  if (!trajectory || !loops) throw ToolError("cannot write the CSV files in " + dir);
+  trajectory.commit();
+  loops.commit();
   std::vector<const llc::Scan*> scans;
   for (const llc::Keyframe& k : keyframes) scans.push_back(&k.scan);
   llc::OccupancyGrid grid;
@@ -198,7 +200,7 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
   const std::string given = args.get("odometry-offset", "0");
   if (given != "auto") {
     choice.offset = int(args.integer("odometry-offset", 0));
-    if (std::abs(choice.offset) > 50) throw ToolError("--odometry-offset must be auto or an integer in [-50, 50]");
+    if (std::abs(choice.offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
     return choice;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -224,9 +226,21 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
 }  // namespace
 
 int runSlam(const Args& args) {
-  if (args.has("bag") == args.has("log")) throw ToolError("give exactly one of --bag BAG and --log LOG");
+  if (args.has("bag") == args.has("log")) throw UsageError("give exactly one of --bag BAG and --log LOG");
   const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");
   const std::string dir = args.required("out");
+  // Every flag and output checked before the run starts, not after it.
+  const double positive_distance = args.number("positive-distance", 1.5);
+  const double positive_heading = args.number("positive-heading-deg", 45.0) * M_PI / 180.0;
+  if (!(positive_distance > 0.0 && positive_heading > 0.0))
+    throw UsageError("--positive-distance and --positive-heading-deg must be > 0");
+  const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
+  if (args.get("odometry-offset", "0") != "auto") {
+    const long offset = args.integer("odometry-offset", 0);
+    if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
+  }
+  if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
+  prepareOutputFolder("out", dir);
   llc::SystemOptions options;
   const std::string config = args.get("config", configFilePath("slam.yaml"));
   if (args.has("config") || std::ifstream(config)) {
@@ -244,11 +258,9 @@ int runSlam(const Args& args) {
     throw ToolError(e.what());
   }
   llc::ScanSequence sequence = loadSequence(input, args);
-  ensureDirectory(dir);
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
   // Decided before any odometry shift: a log whose true poses are its odometry has no truth
   // (unless its odometry is drifted below: then those poses are the truth).
-  const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   const bool has_truth = args.has("evaluate") || drift || hasTruthBesideOdometry(sequence);
   const OffsetChoice offset = chooseOdometryOffset(args, sequence, options.slam);
   llc::shiftOdometry(&sequence, offset.offset);
@@ -317,9 +329,8 @@ int runSlam(const Args& args) {
   const llc::SlamCounters& c = slam.counters();
   const double duration = sequence.scans.back().stamp - sequence.scans.front().stamp;
   // Restored keyframes come from another input: their scan indices do not name this one's.
-  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, args.number("positive-distance", 1.5),
-                                             args.number("positive-heading-deg", 45.0) * M_PI / 180.0,
-                                             has_truth);
+  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, positive_distance,
+                                                                 positive_heading, has_truth);
   if (truth.available) writeStepErrors(slam, steps, truth, dir + "/odometry_steps.csv");
   std::ostringstream report;
   report << std::setprecision(4);
@@ -376,7 +387,7 @@ int runSlam(const Args& args) {
   for (const auto& reason : odometry_reasons) report << "odometry_not_matched: " << reason.first << " = " << reason.second << "\n";
   for (const auto& reason : loop_reasons) report << "loop_refused: " << reason.first << " = " << reason.second << "\n";
   report << "seconds=" << seconds << "\n";
-  std::ofstream(dir + "/report.txt") << report.str();
+  llc::writeFileAtomically(dir + "/report.txt", report.str());
   std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv" : "") << "}\n";
   return 0;
 }

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/core/classifier_model.hpp"
 #include "laser_loop_closure/core/classifier_training.hpp"
 #include "laser_loop_closure/core/evaluation.hpp"
@@ -17,13 +18,27 @@ int runTrain(const Args& args) {
   const std::string model_path = args.required("model");
   const llc::FeatureOptions features = featureOptions(args);
   const std::vector<std::string> specs = args.all("data");
-  const std::vector<PairData> data =
-      specs.empty() && args.has("from-session") ? std::vector<PairData>{} : loadPairData(specs, features, args);
-  llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
+  // Every flag and the output checked before the pairs are loaded and the model trained.
+  llc::ClassifierTrainingOptions options;
+  options.rounds = int(args.integer("rounds", options.rounds));
+  options.folds = int(args.integer("folds", options.folds));
+  options.repeats = int(args.integer("repeats", options.repeats));
+  const long seed = args.integer("seed", long(options.seed));
+  if (seed < 0) throw UsageError("--seed must be zero or more");
+  options.seed = std::uint64_t(seed);
+  options.target_false_alarm = args.number("target-false-alarm", options.target_false_alarm);
+  if (const std::string invalid = options.validate(); !invalid.empty()) throw UsageError(invalid);
+  const double given_k = args.number("k", 0.5);
+  if (args.has("k") && !(given_k >= 0.0 && given_k <= 1.0)) throw UsageError("--k must lie in [0, 1]");
   // --from-session S (any number): self-training, the session's keyframe pairs labelled by
   // its optimised map added to the labelled pairs (the session's features must be this set's).
   const long min_gap = args.integer("min-keyframe-gap", long(llc::LoopDetectorOptions{}.min_keyframe_gap));
-  if (min_gap < 1) throw ToolError("--min-keyframe-gap must be at least 1");
+  if (min_gap < 1) throw UsageError("--min-keyframe-gap must be at least 1");
+  checkOutputFile("model", model_path);
+
+  const std::vector<PairData> data =
+      specs.empty() && args.has("from-session") ? std::vector<PairData>{} : loadPairData(specs, features, args);
+  llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
   std::ostringstream session_text;
   for (const std::string& path : args.all("from-session")) {
     llc::SlamSession session;
@@ -48,12 +63,6 @@ int runTrain(const Args& args) {
   }
   if (set.size() == 0) throw ToolError("no training pairs: give --data LOG:PAIRS and/or --from-session SESSION");
 
-  llc::ClassifierTrainingOptions options;
-  options.rounds = int(args.integer("rounds", options.rounds));
-  options.folds = int(args.integer("folds", options.folds));
-  options.repeats = int(args.integer("repeats", options.repeats));
-  options.seed = std::uint64_t(args.integer("seed", long(options.seed)));
-  options.target_false_alarm = args.number("target-false-alarm", options.target_false_alarm);
   llc::ClassifierTrainingResult trained;
   try {
     trained = llc::trainClassifierModel(set, features, options);
@@ -66,9 +75,7 @@ int runTrain(const Args& args) {
   model.provenance["data"] = data_text.str();
   if (session_text.tellp()) model.provenance["self_training_sessions"] = session_text.str();
   if (args.has("k")) {
-    const double k = args.number("k", 0.5);
-    if (!(k >= 0.0 && k <= 1.0)) throw ToolError("--k must lie in [0, 1]");
-    model.classifier.setThresholdK(k);
+    model.classifier.setThresholdK(given_k);
     model.provenance["threshold_k"] = "given with --k";
   }
   llc::saveClassifierModel(model, model_path);
@@ -82,6 +89,7 @@ int runTrain(const Args& args) {
 int runScore(const Args& args) {
   const std::string model_path = args.get("model", defaultModelPath());
   const std::string out_path = args.required("out");
+  checkOutputFile("out", out_path);
   llc::ClassifierModel model;
   try {
     model = llc::loadClassifierModel(model_path);
@@ -89,8 +97,7 @@ int runScore(const Args& args) {
     throw ToolError(e.what());
   }
   const std::vector<PairData> data = loadPairData(args.all("data"), model.features, args);
-  std::ofstream out(out_path);
-  if (!out) throw ToolError(out_path + ": cannot write");
+  llc::AtomicTextFile out(out_path);
   out << "a,b,label,score\n" << std::setprecision(17);
   std::vector<double> row, scores;
   std::vector<int> labels;
@@ -104,7 +111,7 @@ int runScore(const Args& args) {
       scores.push_back(score), labels.push_back(p.label);
       out << p.a << ',' << p.b << ',' << p.label << ',' << score << '\n';
     }
-  if (!out) throw ToolError(out_path + ": write failed");
+  out.commit();
   std::cout << "pairs=" << total << " matches=" << matches << " (K=" << model.classifier.thresholdK()
             << ", model " << model_path << ") -> " << out_path << "\n"
             << "detection_at_1pct_fa=" << llc::detectionAtFalseAlarm(scores, labels, 0.01)

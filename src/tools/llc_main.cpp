@@ -1,4 +1,5 @@
 // llc: the offline command-line tool. Each subcommand lives in its own cmd_*.cpp file.
+#include <algorithm>
 #include <cstring>
 #include <exception>
 #include <iostream>
@@ -102,17 +103,43 @@ const std::vector<Command>& commands() {
   return list;
 }
 
-void usage(std::ostream& out) {
-  out << "usage: llc SUBCOMMAND [options]\n";
-  for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
+bool takes(const Command& c, const std::vector<std::string>& names) {
+  for (const std::string& name : names)
+    if (std::find(c.options.begin(), c.options.end(), name) != c.options.end()) return true;
+  return false;
+}
+
+void alignmentOptionsHelp(std::ostream& out) {
   out << "alignment options: [--max-range 40] [--validation-distance 1] [--validation-share 0.9]\n"
          "  [--validation-only-in-view 1] [--validation-seen-through 0.1] [--free-space-margin 0.5]\n"
          "  [--validation-max-position-std 0.015]\n"
          "  [--global-search-below 0.7] [--min-relative-overlap 0.6] [--weak-direction-restarts 3]\n"
          "  [--weak-direction-above 0.6] [--icp-fixed-pairs-after 30]\n"
          "  [--crf-weights CRF.yaml]\n";
+}
+
+void inputHelp(std::ostream& out) {
   out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
          "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";
+}
+
+void usage(std::ostream& out) {
+  out << "usage: llc SUBCOMMAND [options]   (llc SUBCOMMAND --help: that one's options and defaults)\n";
+  for (const Command& c : commands()) out << "  llc " << c.usage << "\n";
+  alignmentOptionsHelp(out);
+  inputHelp(out);
+  out << "exit codes: 0 done, 1 a file or the data could not be read or written, 2 bad usage\n";
+}
+
+/// llc SUBCOMMAND --help: its usage with the defaults, and the option groups it takes.
+void commandHelp(const Command& c, std::ostream& out) {
+  out << "usage: llc " << c.usage << "\n";
+  if (takes(c, llc_tool::kAlignerFlags)) alignmentOptionsHelp(out);
+  if (takes(c, llc_tool::kFeatureFlags))
+    out << "feature options: [--features paper|extended] (extended) [--r-max 50] (m) [--g-max-dist 2.5] (m)\n"
+           "  [--g-min-size 3] (points) [--open-ring] (default: closed ring for 360-degree scans)\n";
+  if (takes(c, llc_tool::kInputFlags)) inputHelp(out);
+  out << "exit codes: 0 done, 1 a file or the data could not be read or written, 2 bad usage\n";
 }
 
 }  // namespace
@@ -125,9 +152,17 @@ int main(int argc, char** argv) {
   const std::string name = argv[1];
   for (const Command& c : commands()) {
     if (name != c.name) continue;
+    for (int i = 2; i < argc; ++i)
+      if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
+        commandHelp(c, std::cout);
+        return 0;
+      }
     try {
       const llc_tool::Args args(argc - 2, argv + 2, c.options, c.flags);
       return c.run(args);
+    } catch (const llc_tool::UsageError& e) {
+      std::cerr << "llc " << name << ": error: " << e.what() << "\n  (llc " << name << " --help lists its options)\n";
+      return 2;
     } catch (const std::exception& e) {
       std::cerr << "llc " << name << ": error: " << e.what() << "\n";
       return 1;

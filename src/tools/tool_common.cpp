@@ -1,6 +1,7 @@
 #include "tool_common.hpp"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 #include <iostream>
 
 #include "laser_loop_closure/core/classifier_training.hpp"
+#include "laser_loop_closure/core/file_util.hpp"
 #include "laser_loop_closure/ros/drive_input.hpp"
 
 namespace llc_tool {
@@ -35,15 +37,15 @@ Args::Args(int argc, char** argv, const std::vector<std::string>& options,
   };
   for (int i = 0; i < argc; ++i) {
     const std::string word = argv[i];
-    if (word.rfind("--", 0) != 0) throw ToolError("unexpected argument '" + word + "'");
+    if (word.rfind("--", 0) != 0) throw UsageError("unexpected argument '" + word + "'");
     const std::string name = word.substr(2);
     if (known(flags, name)) {
       values_.emplace(name, "1");
     } else if (known(options, name)) {
-      if (i + 1 >= argc) throw ToolError("--" + name + " needs a value");
+      if (i + 1 >= argc) throw UsageError("--" + name + " needs a value");
       values_.emplace(name, argv[++i]);
     } else {
-      throw ToolError("unknown option --" + name);
+      throw UsageError("unknown option --" + name);
     }
   }
 }
@@ -56,7 +58,7 @@ std::string Args::get(const std::string& name, const std::string& fallback) cons
 }
 
 std::string Args::required(const std::string& name) const {
-  if (!has(name)) throw ToolError("--" + name + " is required");
+  if (!has(name)) throw UsageError("--" + name + " is required");
   return get(name, "");
 }
 
@@ -73,7 +75,7 @@ double Args::number(const std::string& name, double fallback) const {
   char* end = nullptr;
   const double value = std::strtod(text.c_str(), &end);
   if (text.empty() || *end != '\0' || !std::isfinite(value))
-    throw ToolError("--" + name + " must be a number, not '" + text + "'");
+    throw UsageError("--" + name + " must be a number, not '" + text + "'");
   return value;
 }
 
@@ -82,7 +84,7 @@ long Args::integer(const std::string& name, long fallback) const {
   const std::string text = get(name, "");
   char* end = nullptr;
   const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0') throw ToolError("--" + name + " must be a whole number, not '" + text + "'");
+  if (text.empty() || *end != '\0') throw UsageError("--" + name + " must be a whole number, not '" + text + "'");
   return value;
 }
 
@@ -90,13 +92,13 @@ llc::FeatureOptions featureOptions(const Args& args) {
   llc::FeatureOptions options;
   const std::string set = args.get("features", "extended");
   if (!llc::parseFeatureSet(set, &options.feature_set))
-    throw ToolError("--features must be 'paper' or 'extended', not '" + set + "'");
+    throw UsageError("--features must be 'paper' or 'extended', not '" + set + "'");
   options.r_max = args.number("r-max", options.r_max);
   options.g_max_dist = args.number("g-max-dist", options.g_max_dist);
   options.g_min_size = int(args.integer("g-min-size", options.g_min_size));
   options.closed_ring = !args.has("open-ring");
   const std::string invalid = options.validate();
-  if (!invalid.empty()) throw ToolError("feature options: " + invalid);
+  if (!invalid.empty()) throw UsageError("feature options: " + invalid);
   return options;
 }
 
@@ -114,14 +116,14 @@ llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
 
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args) {
-  if (specs.empty()) throw ToolError("--data LOG:PAIRS is required");
+  if (specs.empty()) throw UsageError("--data LOG:PAIRS is required");
   std::vector<PairData> data;
   for (const std::string& spec : specs) {
     std::vector<std::string> warnings;
     try {
       data.push_back(llc_ros::loadPairData(spec, options, bagOptions(args), &warnings));
     } catch (const std::invalid_argument& e) {
-      throw ToolError(std::string("--data: ") + e.what());
+      throw UsageError(std::string("--data: ") + e.what());
     } catch (const std::runtime_error& e) {
       throw ToolError(e.what());
     }
@@ -164,6 +166,21 @@ void ensureDirectory(const std::string& path) {
     throw ToolError(path + ": not a folder");
 }
 
+void checkOutputFile(const std::string& flag, const std::string& path) {
+  const std::string why = llc::whyNotWritable(path);
+  if (!why.empty()) throw ToolError("--" + flag + " " + path + ": cannot be written (" + why + ")");
+}
+
+void prepareOutputFolder(const std::string& flag, const std::string& path) {
+  try {
+    ensureDirectory(path);
+  } catch (const ToolError& e) {
+    throw ToolError("--" + flag + " " + e.what());
+  }
+  if (::access(path.c_str(), W_OK | X_OK) != 0)
+    throw ToolError("--" + flag + " " + path + ": cannot write into the folder (" + std::strerror(errno) + ")");
+}
+
 const std::vector<std::string> kDriftFlags = {"drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
                                               "drift-noise-rad", "drift-noise-share", "drift-seed"};
 
@@ -176,7 +193,7 @@ std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
   if (preset == "strong") {
     drift.scale_bias *= 2, drift.heading_drift *= 2, drift.noise_translation *= 2, drift.noise_rotation *= 2, drift.noise_fraction *= 2;
   } else if (preset != "moderate") {
-    throw ToolError("--drift must be 'moderate' or 'strong', not '" + preset + "'");
+    throw UsageError("--drift must be 'moderate' or 'strong', not '" + preset + "'");
   }
   drift.scale_bias = args.number("drift-scale-bias", drift.scale_bias);
   drift.heading_drift = args.number("drift-heading", drift.heading_drift);
@@ -184,10 +201,10 @@ std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
   drift.noise_rotation = args.number("drift-noise-rad", drift.noise_rotation);
   drift.noise_fraction = args.number("drift-noise-share", drift.noise_fraction);
   const long seed = args.integer("drift-seed", 1);
-  if (seed < 0) throw ToolError("--drift-seed must be zero or more");
+  if (seed < 0) throw UsageError("--drift-seed must be zero or more");
   drift.seed = std::uint64_t(seed);
   const std::string invalid = drift.validate();
-  if (!invalid.empty()) throw ToolError(invalid);
+  if (!invalid.empty()) throw UsageError(invalid);
   return drift;
 }
 

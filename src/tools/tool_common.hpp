@@ -17,11 +17,26 @@
 
 namespace llc_tool {
 
-/// A problem the user can fix (bad flag, missing file); printed as one line, exit code 1.
+/// A problem the user can fix in a file or the data (missing file, malformed log, an output
+/// that cannot be written); printed as one line, exit code 1.
 class ToolError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// A problem in the command line itself (unknown option, missing or malformed value, a value
+/// out of range); printed as one line, exit code 2. Raised before the run starts.
+class UsageError : public ToolError {
+ public:
+  using ToolError::ToolError;
+};
+
+/// Refuses (ToolError) an output file that cannot be written, before the run starts: its
+/// folder missing or read-only, or the path a folder. `flag` names it in the message.
+void checkOutputFile(const std::string& flag, const std::string& path);
+/// Creates the output folder `path` (with its parents) and refuses it when it cannot be
+/// written to, before the run starts.
+void prepareOutputFolder(const std::string& flag, const std::string& path);
 
 /// "--name value" options and "--flag" switches; every name must be known to the subcommand.
 class Args {

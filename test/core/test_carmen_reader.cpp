@@ -116,6 +116,11 @@ TEST(CarmenReader, MalformedLinesNameFileAndLine) {
   expectLineError(ok + "ODOM 1 2\n", "line ends");
   expectLineError(ok + "TRUEPOS 1 2 3 4 5 6 nan_time\n", "not a number");
   expectLineError(ok + "ROBOTLASER1 0 -1.57 3.14 0 81 0 0 1 1.0 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n", "resolution");
+  // More ranges than the count says: without the check, the surplus would be read as the
+  // pose and the stamp (here the pose would come out as 3.0, 4.0 and the stamp as 0.0).
+  expectLineError(ok + "FLASER 2 1.0 2.0 3.0 4.0 0 0 0 0 0 0 1 h 1\n", "2 more values than a line with 2 beams");
+  expectLineError(ok + "ROBOTLASER1 0 -1.57 3.14 0.0175 81 0 0 3 1.5 2.5 3.5 0 0.1 0.2 0.3 0.4 0.5 0.6 0 0 0 0 0 12 7 h 12\n",
+                  "1 more values than a line with 3 beams");
 }
 
 TEST(CarmenReader, MissingFileIsAnError) {

@@ -83,6 +83,17 @@ TEST(ClassifierModel, RefusesBadFiles) {
   expectRefused(variant("names.yaml", "area", "areal"), "feature names differ");
   expectRefused(variant("k.yaml", "threshold_k: 0.5", "threshold_k: 1.5"), "threshold_k");
   expectRefused(variant("type.yaml", "threshold: 12.5", "threshold: twelve"), "wrong type");
+  // A model that cannot match anything: no stump, or no stump with any weight.
+  {
+    llc::ClassifierModel empty = sampleModel();
+    empty.classifier = llc::StrongClassifier({}, 0.5);
+    llc::saveClassifierModel(empty, dir.file("no_rounds.yaml"));
+    expectRefused(dir.file("no_rounds.yaml"), "no stump has a positive alpha (rounds: 0)");
+    llc::ClassifierModel weightless = sampleModel();
+    weightless.classifier = llc::StrongClassifier({{0, 1, 0.5, 0.0}, {3, -1, 1.0, 0.0}}, 0.5);
+    llc::saveClassifierModel(weightless, dir.file("zero_alpha.yaml"));
+    expectRefused(dir.file("zero_alpha.yaml"), "no stump has a positive alpha (rounds: 2)");
+  }
 
   llc::FeatureOptions other = sampleModel().features;
   other.r_max = 30.0;

@@ -23,9 +23,9 @@ check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
 
 check "no subcommand" 2 "usage: llc" -- "$LLC"
 check "unknown subcommand" 2 "unknown subcommand" -- "$LLC" fly
-check "unknown option" 1 "unknown option --bogus" -- "$LLC" pairs --bogus 1
+check "unknown option" 2 "unknown option --bogus" -- "$LLC" pairs --bogus 1
 check "missing log" 1 "no such file" -- "$LLC" pairs --log "$TMP/none.log" --out "$TMP/p.csv"
-check "bad feature set" 1 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features fancy
+check "bad feature set" 2 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features fancy
 printf 'FLASER 3 1 2\n' > "$TMP/bad.log"
 check "malformed log" 1 "bad.log:1: FLASER" -- "$LLC" features --log "$TMP/bad.log" --out "$TMP/f.csv"
 printf 'not a model\n' > "$TMP/bad.yaml"
@@ -33,8 +33,8 @@ check "corrupt model" 1 "classifier model .*bad.yaml" -- "$LLC" score --model "$
 check "default model loads" 1 "no such file" -- "$LLC" score --data "$TMP/none.log:$TMP/none.csv" --out "$TMP/s.csv"
 
 # The simulator: bad arguments, then a short drive that the other subcommands read.
-check "simulate negative length" 1 "length-m must be a positive" -- "$LLC" simulate --out "$TMP/sim" --length-m -5
-check "simulate unknown scanner" 1 "scanners must be" -- "$LLC" simulate --out "$TMP/sim" --scanners left
+check "simulate negative length" 2 "length-m must be a positive" -- "$LLC" simulate --out "$TMP/sim" --length-m -5
+check "simulate unknown scanner" 2 "scanners must be" -- "$LLC" simulate --out "$TMP/sim" --scanners left
 check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
 check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 600 --seed 1
 # The whole pipeline on the short drive: files, their headers, and what it must achieve.
@@ -51,8 +51,8 @@ check "slam: the place gate spared alignments but skipped no true revisit" 0 "^o
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
 # Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.
 check "slam --drift strong on sim.log: drift said, truth kept" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --out '$TMP/slam_drift' --quiet --drift strong --drift-seed 3 | grep -q '^odometry_drift: scale_bias=0.03 heading_drift=0.01 ' && awk -F= '{v[\$1] = \$2} END {print (v[\"rms_error_odometry_m\"] > v[\"rms_error_m\"] && v[\"true_loop_keyframes\"] > 0 ? \"ok\" : \"not ok\")}' '$TMP/slam_drift/report.txt'"
-check "slam --drift: unknown preset" 1 "--drift must be 'moderate' or 'strong'" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift wild
-check "slam --drift: negative noise" 1 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
+check "slam --drift: unknown preset" 2 "--drift must be 'moderate' or 'strong'" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift wild
+check "slam --drift: negative noise" 2 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
 printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
@@ -62,7 +62,7 @@ check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F=
 check "slam: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/bad.yaml"
 head -c 5000 "$TMP/sim.llcsession" > "$TMP/truncated.llcsession"
 check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/truncated.llcsession"
-check "slam: both inputs" 1 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
+check "slam: both inputs" 2 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
 printf 'odometry:\n  keyframe_distanse: 2\n' > "$TMP/bad_slam.yaml"
 check "slam: unknown parameter" 1 "unknown parameter 'odometry/keyframe_distanse'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_slam.yaml"
 check "slam: corrupt model" 1 "bad.yaml" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --model "$TMP/bad.yaml"
@@ -80,9 +80,9 @@ check "align csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms$" -- h
 check "align: >= 90% of positives within 0.2 m / 2 deg" 0 "^ok$" -- bash -c "'$LLC' align --data '$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv' --out '$TMP/sim/a2.csv' | awk -F'[= ]' '/^crf_icp/ {print (\$3 >= 0.9 ? \"ok\" : \"low \" \$3)}'"
 check "align --truth-check sorts the failures" 0 "^failed_positives=[0-9]+ no_start_near_truth=[0-9]+ better_fit_elsewhere=[0-9]+ truth_moves_under_icp=[0-9]+ icp_fails_at_truth=[0-9]+ of_those_two_gicp_from_truth_agrees_off_truth=[0-9]+ gicp_from_truth_stays=[0-9]+$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv" --truth-check --global-search-below 1
 check "align --truth-check csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms,fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg,icp_from_truth_refusal,gicp_from_truth_converged,gicp_from_truth_error_m,gicp_from_truth_error_deg,error_m,error_deg$" -- head -1 "$TMP/sim/a6.csv"
-check "align: global-search-below out of range" 1 "global_search_below must be in \[0, 1\]" -- "$LLC" align --global-search-below 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: min-relative-overlap out of range" 1 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --min-relative-overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: icp-fixed-pairs-after below 1" 1 "fixed_pairs_after must be >= 1" -- "$LLC" align --icp-fixed-pairs-after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: global-search-below out of range" 2 "global_search_below must be in \[0, 1\]" -- "$LLC" align --global-search-below 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: min-relative-overlap out of range" 2 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --min-relative-overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: icp-fixed-pairs-after below 1" 2 "fixed_pairs_after must be >= 1" -- "$LLC" align --icp-fixed-pairs-after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
 check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "^session .*: [0-9]+ keyframes, [1-9][0-9]* positive and [1-9][0-9]* negative pairs labelled by its optimised map$" -- "$LLC" train --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self.yaml" --rounds 20 --repeats 1
 check "train --from-session beside --data" 0 "^pairs=(1[3-9][0-9]|[2-9][0-9]{2}|[0-9]{4,}) " -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self2.yaml" --rounds 20 --repeats 1
@@ -93,12 +93,12 @@ check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$
 check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
 check "align: corrupt CRF weights" 1 "bad.yaml: not a laser_loop_closure CRF weights file" -- "$LLC" align --crf-weights "$TMP/bad.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a5.csv"
 check "align: share of accepted positives within tolerance" 0 "^accepted_positives_within_tolerance=[01]\.[0-9]+ \([0-9]+/[0-9]+\)$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: negative position std" 1 "validation: max_position_std must be finite and >= 0" -- "$LLC" align --validation-max-position-std -1 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
-check "align: bad validation share" 1 "validation: min_inlier_share must be in" -- "$LLC" align --validation-share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
+check "align: negative position std" 2 "validation: max_position_std must be finite and >= 0" -- "$LLC" align --validation-max-position-std -1 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
+check "align: bad validation share" 2 "validation: min_inlier_share must be in" -- "$LLC" align --validation-share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
 check "evaluate --validate" 0 "validated_detection_at_1pct_fa=" -- "$LLC" evaluate --validate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev2" --repeats 1 --no-curve --no-ablation --no-rotation
 check "evaluate --validate writes the validated ROC" 0 "false_alarm,detection" -- head -1 "$TMP/sim/ev2/roc_validated.csv"
 # Leave-one-log-out: each log scored by a model trained on the others only.
-check "evaluate --leave-one-log-out needs two logs" 1 "needs at least two --data items" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/lolo"
+check "evaluate --leave-one-log-out needs two logs" 2 "needs at least two --data items" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/lolo"
 check "evaluate --leave-one-log-out" 0 "^mean_detection_at_1pct_fa=" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo" --rounds 10 --folds 3
 check "evaluate --leave-one-log-out csv" 0 "^log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,detection_at_0pct_fa,auc,calibration_pairs,calibrated_k,detection_at_calibrated_k,realised_false_alarm_calibrated$" -- head -1 "$TMP/sim/lolo/leave_one_log_out.csv"
 check "evaluate --leave-one-log-out: each held-out log trained on the other" 0 "^sim,120,60,[0-9]+," -- grep "^sim,120," "$TMP/sim/lolo/leave_one_log_out.csv"
@@ -108,32 +108,66 @@ check "evaluate --leave-one-log-out --validate: the loop stage held out" 0 "^loo
 check "evaluate --leave-one-log-out --validate writes loop_stage.csv" 0 "^log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,error_m,error_deg,gate_chi2,through_gate,reject_reason$" -- head -1 "$TMP/sim/lolo5/loop_stage.csv"
 check "evaluate --leave-one-log-out --validate without --drift says the gate needs it" 0 "^loop_stage_with_gate: not run" -- cat "$TMP/sim/lolo5/summary.txt"
 check "evaluate --leave-one-log-out --validate --drift: the back end's gate too" 0 "^loop_stage_with_gate: true_pairs_through=[0-9]+/260 false_pairs_through=[0-9]+ wrong_poses_through=[0-9]+ " -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo6" --rounds 10 --folds 3 --validate --drift moderate
-check "evaluate --calibration-max-path must be positive" 1 "max_path must be finite and > 0" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs 10 --calibration-max-path -5
-check "evaluate --calibration-pairs must not be negative" 1 "calibration-pairs must be zero or more" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs -1
+check "evaluate --calibration-max-path must be positive" 2 "max_path must be finite and > 0" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs 10 --calibration-max-path -5
+check "evaluate --calibration-pairs must not be negative" 2 "calibration-pairs must be zero or more" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs -1
 # Pose graphs through the ESDF: a small g2o file written here (a square with one loop edge).
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 100 0 0 100 0 400\n' > "$TMP/square.g2o"
 check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_out.g2o"
 check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
 check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
-check "graph: both modes" 1 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
-check "graph: negative relinearize-chi2" 1 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --relinearize-chi2 -1
+check "graph: both modes" 2 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
+check "graph: negative relinearize-chi2" 2 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --relinearize-chi2 -1
 printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
-check "graph: negative max-edges-in-place" 1 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place -1
-check "graph: reorder-fill-ratio below 1" 1 "reorder_fill_ratio must be finite and >= 1" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --reorder-fill-ratio 0.5
+check "graph: negative max-edges-in-place" 2 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place -1
+check "graph: reorder-fill-ratio below 1" 2 "reorder_fill_ratio must be finite and >= 1" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --reorder-fill-ratio 0.5
 check "graph: every swap as a rebuild still reaches the optimum" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place 0
 check "graph: prints where its time went" 0 " seconds_rank_updates=[0-9.e+-]+ seconds_solves=[0-9.e+-]+ seconds_factorizations=[0-9.e+-]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 check "graph: prints its rebuild count" 0 " rebuilds=[0-9]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 1e24 0 0 1e24 0 1e24\n' > "$TMP/too_sure.g2o"
 check "graph: a loop beyond max_information is refused" 0 "refused edge 3 -> 0: information .* above max_information" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o"
 check "graph: max-information is an option" 0 "refused=0" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o" --max-information 1e25
-check "graph: max-information must be positive" 1 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-information 0
+check "graph: max-information must be positive" 2 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-information 0
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front
 check "bag: a topic of another type" 1 "does not hold sensor_msgs/LaserScan" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --back-topic /odom
 head -c 100000 "$TMP/sim/sim.bag" > "$TMP/cut.bag"
 check "bag: truncated" 1 "cut.bag: (not a readable bag|the bag is damaged)" -- "$LLC" features --log "$TMP/cut.bag" --out "$TMP/f.csv"
-check "simulate bad parking time" 1 "parking-mean-s must be" -- "$LLC" simulate --out "$TMP/sim" --parking-mean-s 0
+check "simulate bad parking time" 2 "parking-mean-s must be" -- "$LLC" simulate --out "$TMP/sim" --parking-mean-s 0
+
+# Help for every subcommand: its usage with defaults, exit 0.
+for sub in pairs features train evaluate score simulate align graph slam train-crf; do
+  check "$sub --help" 0 "^usage: llc $sub " -- "$LLC" "$sub" --help
+done
+check "slam --help lists defaults" 0 "\[--drift-noise-m 0\.01\]" -- "$LLC" slam --help
+check "align --help lists the alignment options" 0 "^alignment options: \[--max-range 40\]" -- "$LLC" align --help
+# Flags and outputs are checked before the run: nothing is written, no folder made.
+check "slam: a NaN flag is refused before the run" 2 "positive-distance must be a number, not 'nan'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nan" --positive-distance nan
+check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_nan' && echo present || echo absent"
+check "slam: an unwritable --save-session is refused before the run" 1 "--save-session $TMP/no/such/s.llcsession: cannot be written" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nosave" --save-session "$TMP/no/such/s.llcsession"
+check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_nosave' && echo present || echo absent"
+check "features: --out a folder" 1 "--out $TMP/sim: cannot be written \(.* is a folder\)" -- "$LLC" features --log "$TMP/sim/sim.log" --out "$TMP/sim"
+# A full disk: every output is checked, none left short or empty, an old one kept whole.
+if [ -w /dev/full ]; then
+  check "features to a full device" 1 "write to /dev/full failed: No space left on device" -- "$LLC" features --log "$TMP/sim/sim.log" --out /dev/full
+  check "pairs to a full device" 1 "No space left on device" -- "$LLC" pairs --log "$TMP/sim/sim.log" --out /dev/full
+fi
+full_disk() {  # full_disk OUT_FILE command...: runs the command with writes past 1 KiB refused by the kernel
+  local out="$1"; shift
+  printf 'the old file\n' > "$out"
+  bash -c 'trap "" XFSZ; ulimit -f 1; exec "$@"' full_disk "$@"
+}
+check "features, disk full: exit 1, named" 1 "write to $TMP/full_f.csv.tmp failed: File too large \($TMP/full_f.csv left as it was\)" -- full_disk "$TMP/full_f.csv" "$LLC" features --log "$TMP/sim/sim.log" --out "$TMP/full_f.csv"
+check "pairs, disk full" 1 "File too large" -- full_disk "$TMP/full_p.csv" "$LLC" pairs --log "$TMP/sim/sim.log" --out "$TMP/full_p.csv"
+check "score, disk full" 1 "File too large" -- full_disk "$TMP/full_s.csv" "$LLC" score --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/full_s.csv"
+check "align, disk full" 1 "File too large" -- full_disk "$TMP/full_a.csv" "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/full_a.csv"
+check "disk full: the old files are kept whole, no temporary left" 0 "^ok$" -- bash -c "cat '$TMP'/full_[fpsa].csv | sort -u | grep -qx 'the old file' && [ \$(cat '$TMP'/full_[fpsa].csv | wc -l) -eq 4 ] && ! ls '$TMP'/full_*.tmp 2>/dev/null && echo ok"
+# A line with more values than its beam count, a model that cannot match anything.
+printf 'FLASER 2 1.0 2.0 3.0 4.0 0 0 0 0 0 0 1 h 1\n' > "$TMP/extra.log"
+check "log: a line with more values than its beam count" 1 "extra.log:1: FLASER: 2 more values than a line with 2 beams" -- "$LLC" features --log "$TMP/extra.log" --out "$TMP/f.csv"
+sed -E 's/alpha: [0-9.e+-]+/alpha: 0/' "$TMP/sim/m.yaml" > "$TMP/weightless.yaml"
+check "model: no stump with a positive alpha" 1 "no stump has a positive alpha" -- "$LLC" score --model "$TMP/weightless.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/s.csv"
+check "train: --rounds 0" 2 "rounds" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/r0.yaml" --rounds 0
 
 LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then
@@ -145,7 +179,7 @@ if [ -f "$LOG" ]; then
     # Its poses run one scan ahead of its scans: auto must find -1, and the map then closes loops.
     check "slam on the raw Intel log finds its odometry offset" 0 "^odometry_offset=-1$" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_intel" --odometry-offset auto --quiet
     check "slam on the raw Intel log applies loops" 0 "^ok$" -- awk -F= '/^loops_accepted=/ {print ($2 >= 150 ? "ok" : "loops " $2)}' "$TMP/slam_intel/report.txt"
-    check "odometry offset not a number" 1 "odometry-offset" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_bad" --odometry-offset soon --quiet
+    check "odometry offset not a number" 2 "odometry-offset" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_bad" --odometry-offset soon --quiet
   fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
@@ -155,7 +189,7 @@ if [ -f "$LOG" ]; then
   check "train" 0 "rounds=50" -- "$LLC" train --data "$LOG:$TMP/pairs.csv" --model "$TMP/model.yaml" --repeats 1
   check "score" 0 "pairs=400" -- "$LLC" score --model "$TMP/model.yaml" --data "$LOG:$TMP/pairs.csv" --out "$TMP/scores.csv"
   head -1 "$TMP/scores.csv" | grep -qx "a,b,label,score" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: score header"; }
-  check "bad folds" 1 "folds must be at least 2" -- "$LLC" evaluate --data "$LOG:$TMP/pairs.csv" --out "$TMP/eval" --folds 0
+  check "bad folds" 2 "folds must be at least 2" -- "$LLC" evaluate --data "$LOG:$TMP/pairs.csv" --out "$TMP/eval" --folds 0
   out="$("$LLC" evaluate --data "$LOG:$TMP/pairs.csv" --out "$TMP/eval" --repeats 2 --curve-max-rounds 60 2>&1)"
   last2="$(tail -2 <<<"$out")"
   if grep -qE '^detection_at_1pct_fa=[01]\.[0-9]+$' <<<"$(head -1 <<<"$last2")" && grep -qE '^auc=[01]\.[0-9]+$' <<<"$(tail -1 <<<"$last2")" \
