@@ -29,6 +29,7 @@ std::string EsdfOptions::validate() const {
   if (!(loop_chi2_threshold > 0.0)) return "loop_chi2_threshold must be > 0";
   if (!(prior_information > 0.0) || !std::isfinite(prior_information)) return "prior_information must be finite and > 0";
   if (!(max_information > 0.0) || !std::isfinite(max_information)) return "max_information must be finite and > 0";
+  if (!(robust_loop_chi2 >= 0.0) || !std::isfinite(robust_loop_chi2)) return "robust_loop_chi2 must be finite and >= 0";
   return "";
 }
 
@@ -169,7 +170,8 @@ void Esdf::addToSystem(std::size_t k, double sign) {
   Eigen::Matrix3d ja, jb;
   const Eigen::Vector3d r = edgeTerms(k, &ja, &jb);
   if (sign > 0.0) edge_models_[k] = {r, ja, jb};
-  const Eigen::Matrix3d wa = sign * ja.transpose() * e.information, wb = sign * jb.transpose() * e.information;
+  const Eigen::Matrix3d information = weights_[k] * e.information;
+  const Eigen::Matrix3d wa = sign * ja.transpose() * information, wb = sign * jb.transpose() * information;
   impl_->block(e.from, e.from) += wa * ja;
   impl_->block(e.to, e.to) += wb * jb;
   if (e.from < e.to) impl_->block(e.from, e.to) += wa * jb;
@@ -179,7 +181,7 @@ void Esdf::addToSystem(std::size_t k, double sign) {
   impl_->current = false;
 }
 
-void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point) {
+void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool robust) {
   // Largest eigenvalue of the translation block, for linearizationMissBound.
   const Eigen::Matrix2d xy = edge.information.topLeftCorner<2, 2>();
   const double half_trace = 0.5 * xy.trace();
@@ -187,6 +189,9 @@ void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& t
   edge_models_.emplace_back();
   edges_.push_back(edge);
   edge_points_.push_back({from_point, to_point});
+  robust_.push_back(robust && options_.robust_loop_chi2 > 0.0);
+  weights_.push_back(1.0);
+  weights_.back() = robustWeight(edges_.size() - 1);  // scaled from the start when it does not fit
   addToSystem(edges_.size() - 1, 1.0);
 }
 
@@ -278,7 +283,7 @@ bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
     const PoseEdge& e = edges_[k];
     Eigen::Matrix3d ja, jb;
     edgeTerms(k, &ja, &jb);
-    const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
+    const Eigen::LLT<Eigen::Matrix3d> llt(weights_[k] * e.information);
     if (llt.info() != Eigen::Success) {
       cholmod_free_sparse(&c, &m.common);
       return false;
@@ -331,7 +336,7 @@ std::size_t Esdf::augmentWithInformation(const PoseEdge& e) {
   impl_->upper.emplace_back();
   impl_->gradient.conservativeResize(3 * long(size()));
   impl_->gradient.tail<3>().setZero();
-  addEdge(e, mean_[e.from], mean_.back());
+  addEdge(e, mean_[e.from], mean_.back(), false);
   // Only the new pose is constrained by this edge, and it can satisfy it exactly: every other
   // mean is unchanged and the new one is the composition (so nothing is solved here).
   return e.to;
@@ -368,7 +373,7 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   }
   impl_->leaf_start = std::string::npos;  // no longer a run of leaves: the next covariance needs a factor
   const bool factor_was_valid = impl_->factor_valid;
-  addEdge(e, mean_[e.from], mean_[e.to]);  // linearised where the poses are now
+  addEdge(e, mean_[e.from], mean_[e.to], true);  // linearised where the poses are now
   impl_->factor_valid = false;
   result.applied = true;
   if (!solve) return result;
@@ -394,6 +399,8 @@ void Esdf::takeBackNewestEdge(std::vector<Pose2> linearization_before) {
   edges_.pop_back();
   edge_points_.pop_back();
   largest_information_.pop_back();
+  weights_.pop_back();
+  robust_.pop_back();
   edge_models_.pop_back();
   // Back to the linearisation point of before the update when a round moved it (to means
   // the failed solve may have made), and the system rebuilt there.
@@ -404,10 +411,46 @@ void Esdf::takeBackNewestEdge(std::vector<Pose2> linearization_before) {
 
 int Esdf::solveFrom(const std::vector<Pose2>& poses) {
   if (poses.size() != size()) throw std::invalid_argument("esdf: solveFrom needs one pose per filter pose");
-  mean_ = linearization_ = poses;
-  rebuildSystem();
-  factorAndSolve();
-  return relinearizeUntilSteady(true);
+  if (!(options_.robust_loop_chi2 > 0.0)) return graduatedSolve(poses, 1.0);
+  // Robust loops: two starts of the same robust cost, the lower kept. The kernel at once holds
+  // the means near a start that is nearly right (a file's own poses) but near a start far off
+  // too (an odometry chain, where every loop misfits); a kernel 100 times as wide, narrowed by
+  // tenths, first lets the loops pull the means near, but from a start nearly right it lets
+  // wrong loops bend them first.
+  int rounds = graduatedSolve(poses, 1.0);
+  const std::vector<Pose2> narrow = mean_;
+  const double narrow_cost = robustCost();
+  rounds += graduatedSolve(poses, 100.0);
+  if (robustCost() > narrow_cost) rounds += graduatedSolve(narrow, 1.0);
+  return rounds;
+}
+
+int Esdf::graduatedSolve(const std::vector<Pose2>& poses, double start_widen) {
+  mean_ = poses;
+  int rounds = 0;
+  for (double widen = start_widen; widen >= 1.0; widen /= 10.0) {
+    robust_widen_ = widen;
+    for (std::size_t k = 0; k < edges_.size(); ++k) weights_[k] = robustWeight(k);
+    linearization_ = mean_;
+    rebuildSystem();
+    factorAndSolve();
+    rounds += relinearizeUntilSteady(true);
+  }
+  robust_widen_ = 1.0;
+  return rounds;
+}
+
+double Esdf::robustCost() const {
+  // Dynamic covariance scaling's cost (the switchable constraint's, its switch eliminated):
+  // s^2 X + W (1 - s)^2 with s = min(1, 2 W / (W + X)); X itself for odometry.
+  const double w = options_.robust_loop_chi2;
+  double cost = 0.0;
+  for (std::size_t k = 0; k < edges_.size(); ++k) {
+    const double chi2 = currentChi2(k);
+    const double s = robust_[k] && chi2 > w ? 2.0 * w / (w + chi2) : 1.0;
+    cost += s * s * chi2 + w * (1.0 - s) * (1.0 - s);
+  }
+  return cost;
 }
 
 Eigen::Matrix<double, 6, 6> Esdf::factoredJointCovariance(std::size_t a, std::size_t b) {

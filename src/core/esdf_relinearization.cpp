@@ -1,12 +1,46 @@
 // The ESDF's relinearisation policy: which constraints are stale (their linear model misses
 // their true error at the current means), and how they are brought up to date (swapped inside
 // the factor when few, the whole system rebuilt when many). The factor itself is esdf.cpp's.
+#include <algorithm>
 #include <cmath>
 
 #include "laser_loop_closure/core/esdf.hpp"
 #include "laser_loop_closure/core/se2_jacobians.hpp"
 
 namespace llc {
+
+double Esdf::currentChi2(std::size_t k) const {
+  const PoseEdge& e = edges_[k];
+  const Pose2 &a = mean_[e.from], &b = mean_[e.to];
+  const double ca = std::cos(a.theta), sa = std::sin(a.theta);
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double px = ca * dx + sa * dy - e.measurement.x, py = -sa * dx + ca * dy - e.measurement.y;
+  const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
+  const Eigen::Vector3d error(cz * px + sz * py, -sz * px + cz * py, normalizeAngle(b.theta - a.theta - e.measurement.theta));
+  return error.dot(e.information * error);
+}
+
+double Esdf::robustWeight(std::size_t k) const {
+  const double w = options_.robust_loop_chi2 * robust_widen_;
+  if (!robust_[k]) return 1.0;
+  const double chi2 = currentChi2(k);
+  if (!(chi2 > w)) return 1.0;
+  const double scale = 2.0 * w / (w + chi2);
+  // Never exactly 0: the factor's rank updates need a positive definite information.
+  return std::max(scale * scale, 1e-9);
+}
+
+std::vector<std::size_t> Esdf::reweightedEdges() const {
+  std::vector<std::size_t> changed;
+  if (!(options_.robust_loop_chi2 > 0.0)) return changed;
+  for (std::size_t k = 0; k < edges_.size(); ++k) {
+    if (!robust_[k]) continue;
+    const double now = robustWeight(k), then = weights_[k];
+    // A tenth either way: smaller changes move the means by little and would cost a swap each.
+    if (std::abs(now - then) > 0.1 * std::max(now, then)) changed.push_back(k);
+  }
+  return changed;
+}
 
 double Esdf::linearizationError(std::size_t k) const {
   const PoseEdge& e = edges_[k];
@@ -72,17 +106,25 @@ std::vector<std::size_t> Esdf::staleEdges(double tau, std::size_t limit) const {
 
 bool Esdf::relinearizeInPlace(const std::vector<std::size_t>& stale) {
   // New information in first, old out after, so that the factor stays positive definite.
+  // A robust loop takes its weight at the current means with it.
   std::vector<std::pair<Pose2, Pose2>> old_points;
+  std::vector<double> old_weights;
   for (const std::size_t k : stale) {
     old_points.push_back(edge_points_[k]);
+    old_weights.push_back(weights_[k]);
     addToSystem(k, -1.0);
     edge_points_[k] = {mean_[edges_[k].from], mean_[edges_[k].to]};
+    weights_[k] = robustWeight(k);
     addToSystem(k, 1.0);
   }
+  auto swapOld = [&] {
+    for (std::size_t i = 0; i < stale.size(); ++i)
+      std::swap(edge_points_[stale[i]], old_points[i]), std::swap(weights_[stale[i]], old_weights[i]);
+  };
   if (!rankUpdate(stale, true)) return false;
-  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  swapOld();
   const bool ok = rankUpdate(stale, false);  // the old information, taken at the old points
-  for (std::size_t i = 0; i < stale.size(); ++i) std::swap(edge_points_[stale[i]], old_points[i]);
+  swapOld();
   if (!ok) return false;
   edges_relinearized_in_place_ += int(stale.size());
   return true;
@@ -94,7 +136,10 @@ int Esdf::relinearizeUntilSteady(bool batch, std::vector<Pose2>* linearization_b
   const std::size_t in_place = batch ? 0 : std::size_t(options_.max_edges_relinearized_in_place);
   int count = 0;
   while (count < options_.max_relinearizations) {
-    const std::vector<std::size_t> stale = staleEdges(tau, in_place);
+    std::vector<std::size_t> stale = staleEdges(tau, in_place);
+    // Robust loops whose weight has moved are swapped like stale ones (they are few).
+    for (const std::size_t k : reweightedEdges())
+      if (std::find(stale.begin(), stale.end(), k) == stale.end()) stale.push_back(k);
     if (stale.empty()) break;
     ++count;
     ++relinearizations_;
@@ -106,6 +151,7 @@ int Esdf::relinearizeUntilSteady(bool batch, std::vector<Pose2>* linearization_b
     ++rebuilds_;
     if (linearization_before && linearization_before->empty()) *linearization_before = linearization_;
     linearization_ = mean_;
+    for (std::size_t k = 0; k < edges_.size(); ++k) weights_[k] = robustWeight(k);
     rebuildSystem();
     factorAndSolve();
   }

@@ -78,11 +78,13 @@ const std::vector<Command>& commands() {
        "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
       {"graph", llc_tool::runGraph,
        {"g2o", "out", "relinearize-translation", "relinearize-rotation", "relinearize-chi2", "max-edges-in-place", "reorder-fill-ratio",
-        "max-relinearizations", "loop-chi2", "max-information"},
+        "max-relinearizations", "loop-chi2", "max-information", "robust-loop-chi2"},
        {"incremental", "batch", "gate"},
        "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--loop-chi2 16.27]\n"
        "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--relinearize-chi2 0.001]\n"
-       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20] [--max-information 1e12]"},
+       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20] [--max-information 1e12]\n"
+       "      [--robust-loop-chi2 0]   (W > 0: robust loops, each misfitting by chi2 X > W counts (2W/(W+X))^2 of its\n"
+       "       information; a batch run is solved from two starts and an incremental one re-solved so at the end)"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",

@@ -379,6 +379,49 @@ TEST(Esdf, ChiSquareGateRefusesAPlantedWrongLoopAndAcceptsTheRightOnes) {
   EXPECT_THROW(filter.augmentFrom(999, wrong, covariance), std::invalid_argument);
 }
 
+/// The graph through the filter in file order (loops applied incrementally) or in batch.
+llc::Esdf& runGraph(llc::Esdf& filter, const llc::PoseGraph2& g, bool batch) {
+  for (const llc::PoseEdge& e : g.edges) {
+    if (e.to == filter.size()) filter.augmentWithInformation(e);
+    else EXPECT_TRUE(filter.updateWithInformation(e, false, !batch).applied);
+  }
+  if (batch) filter.solveFrom(g.poses);
+  return filter;
+}
+
+TEST(Esdf, RobustLoopsLetNoWrongLoopBendTheGraph) {
+  std::vector<Pose2> truth;
+  llc::PoseGraph2 clean = randomGraph(21, 60, 40, &truth);
+  llc::Esdf reference;
+  const double optimum = llc::chiSquared(clean.edges, runGraph(reference, clean, true).mean());
+  // Wrong loops: two poses far apart said to be 1 m apart, with a loop's information.
+  llc::PoseGraph2 corrupted = clean;
+  const std::vector<std::pair<std::size_t, std::size_t>> wrong = {{3, 45}, {12, 58}, {20, 50}};
+  for (auto [a, b] : wrong) corrupted.edges.push_back({a, b, Pose2{1.0, 0.0, 0.5}, clean.edges.back().information});
+  llc::Esdf plain;
+  const double bent = llc::chiSquared(clean.edges, runGraph(plain, corrupted, true).mean());
+  EXPECT_GT(bent, 10.0 * optimum) << "the wrong loops bend a least-squares solution";
+  llc::EsdfOptions options;
+  options.robust_loop_chi2 = 16.27;
+  for (bool batch : {true, false}) {
+    llc::Esdf robust(Pose2{}, options);
+    runGraph(robust, corrupted, batch);
+    if (!batch) robust.solveFrom(corrupted.poses);  // as llc graph ends an incremental run
+    EXPECT_NEAR(llc::chiSquared(clean.edges, robust.mean()), optimum, 0.01 * optimum) << "batch " << batch;
+    const std::vector<double>& weights = robust.constraintWeights();
+    ASSERT_EQ(weights.size(), corrupted.edges.size());
+    for (std::size_t k = clean.edges.size(); k < weights.size(); ++k) EXPECT_LT(weights[k], 1e-3) << "wrong loop " << k;
+    std::size_t held = 0;  // the true loops fit: held in full (a few may sit just past the kernel)
+    for (std::size_t k = 0; k < clean.edges.size(); ++k) held += weights[k] == 1.0;
+    EXPECT_GE(held, clean.edges.size() - 2);
+  }
+  // Where every loop fits, the robust solution is the least-squares one.
+  llc::Esdf robust_clean(Pose2{}, options);
+  EXPECT_NEAR(llc::chiSquared(clean.edges, runGraph(robust_clean, clean, true).mean()), optimum, 1e-6 * optimum);
+  options.robust_loop_chi2 = -1.0;
+  EXPECT_NE(options.validate().find("robust_loop_chi2"), std::string::npos);
+}
+
 TEST(Esdf, AnInformationBeyondWhatDoublesHoldIsRefusedAndMovesNothing) {
   std::vector<Pose2> truth;
   const llc::PoseGraph2 g = randomGraph(9, 40, 0, &truth);

@@ -127,6 +127,13 @@ printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963
 check "graph: a loop beyond max_information is refused" 0 "refused edge 3 -> 0: information .* above max_information" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o"
 check "graph: max-information is an option" 0 "refused=0" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o" --max-information 1e25
 check "graph: max-information must be positive" 2 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-information 0
+# A wrong loop (pose 3 said to be 1 m from pose 0, in a 4 m square walked twice) bends the
+# least-squares solution; robust loops hold it at the clean optimum.
+printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 4 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 4 5 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 5 6 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 6 7 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 0 4 0 0 0 100 0 0 100 0 400\nEDGE_SE2 1 5 0 0 0 100 0 0 100 0 400\nEDGE_SE2 2 6 0 0 0 100 0 0 100 0 400\nEDGE_SE2 3 7 0 0 0 100 0 0 100 0 400\nEDGE_SE2 0 6 3 3 1 100 0 0 100 0 400\n' > "$TMP/wrong_loop.g2o"
+check "graph: a wrong loop bends least squares" 0 "^chi2=[0-9]{3,}" -- "$LLC" graph --g2o "$TMP/wrong_loop.g2o" --out "$TMP/x.g2o"
+check "graph --robust-loop-chi2: the wrong loop held at no weight" 0 "^robust: loops_down_weighted=1 " -- "$LLC" graph --g2o "$TMP/wrong_loop.g2o" --out "$TMP/x.g2o" --robust-loop-chi2 16.27
+check "graph --robust-loop-chi2 --batch: the rest fits exactly" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/wrong_loop.g2o' --out '$TMP/x.g2o' --robust-loop-chi2 16.27 --batch | awk '/^robust:/ {split(\$3, c, \"=\"); print (c[2] < 16.27 * 1.01 ? \"ok\" : \"robust cost \" c[2])}'"
+check "graph: robust-loop-chi2 must not be negative" 2 "robust_loop_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --robust-loop-chi2 -1
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front

@@ -37,6 +37,13 @@ struct EsdfOptions {
   /// deviation of 1 um or 1 urad). More is refused: beside the others, double precision cannot
   /// hold it (applied, a loop far beyond it scatters the means or fails the factorisation).
   double max_information = 1e12;
+  /// Robust loop closures (dynamic covariance scaling, Agarwal et al. 2013): a loop whose error
+  /// at the current means has chi2 X above this keeps its information scaled by
+  /// (2 W / (W + X))^2, recomputed at every relinearisation round, so a wrong loop that later
+  /// loops contradict loses its hold on the map instead of bending it for good. Below W a loop
+  /// counts in full (the least-squares optimum is unchanged where every loop fits). Odometry
+  /// (augmentation) is never scaled. 0: off.
+  double robust_loop_chi2 = 0.0;
   std::string validate() const;
 };
 
@@ -84,7 +91,8 @@ class Esdf {
   /// Batch use: every mean set to `poses` (one per pose), the system rebuilt there and solved,
   /// rebuilt again while any pose moves past the relinearisation thresholds (Gauss-Newton from
   /// that start; relinearize_chi2 and in-place relinearisation are for updates). Returns the
-  /// relinearisations.
+  /// relinearisations. With robust_loop_chi2, solved from two starts of the kernel (at once,
+  /// and graduated from 100 times as wide) and the lower robust cost kept.
   int solveFrom(const std::vector<Pose2>& poses);
 
   const std::vector<Pose2>& mean() const { return mean_; }
@@ -108,6 +116,12 @@ class Esdf {
 
   /// Every constraint applied so far (odometry and loops), in order, with its information.
   const std::vector<PoseEdge>& constraints() const { return edges_; }
+  /// The scale on each constraint's information now (1 but for robust loops that do not fit:
+  /// see robust_loop_chi2), in the order of constraints().
+  const std::vector<double>& constraintWeights() const { return weights_; }
+  /// The robust cost at the current means: robust_loop_chi2's kernel on loops (chi2 where they
+  /// fit), chi2 on odometry; the plain chi2 when robust_loop_chi2 is 0.
+  double robustCost() const;
   int factorizations() const { return factorizations_; }
   int rankUpdates() const { return rank_updates_; }
   /// Relinearisation rounds, and how many constraints were relinearised in place by them.
@@ -131,7 +145,7 @@ class Esdf {
   Eigen::Vector3d edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) const;
   /// Adds (sign 1) or removes (sign -1) edge k's information and gradient.
   void addToSystem(std::size_t k, double sign);
-  void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point);
+  void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool robust);
   /// Removes the newest constraint (its solve failed) and factorises the system without it, at
   /// linearization_before when a relinearisation round had moved the linearisation point.
   void takeBackNewestEdge(std::vector<Pose2> linearization_before);
@@ -143,6 +157,17 @@ class Esdf {
   bool rankUpdate(const std::vector<std::size_t>& edges, bool update);
   /// How far edge k's linear model misses its error at the current means (squared Mahalanobis).
   double linearizationError(std::size_t k) const;
+  /// Edge k's error at the current means, as a squared Mahalanobis distance in its own
+  /// (unscaled) information.
+  double currentChi2(std::size_t k) const;
+  /// The scale robust_loop_chi2 gives edge k at the current means (1 for odometry).
+  double robustWeight(std::size_t k) const;
+  /// Robust edges whose weight at the current means has moved from the one in the system.
+  std::vector<std::size_t> reweightedEdges() const;
+  /// Batch stages from `poses`: the robust kernel start_widen times as wide, narrowed by
+  /// tenths to robust_loop_chi2, each stage solved from the last. Returns the rounds.
+  int graduatedSolve(const std::vector<Pose2>& poses, double start_widen);
+
   /// The edges to relinearise now: moved past the thresholds and (tau > 0) missing their
   /// linear model by more than tau. Stops counting past limit.
   std::vector<std::size_t> staleEdges(double tau, std::size_t limit) const;
@@ -160,6 +185,9 @@ class Esdf {
   std::vector<PoseEdge> edges_;
   std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
   std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information
+  std::vector<double> weights_;                       ///< per edge: the scale on its information in the system
+  std::vector<char> robust_;                          ///< per edge: a loop (robust_loop_chi2 may scale it)
+  double robust_widen_ = 1.0;                         ///< the kernel's width over robust_loop_chi2 (batch stages)
   struct EdgeModel {  ///< an edge's linear model in the system: e ~ residual + ja dx_from + jb dx_to
     Eigen::Vector3d residual = Eigen::Vector3d::Zero();
     Eigen::Matrix3d ja = Eigen::Matrix3d::Zero(), jb = Eigen::Matrix3d::Zero();

@@ -121,6 +121,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/loop_chi2_threshold", esdf.loop_chi2_threshold);
   visit("esdf/prior_information", esdf.prior_information);
   visit("esdf/max_information", esdf.max_information);
+  visit("esdf/robust_loop_chi2", esdf.robust_loop_chi2);
   visit("esdf/gate_loops", options.slam.gate_loops);
 
   PlaceGateOptions& place_gate = options.slam.place_gate;
