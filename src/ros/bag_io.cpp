@@ -18,6 +18,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "laser_loop_closure/ros/tf_bridge.hpp"
 
 namespace llc_ros {
 namespace {
@@ -43,42 +44,19 @@ struct PoseTrack {
   }
 };
 
-/// Scanner mountings by frame_id, from /tf_static, looked up once per frame.
-class Mountings {
- public:
-  Mountings(const std::string& path, rosbag::Bag& bag) : path_(path) {
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf_static"}));
-    for (const rosbag::MessageInstance& m : view) {
-      const tf2_msgs::TFMessage::ConstPtr tf = m.instantiate<tf2_msgs::TFMessage>();
-      if (!tf) continue;
-      for (const geometry_msgs::TransformStamped& t : tf->transforms) buffer_.setTransform(t, "bag", true);
+/// The static transforms of the bag (/tf_static), for MountCache.
+void loadStaticTransforms(rosbag::Bag& bag, tf2::BufferCore* buffer) {
+  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf_static"}));
+  for (const rosbag::MessageInstance& m : view) {
+    const tf2_msgs::TFMessage::ConstPtr tf = m.instantiate<tf2_msgs::TFMessage>();
+    if (!tf) continue;
+    for (geometry_msgs::TransformStamped t : tf->transforms) {
+      // tf1's leading slashes, as tf2 names the frames (tf2 refuses them otherwise).
+      t.header.frame_id = tfFrame(t.header.frame_id), t.child_frame_id = tfFrame(t.child_frame_id);
+      buffer->setTransform(t, "bag", true);
     }
   }
-
-  const ScannerMount& of(const std::string& base, const std::string& frame) {
-    const auto found = cache_.find(frame);
-    if (found != cache_.end()) return found->second;
-    ScannerMount mount;
-    if (frame != base) {
-      geometry_msgs::TransformStamped t;
-      try {
-        t = buffer_.lookupTransform(base, frame, ros::Time(0));
-      } catch (const tf2::TransformException& e) {
-        throw BagError(path_ + ": no mounting of scanner frame '" + frame + "' on '" + base + "' in /tf_static (" +
-                       e.what() + ")");
-      }
-      std::string error;
-      if (!toPlanarMount(t.transform, &mount.pose, &mount.upside_down, &error))
-        throw BagError(path_ + ": scanner frame '" + frame + "': " + error);
-    }
-    return cache_.emplace(frame, mount).first->second;
-  }
-
- private:
-  std::string path_;
-  tf2::BufferCore buffer_;
-  std::map<std::string, ScannerMount> cache_;
-};
+}
 
 }  // namespace
 
@@ -93,7 +71,8 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     throw BagError(path + ": not a readable bag (" + e.what() + ")");
   }
   try {
-    Mountings mountings(path, bag);
+    tf2::BufferCore static_transforms;
+    loadStaticTransforms(bag, &static_transforms);
     const BagTopics& topics = options.topics;
     std::vector<sensor_msgs::LaserScan::ConstPtr> fronts, backs;
     PoseTrack odometry, truth;
@@ -119,6 +98,16 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
       }
     }
     if (base.empty()) base = "base_link";
+    // Every static transform is loaded: a frame not mounted now never will be (one lookup).
+    MountCache mountings(static_transforms, base, FallbackMount{options.fallback_mount, 1});
+    auto mountOf = [&](const sensor_msgs::LaserScan& scan) {
+      ScannerMount mount;
+      std::string error;
+      bool fell_back = false;
+      if (!mountings.lookup(scan.header.frame_id, &mount, &error, &fell_back)) throw BagError(path + ": " + error);
+      if (fell_back) r.fallback_frames.push_back(tfFrame(scan.header.frame_id));
+      return mount;
+    };
     r.front_messages = fronts.size();
     r.back_messages = backs.size();
     if (fronts.empty()) throw BagError(path + ": no sensor_msgs/LaserScan on the front topic " + topics.front);
@@ -141,7 +130,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
       }
       llc::LoggedScan logged;
       std::string error;
-      if (!toBaseScan(*front, mountings.of(base, front->header.frame_id), &logged.scan, &error)) {
+      if (!toBaseScan(*front, mountOf(*front), &logged.scan, &error)) {
         skip("front scan at " + std::to_string(stamp) + " s: " + error);
         continue;
       }
@@ -157,7 +146,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         if (gap <= options.max_merge_gap && (!best || gap < std::abs(best->header.stamp.toSec() - stamp))) best = it->get();
       }
       llc::Scan back;
-      if (best && toBaseScan(*best, mountings.of(base, best->header.frame_id), &back, &error)) {
+      if (best && toBaseScan(*best, mountOf(*best), &back, &error)) {
         logged.scan = llc::mergeScans(logged.scan, back);
         ++sequence.merged_count;
       }

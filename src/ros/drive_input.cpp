@@ -23,6 +23,12 @@ llc::ScanSequence loadDrive(const std::string& path, const BagReadOptions& bag, 
     if (report.skipped_scans > 0 && warnings)
       warnings->push_back(path + ": skipped " + std::to_string(report.skipped_scans) +
                           " front scans; the first: " + report.first_problem);
+    if (warnings)
+      for (const std::string& frame : report.fallback_frames)
+        warnings->push_back(path + ": /tf_static does not mount scanner frame '" + frame +
+                            "' on the base frame; it is taken to sit at x " + std::to_string(bag.fallback_mount.x) +
+                            " m, y " + std::to_string(bag.fallback_mount.y) + " m, yaw " +
+                            std::to_string(bag.fallback_mount.theta) + " rad");
     if (report.truth_from_odometry && warnings)
       warnings->push_back(path + ": no messages on the truth topic; poses come from odometry");
   } else {

@@ -176,6 +176,16 @@ sed -E 's/alpha: [0-9.e+-]+/alpha: 0/' "$TMP/sim/m.yaml" > "$TMP/weightless.yaml
 check "model: no stump with a positive alpha" 1 "no stump has a positive alpha" -- "$LLC" score --model "$TMP/weightless.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/s.csv"
 check "train: --rounds 0" 2 "rounds" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/r0.yaml" --rounds 0
 
+DEMO_BAG="$DATA/rosbag/laser_scan_matcher_demo.bag"
+if [ -f "$DEMO_BAG" ]; then
+  # A bag no one here recorded: one /scan in '/laser', no /tf at all. The scanner falls back to
+  # the base, said once, and the room maps.
+  check "slam on a bag with no tf: the fallback mount said" 0 "/tf_static does not mount scanner frame 'laser'" -- "$LLC" slam --bag "$DEMO_BAG" --front-topic /scan --out "$TMP/slam_demo" --quiet
+  check "slam on a bag with no tf: every scan used, keyframes made" 0 "^ok$" -- awk -F= '{v[$1] = $2} END {print (v["scans"] == 360 && v["skipped_scans"] == 0 && v["keyframes"] >= 10 ? "ok" : "not ok: " v["scans"] " " v["skipped_scans"] " " v["keyframes"])}' "$TMP/slam_demo/report.txt"
+else
+  echo "skipped the demo bag: $DEMO_BAG is absent"
+fi
+
 LOG="$DATA/carmen/intel-corrected.log.gz"
 if [ -f "$LOG" ]; then
   if [ -f "$DATA/g2o/intel.g2o" ]; then

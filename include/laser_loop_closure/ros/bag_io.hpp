@@ -25,6 +25,9 @@ struct BagReadOptions {
   /// else "base_link".
   std::string base_frame;
   double max_merge_gap = 0.05;  ///< s; a back scan further in time from the front one is unused
+  /// Where a scanner sits whose frame /tf_static does not mount on the base frame (a bag
+  /// recorded without tf): identity, as the nodelets' mount_x/y/yaw default.
+  llc::Pose2 fallback_mount;
 };
 
 /// What the reader met besides the scans it returns.
@@ -33,6 +36,7 @@ struct BagReadReport {
   std::size_t skipped_scans = 0;  ///< front scans that could not be used (reason in first_problem)
   std::string first_problem;
   bool truth_from_odometry = false;  ///< no truth topic: poses for labelling came from odometry
+  std::vector<std::string> fallback_frames;  ///< scanner frames /tf_static did not mount: on fallback_mount
 };
 
 /// A bag that cannot be read as a drive; what() names the file and the problem.

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <ros/time.h>
+#include <tf2/buffer_core.h>
 #include <tf2_ros/buffer.h>
 
 #include <map>
@@ -23,10 +24,11 @@ struct FallbackMount {
 };
 
 /// Mountings of scanner frames on the base frame, looked up once per frame_id and kept. Frame
-/// ids are compared as tfFrame gives them.
+/// ids are compared as tfFrame gives them. The buffer is a live node's tf2_ros::Buffer or a
+/// bag reader's tf2::BufferCore filled from /tf_static: one cache for both.
 class MountCache {
  public:
-  MountCache(const tf2_ros::Buffer& buffer, const std::string& base_frame, FallbackMount fallback = {})
+  MountCache(const tf2::BufferCore& buffer, const std::string& base_frame, FallbackMount fallback = {})
       : buffer_(buffer), base_(tfFrame(base_frame)), fallback_(fallback) {}
   /// False with a reason when tf has no transform yet (try again later) or the mount is
   /// tilted out of the base plane (refused; the reason says so and it is not cached). After
@@ -38,7 +40,7 @@ class MountCache {
   std::size_t fallbacks() const { return fallbacks_; }
 
  private:
-  const tf2_ros::Buffer& buffer_;
+  const tf2::BufferCore& buffer_;
   std::string base_;
   FallbackMount fallback_;
   std::map<std::string, ScannerMount> cache_;
