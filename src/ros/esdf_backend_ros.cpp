@@ -101,10 +101,12 @@ void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& ms
   }
   if (!error.empty()) {
     ++refused_keyframes_;
+    ++refused_in_a_row_;
     last_problem_ = error;
     ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe refused: %s", error.c_str());
     return;
   }
+  refused_in_a_row_ = 0;
   // Loops that waited for this keyframe.
   const std::size_t size = back_->keyframes().size();
   for (auto it = pending_loops_.begin(); it != pending_loops_.end();) {
@@ -276,6 +278,7 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   pending_loops_.clear();
   refused_by_alignment_.clear();
   refused_keyframes_ = 0;
+  refused_in_a_row_ = 0;
   map_dirty_ = true;
   // The front end restores its keyframes from this; latched, so it may subscribe late.
   laser_loop_closure::Session msg;
@@ -302,12 +305,16 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   const llc::BackEndCounters& c = back_->counters();
   if (c.keyframes == 0)
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet");
-  else if (refused_keyframes_ > 0)
+  else if (refused_in_a_row_ > 0)
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "keyframes refused, the graph stopped: " + last_problem_);
+  else if (refused_keyframes_ > 0)  // e.g. while the front end took in a loaded session: mapping went on
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   std::to_string(refused_keyframes_) + " keyframes refused, mapping goes on; the last: " + last_problem_);
   else
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "mapping");
   status.add("keyframes", c.keyframes);
   status.add("refused keyframes", refused_keyframes_);
+  status.add("keyframes refused since the last one taken", refused_in_a_row_);
   status.add("keyframes loosely linked (odometry unusable)", c.loosely_linked_keyframes);
   status.add("loops applied", c.loops_accepted);
   status.add("loops refused by the gate", c.refused_by_gate);

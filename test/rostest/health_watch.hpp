@@ -20,6 +20,7 @@ class HealthWatch {
         const std::string& name = status.name;
         if (name.size() < suffix_.size() || name.compare(name.size() - suffix_.size(), suffix_.size(), suffix_) != 0) continue;
         std::lock_guard<std::mutex> lock(mutex_);
+        level_ = status.level;
         values_.clear();
         for (const auto& kv : status.values) values_[kv.key] = kv.value;
       }
@@ -29,6 +30,11 @@ class HealthWatch {
   bool seen() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return !values_.empty();
+  }
+  /// The newest status's level (diagnostic_msgs::DiagnosticStatus::OK, WARN, ERROR); -1 before one.
+  int level() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return values_.empty() ? -1 : int(level_);
   }
   /// A number among the newest status's values; -1 when it is not there.
   double value(const std::string& key) const {
@@ -41,6 +47,7 @@ class HealthWatch {
   std::string suffix_;
   mutable std::mutex mutex_;
   std::map<std::string, std::string> values_;
+  unsigned char level_ = 0;
   ros::Subscriber sub_;
 };
 

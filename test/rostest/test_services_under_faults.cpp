@@ -101,6 +101,10 @@ class Player {
 struct Seen {
   std::mutex mutex;
   std::size_t keyframes = 0;
+  /// Keyframes published and then numbered again: a load while moving takes the map back to
+  /// the session, and the front end goes on from its size (what it made since is dropped).
+  std::size_t renumbered = 0;
+  long last_index = -1;
   ros::WallTime last_keyframe = ros::WallTime::now();
   ros::Time clock;
 };
@@ -179,9 +183,11 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
   RecordProperty("scans_after_odometry_ends", int(scans_after_odometry));
 
   Seen seen;
-  ros::Subscriber keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>("/keyframes", 5000, [&](const laser_loop_closure::Keyframe::ConstPtr&) {
+  ros::Subscriber keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>("/keyframes", 5000, [&](const laser_loop_closure::Keyframe::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(seen.mutex);
     ++seen.keyframes;
+    if (long(m->index) <= seen.last_index) seen.renumbered += std::size_t(seen.last_index + 1 - long(m->index));
+    seen.last_index = long(m->index);
     seen.last_keyframe = ros::WallTime::now();
   });
   ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>("/clock", 10, [&](const rosgraph_msgs::Clock::ConstPtr& m) {
@@ -189,6 +195,7 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
     seen.clock = m->clock;
   });
   const llc_test::HealthWatch front_end_health(nh, "loop closure");
+  const llc_test::HealthWatch back_end_health(nh, "esdf backend");
   ros::AsyncSpinner spinner(2);
   spinner.start();
 
@@ -230,6 +237,30 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
   EXPECT_TRUE(waitUntil(seen, 120.0, [&] { return seen.keyframes >= keyframes_at_pause + 20; }))
       << "mapping did not go on after the pause (" << seen.keyframes << " keyframes)";
 
+  // A load while the robot maps: the front end takes the session in when it comes, and
+  // keyframes it made before are refused; then mapping goes on and the back end's health says
+  // so (before: ERROR "keyframe N arrived, M expected" for the rest of the run).
+  laser_loop_closure::SaveSession save_moving;
+  save_moving.request.path = folder + "/moving.llcsession";
+  EXPECT_TRUE(llc_test::callWithin("/esdf_backend/save_session", &save_moving, kAnswerSeconds, &why)) << why;
+  laser_loop_closure::LoadSession load_moving;
+  load_moving.request.path = save_moving.request.path;
+  load_moving.request.continue_odometry = true;
+  EXPECT_TRUE(llc_test::callWithin("/esdf_backend/load_session", &load_moving, kAnswerSeconds, &why)) << why;
+  EXPECT_TRUE(load_moving.response.success) << load_moving.response.message;
+  std::size_t keyframes_at_moving_load = 0;
+  {
+    std::lock_guard<std::mutex> lock(seen.mutex);
+    keyframes_at_moving_load = seen.keyframes;
+  }
+  EXPECT_TRUE(waitUntil(seen, 120.0, [&] { return seen.keyframes >= keyframes_at_moving_load + 20; }))
+      << "mapping did not go on after a load while moving (" << seen.keyframes << " keyframes)";
+  ros::WallDuration(1.5).sleep();  // a fresh status
+  EXPECT_EQ(back_end_health.value("keyframes refused since the last one taken"), 0.0)
+      << "the back end's health still says the graph is stopped";
+  EXPECT_NE(back_end_health.level(), int(diagnostic_msgs::DiagnosticStatus::ERROR));
+  RecordProperty("keyframes_refused_by_the_load_while_moving", int(back_end_health.value("refused keyframes")));
+
   // 2. The bag ends; its odometry ended tf_ends_early before its scans.
   ASSERT_TRUE(waitUntil(seen, 300.0, [&] { return !player.running(); })) << "the player did not end";
   waitUntil(seen, 60.0, [&] { return (ros::WallTime::now() - seen.last_keyframe).toSec() > 5.0; });
@@ -237,7 +268,8 @@ TEST(ServicesUnderFaults, AnswerWithinFiveSecondsWhenTheBagIsPausedAndWhenItEnds
   std::size_t keyframes_at_end = 0;
   {
     std::lock_guard<std::mutex> lock(seen.mutex);
-    keyframes_at_end = seen.keyframes;
+    keyframes_at_end = seen.keyframes - seen.renumbered;  // those the map still holds
+    RecordProperty("keyframes_renumbered_by_the_load_while_moving", int(seen.renumbered));
     ASSERT_TRUE(front_end_health.seen()) << "no diagnostics from loop_closure after the clock stopped";
     const double waiting = front_end_health.value("scans waiting for their odometry transform");
     RecordProperty("scans_waiting_for_odometry", int(waiting));

@@ -112,6 +112,9 @@ class EsdfBackendRos {
   ros::CallbackQueue transform_queue_;
   std::unique_ptr<ros::AsyncSpinner> transform_spinner_;
   std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;
+  /// Keyframes refused since the last one taken: the graph is stopped while above 0 (a load's
+  /// race with the front end refuses a few, then mapping goes on and this is 0 again).
+  std::size_t refused_in_a_row_ = 0;
   double last_map_seconds_ = 0.0;
   std::string last_problem_;
 };
