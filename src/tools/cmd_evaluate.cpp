@@ -67,10 +67,6 @@ std::vector<char> validateAll(const std::vector<PairData>& data, const llc::Scan
   return accepted;
 }
 
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 /// --leave-one-log-out: for each --data item, a model trained (stumps and K, as `llc train`
 /// does) on the other items only, scored on it. Per-log rows and means; writes
 /// leave_one_log_out.csv and summary.txt.
@@ -263,7 +259,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   s << "mean_realised_false_alarm=" << result.mean_realised_false_alarm
     << " worst_realised_false_alarm=" << result.worst_realised_false_alarm << " mean_detection_at_k=" << result.mean_detection_at_k
     << "\nmean_detection_at_0pct_fa=" << result.mean_detection_at_0pct << " mean_auc=" << result.mean_auc << "\n";
-  s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
+  s << "seconds=" << std::setprecision(1) << llc::secondsSince(start) << "\n";
   s << std::setprecision(4) << "mean_detection_at_1pct_fa=" << result.mean_detection_at_1pct << "\n";
   csv.commit();
   llc::writeFileAtomically(out_dir + "/summary.txt", s.str());
@@ -430,7 +426,7 @@ int runEvaluate(const Args& args) {
     s << "rotation_test: pairs=" << set.size() * runs.size() << " kept_class_at_k_1pct=" << kept_at_k
       << " kept_class_at_k_0.5=" << kept_at_half << "\n";
   s << validated_text.str();
-  s << "seconds=" << std::setprecision(1) << secondsSince(start) << "\n";
+  s << "seconds=" << std::setprecision(1) << llc::secondsSince(start) << "\n";
   s << std::setprecision(4) << "detection_at_1pct_fa=" << summary.detection_at_1pct << "\nauc=" << summary.auc << "\n";
   llc::writeFileAtomically(out_dir + "/summary.txt", s.str());
   // Plots, when the plotting helper is known (scripts/llc sets LLC_PLOTTER); it reads the
