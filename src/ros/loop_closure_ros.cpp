@@ -167,8 +167,8 @@ void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstP
 void LoopClosureRos::enqueue(PendingScan scan) {
   const double stamp = scan.msg->header.stamp.toSec();
   if (backlog_->push(std::move(scan), stamp) > 0)
-    ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: the oldest was dropped (queue_size)%s", options_.queue_size,
-                      options_.use_wheel_odometry ? "" : "; without wheel odometry this breaks the odometry chain");
+    ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: one where they lie closest in time was dropped (queue_size)%s",
+                      options_.queue_size, options_.use_wheel_odometry ? "" : "; without wheel odometry the chain's steps grow longer");
 }
 
 void LoopClosureRos::work() {

@@ -2,7 +2,9 @@
 // lag in scan time, and a consumer thread that stop() wakes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <thread>
+#include <vector>
 
 #include "laser_loop_closure/core/scan_backlog.hpp"
 
@@ -15,20 +17,50 @@ llc::ScanBacklogOptions options(std::size_t capacity, double max_lag) {
   return o;
 }
 
-TEST(ScanBacklog, AFullQueueDropsItsOldestScan) {
+TEST(ScanBacklog, AFullQueueIsThinnedEvenlyNotCutAtItsFront) {
   llc::ScanBacklog<int> backlog(options(3, 0.0));
   std::size_t dropped = 0;
   for (int k = 0; k < 5; ++k) dropped += backlog.push(k, 0.1 * k);
+  // [0 1 2] + 3: 1 goes (the only one between two) -> [0 2 3]; + 4: 2 goes -> [0 3 4]. The
+  // oldest stays (it follows the last scan handed out), the newest too.
   EXPECT_EQ(dropped, 2u);
-  int item = -1;
-  ASSERT_TRUE(backlog.pop(&item));
-  EXPECT_EQ(item, 2);  // 0 and 1 made room for 3 and 4
   const llc::ScanBacklogCounters c = backlog.counters();
   EXPECT_EQ(c.pushed, 5u);
   EXPECT_EQ(c.dropped_full, 2u);
   EXPECT_EQ(c.dropped_behind, 0u);
-  EXPECT_EQ(c.waiting, 2u);
-  EXPECT_NEAR(c.lag, 0.2, 1e-12);  // scan 2 at 0.2 s, the newest at 0.4 s
+  EXPECT_EQ(c.waiting, 3u);
+  for (int want : {0, 3, 4}) {
+    int item = -1;
+    ASSERT_TRUE(backlog.pop(&item));
+    EXPECT_EQ(item, want);
+  }
+  EXPECT_NEAR(backlog.counters().largest_lag, 0.4, 1e-12);  // scan 0 handed out when 4 was the newest
+}
+
+TEST(ScanBacklog, AConsumerThatStallsGetsScansSpreadOverTheStallNotOnlyItsEnd) {
+  // 100 scans arrive while the consumer is busy (an alignment, a map rebuild) and the queue
+  // holds 20: it then gets the oldest (the next after the last it had) and scans spread over
+  // the stall (cut at the front: scans 80-99 only, a gap of 80 scans after the last).
+  llc::ScanBacklog<int> backlog(options(20, 0.0));
+  for (int k = 0; k < 100; ++k) backlog.push(k, 0.1 * k);
+  std::vector<int> got;
+  for (int item = -1; backlog.counters().waiting > 0 && backlog.pop(&item);) got.push_back(item);
+  ASSERT_FALSE(got.empty());
+  EXPECT_EQ(got.front(), 0);
+  EXPECT_EQ(got.back(), 99);
+  int widest = 0;
+  for (std::size_t i = 1; i < got.size(); ++i) widest = std::max(widest, got[i] - got[i - 1]);
+  EXPECT_LE(widest, 10) << "the widest gap between two scans handed out (5 on average)";
+  EXPECT_EQ(backlog.counters().dropped_full, 100u - got.size());
+}
+
+TEST(ScanBacklog, ACapacityOfOneKeepsTheNewest) {
+  llc::ScanBacklog<int> backlog(options(1, 0.0));
+  EXPECT_EQ(backlog.push(1, 0.1), 0u);
+  EXPECT_EQ(backlog.push(2, 0.2), 1u);
+  int item = -1;
+  ASSERT_TRUE(backlog.pop(&item));
+  EXPECT_EQ(item, 2);
 }
 
 TEST(ScanBacklog, AConsumerBehindByMoreThanMaxLagSkipsTheOldestButKeepsTheNewest) {

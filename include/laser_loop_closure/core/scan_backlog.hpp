@@ -1,5 +1,6 @@
 // The scans waiting for a live front end's worker thread: a bounded first-in-first-out queue
-// that never makes its producer wait (a full queue drops its oldest scan) and lets a consumer
+// that never makes its producer wait (a full queue is thinned where its scans lie closest in
+// time) and lets a consumer
 // that fell behind catch up by skipping old scans. It measures the lag in scan time (the newest
 // scan's stamp minus the stamp of the scan handed out), so it works on a clock that stopped.
 #pragma once
@@ -15,7 +16,7 @@
 namespace llc {
 
 struct ScanBacklogOptions {
-  std::size_t capacity = 200;  ///< scans kept waiting; a push beyond drops the oldest
+  std::size_t capacity = 200;  ///< scans kept waiting; a push beyond thins the queue
   /// s of scan time the consumer may fall behind the newest scan before the oldest waiting
   /// scans are skipped (the newest waiting one is always kept); <= 0: never skip for lag.
   double max_lag = 5.0;
@@ -28,7 +29,7 @@ struct ScanBacklogOptions {
 /// What the backlog did since it was made.
 struct ScanBacklogCounters {
   std::size_t pushed = 0, popped = 0;
-  std::size_t dropped_full = 0;    ///< oldest scans dropped because the queue was full
+  std::size_t dropped_full = 0;    ///< scans dropped because the queue was full (thinned)
   std::size_t dropped_behind = 0;  ///< old scans skipped because the consumer was more than max_lag behind
   std::size_t waiting = 0;         ///< scans in the queue now
   double lag = 0.0;                ///< s of scan time behind the newest scan, at the last pop
@@ -41,12 +42,23 @@ class ScanBacklog {
   explicit ScanBacklog(ScanBacklogOptions options) : options_(options) {}
 
   /// Adds a scan stamped `stamp` (s). Returns how many scans were dropped to make room (0 or 1).
+  /// A full queue is thinned, not cut at its front: the scan that goes is the one whose
+  /// neighbours lie closest in time (never the oldest nor the newest), so the scans still
+  /// handed out stay spread evenly over the time the consumer was busy, and an odometry chain
+  /// made of them meets gaps of a few scans, not one gap of a whole queue (a front end without
+  /// wheels cannot match across that and loses its way).
   std::size_t push(Item item, double stamp) {
     std::size_t dropped = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (queue_.size() >= options_.capacity) {
-        queue_.pop_front();
+        std::size_t drop = 0;  // one or two scans: the oldest
+        double narrowest = 0.0;
+        for (std::size_t i = 1; i + 1 < queue_.size(); ++i) {
+          const double span = queue_[i + 1].second - queue_[i - 1].second;
+          if (drop == 0 || span < narrowest) drop = i, narrowest = span;
+        }
+        queue_.erase(queue_.begin() + long(drop));
         ++counters_.dropped_full;
         dropped = 1;
       }
