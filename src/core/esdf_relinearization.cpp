@@ -9,15 +9,20 @@
 
 namespace llc {
 
-double Esdf::currentChi2(std::size_t k) const {
+Eigen::Vector3d Esdf::currentError(std::size_t k) const {
+  // The true error t2v(Z^-1 (A^-1 B)), written out: one sine and cosine per pose.
   const PoseEdge& e = edges_[k];
   const Pose2 &a = mean_[e.from], &b = mean_[e.to];
   const double ca = std::cos(a.theta), sa = std::sin(a.theta);
   const double dx = b.x - a.x, dy = b.y - a.y;
   const double px = ca * dx + sa * dy - e.measurement.x, py = -sa * dx + ca * dy - e.measurement.y;
   const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
-  const Eigen::Vector3d error(cz * px + sz * py, -sz * px + cz * py, normalizeAngle(b.theta - a.theta - e.measurement.theta));
-  return error.dot(e.information * error);
+  return {cz * px + sz * py, -sz * px + cz * py, normalizeAngle(b.theta - a.theta - e.measurement.theta)};
+}
+
+double Esdf::currentChi2(std::size_t k) const {
+  const Eigen::Vector3d error = currentError(k);
+  return error.dot(edges_[k].information * error);
 }
 
 double Esdf::robustWeight(std::size_t k) const {
@@ -48,13 +53,7 @@ double Esdf::linearizationError(std::size_t k) const {
   const Pose2 &a = mean_[e.from], &b = mean_[e.to];
   const Eigen::Vector3d predicted = model.residual + model.ja * poseDifference(a, linearization_[e.from]) +
                                     model.jb * poseDifference(b, linearization_[e.to]);
-  // The true error t2v(Z^-1 (A^-1 B)), written out: one sine and cosine per check.
-  const double ca = std::cos(a.theta), sa = std::sin(a.theta);
-  const double dx = b.x - a.x, dy = b.y - a.y;
-  const double px = ca * dx + sa * dy - e.measurement.x, py = -sa * dx + ca * dy - e.measurement.y;
-  const double cz = std::cos(e.measurement.theta), sz = std::sin(e.measurement.theta);
-  Eigen::Vector3d miss(cz * px + sz * py, -sz * px + cz * py, b.theta - a.theta - e.measurement.theta);
-  miss -= predicted;
+  Eigen::Vector3d miss = currentError(k) - predicted;
   miss[2] = normalizeAngle(miss[2]);
   return miss.dot(e.information * miss);
 }

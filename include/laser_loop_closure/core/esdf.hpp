@@ -157,6 +157,8 @@ class Esdf {
   bool rankUpdate(const std::vector<std::size_t>& edges, bool update);
   /// How far edge k's linear model misses its error at the current means (squared Mahalanobis).
   double linearizationError(std::size_t k) const;
+  /// Edge k's error at the current means, t2v(Z^-1 (A^-1 B)), its angle wrapped.
+  Eigen::Vector3d currentError(std::size_t k) const;
   /// Edge k's error at the current means, as a squared Mahalanobis distance in its own
   /// (unscaled) information.
   double currentChi2(std::size_t k) const;
