@@ -96,60 +96,104 @@ LoopClosureRos::~LoopClosureRos() {
 void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg) {
   PendingScan pending;
   pending.msg = msg;
-  std::vector<PendingScan> released;  // scans the tf filter held when the wheels were given up
-  bool gave_up = false;
+  bool clear_filter = false;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     pending.index = scans_received_++;
+    const ros::Time stamp = msg->header.stamp;
+    if (!newest_received_stamp_.isZero() && stamp + ros::Duration(kClockJumpBack) < newest_received_stamp_) {
+      // A looped bag or a reset clock (TfListener clears the tf history on its own): scans
+      // still waiting for odometry of the old pass will never get it.
+      ++clock_jumps_back_;
+      const std::size_t given_up = awaiting_odometry_.size();
+      for (const auto& waiting : awaiting_odometry_) resolveInOrder(waiting.second.index, nullptr);
+      awaiting_odometry_.clear();
+      scans_given_up_at_jumps_ += given_up;
+      clear_filter = odometry_filter_ != nullptr;
+      ROS_WARN("loop_closure: scan stamps jumped back %.2f s (a looped bag or a reset clock): %zu scans waiting "
+               "for odometry given up; mapping goes on in a new odometry chain",
+               (newest_received_stamp_ - stamp).toSec(), given_up);
+      newest_received_stamp_ = stamp;
+    }
+    newest_received_stamp_ = std::max(newest_received_stamp_, stamp);
     if (odometry_filter_ && !without_wheels_ && options_.wheel_odometry_wait_scans > 0 && filter_passed_ == 0 &&
         scans_received_ > std::size_t(options_.wheel_odometry_wait_scans)) {
       without_wheels_ = true;
-      gave_up = true;
-      for (auto& waiting : awaiting_odometry_) released.push_back(std::move(waiting.second));
+      clear_filter = true;
+      const std::size_t released = awaiting_odometry_.size();
+      for (const auto& waiting : awaiting_odometry_) resolveInOrder(waiting.second.index, &waiting.second);
       awaiting_odometry_.clear();
-      std::sort(released.begin(), released.end(), [](const PendingScan& a, const PendingScan& b) { return a.index < b.index; });
       ROS_WARN("loop_closure: %d scans and not one odometry transform (%s -> '%s'): mapping without wheel odometry "
                "from now on (%zu scans still waiting included), and broadcasting %s -> '%s' from scan matching (set "
                "use_wheel_odometry false to say so, or wheel_odometry_wait_scans 0 to wait for the wheels)",
                options_.wheel_odometry_wait_scans, options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str(),
-               released.size(), options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str());
+               released, options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str());
     }
-    if (odometry_filter_ && !without_wheels_) awaiting_odometry_[msg.get()] = pending;
+    if (odometry_filter_ && !without_wheels_)
+      awaiting_odometry_[msg.get()] = pending;
+    else
+      resolveInOrder(pending.index, &pending);
   }
-  if (gave_up) odometry_filter_->clear();
-  for (PendingScan& earlier : released) enqueue(std::move(earlier));
-  if (odometry_filter_ && !without_wheels_)
-    odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
-  else
-    enqueue(std::move(pending));
+  if (clear_filter) odometry_filter_->clear();
+  if (odometry_filter_ && !without_wheels_) odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
+}
+
+void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) {
+  // The tf filter lets a scan go as soon as its transform is in the buffer, so after a gap in
+  // the odometry a new scan can pass before older ones that waited; the front end must see
+  // them in the order they came (out of order, they would look like time going back).
+  resolved_[index] = scan ? std::optional<PendingScan>(*scan) : std::nullopt;
+  while (!resolved_.empty()) {
+    auto next = resolved_.begin();
+    if (next->first == next_release_) {
+      if (next->second) enqueue(std::move(*next->second));
+      resolved_.erase(next);
+      ++next_release_;
+      continue;
+    }
+    // A newer scan is through while the next one still waits. Its transform may be in the
+    // buffer already (the filter tells it a moment later): take it now. If not, it never comes
+    // (tf interpolates, so a newer scan's transform covers every stamp since the oldest kept),
+    // and waiting would hold every newer scan back: give it up.
+    const auto waiting = std::find_if(awaiting_odometry_.begin(), awaiting_odometry_.end(),
+                                      [&](const auto& a) { return a.second.index == next_release_; });
+    if (waiting == awaiting_odometry_.end()) break;  // not yet numbered here: cannot happen
+    PendingScan head = waiting->second;
+    awaiting_odometry_.erase(waiting);
+    std::string error;
+    head.has_wheel_odometry = lookupPose2(tf_buffer_, options_.odom_frame, head.msg->header.frame_id,
+                                          head.msg->header.stamp, &head.wheel_odometry, &error);
+    if (head.has_wheel_odometry) {
+      ++filter_passed_;
+      resolved_[head.index] = head;
+    } else {
+      ++given_up_behind_newer_;
+      last_filter_problem_ = "no wheel odometry while a newer scan had it: " + error;
+      resolved_[head.index] = std::nullopt;
+    }
+  }
 }
 
 void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::ConstPtr& msg) {
-  PendingScan pending;
-  pending.msg = msg;
-  {
-    std::lock_guard<std::mutex> lock(receive_mutex_);
-    const auto found = awaiting_odometry_.find(msg.get());
-    if (found == awaiting_odometry_.end()) return;  // released without wheels meanwhile
-    {
-      pending.index = found->second.index;
-      awaiting_odometry_.erase(found);
-    }
-    ++filter_passed_;
-  }
+  std::lock_guard<std::mutex> lock(receive_mutex_);
+  const auto found = awaiting_odometry_.find(msg.get());
+  if (found == awaiting_odometry_.end()) return;  // released without wheels, or given up at a jump back
+  PendingScan pending = found->second;
+  awaiting_odometry_.erase(found);
+  ++filter_passed_;
   // The filter saw the transform in the buffer: this lookup does not wait.
   std::string error;
   pending.has_wheel_odometry = lookupPose2(tf_buffer_, options_.odom_frame, msg->header.frame_id, msg->header.stamp,
                                            &pending.wheel_odometry, &error);
   if (!pending.has_wheel_odometry) {
-    std::lock_guard<std::mutex> lock(receive_mutex_);
     ++lookup_failed_;
     last_filter_problem_ = "no wheel odometry: " + error;
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, no wheel odometry (%s -> %s): %s", options_.odom_frame.c_str(),
                       msg->header.frame_id.c_str(), error.c_str());
+    resolveInOrder(pending.index, nullptr);
     return;
   }
-  enqueue(std::move(pending));
+  resolveInOrder(pending.index, &pending);
 }
 
 void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstPtr& msg, tf2_ros::FilterFailureReason reason) {
@@ -157,9 +201,13 @@ void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstP
                           "' at the scan's stamp): " + failureName(reason);
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
-    if (awaiting_odometry_.erase(msg.get()) == 0) return;  // released without wheels meanwhile
+    const auto found = awaiting_odometry_.find(msg.get());
+    if (found == awaiting_odometry_.end()) return;  // released without wheels, or given up at a jump back
+    const std::size_t index = found->second.index;
+    awaiting_odometry_.erase(found);
     ++filter_failed_;
     last_filter_problem_ = why;
+    resolveInOrder(index, nullptr);
   }
   ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, %s", why.c_str());
 }
@@ -326,12 +374,15 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
 }
 
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0;
+  std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0, behind_older = 0;
+  std::size_t jumps_back = 0, given_up = 0, behind_newer = 0;
   std::string filter_problem;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     received = scans_received_, passed = filter_passed_, failed = filter_failed_, lookup_failed = lookup_failed_;
     awaiting = awaiting_odometry_.size();
+    behind_older = resolved_.size();
+    jumps_back = clock_jumps_back_, given_up = scans_given_up_at_jumps_, behind_newer = given_up_behind_newer_;
     filter_problem = last_filter_problem_;
   }
   const llc::ScanBacklogCounters backlog = backlog_->counters();
@@ -348,6 +399,12 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");
   status.add("scans received", received);
   status.add("scans waiting for their odometry transform", awaiting);
+  status.add("scans given their wheel odometry", passed);
+  status.add("scans with odometry waiting for older ones (kept in order)", behind_older);
+  status.add("scan stamps that jumped back (a looped bag)", jumps_back);
+  status.add("tf stamps that jumped back (tf history cleared)", tf_listener_.clears());
+  status.add("scans given up at a jump back (their odometry never came)", given_up);
+  status.add("scans given up, no odometry while a newer scan had it", behind_newer);
   status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
   status.add("scans waiting for the front end", backlog.waiting);

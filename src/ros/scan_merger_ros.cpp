@@ -70,14 +70,23 @@ bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
     last_problem_ = error;
     return false;
   }
+  noteGeometry(msg);
   range_max_ = std::max(range_max_, msg.range_max);
   range_min_ = range_min_ == 0.0f ? msg.range_min : std::min(range_min_, msg.range_min);
   return true;
 }
 
-void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& back) {
+void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& /*back*/) {
   std::lock_guard<std::mutex> lock(mutex_);
   last_back_arrival_ = ros::WallTime::now();
+  fronts_before_any_back_.clear();  // two scanners: the synchroniser pairs them
+  noteBackHeard();
+}
+
+void ScanMergerRos::noteBackHeard() {
+  if (!back_silent_) return;
+  back_silent_ = false;
+  ROS_WARN("scan_merger: the back scanner talks again: merging front and back once more");
 }
 
 void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
@@ -91,13 +100,51 @@ void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const 
 void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
   std::lock_guard<std::mutex> lock(mutex_);
   // While the back scanner talks, the synchroniser publishes; this path is for when it does not.
-  // At the start a back scanner gets back_timeout to say something.
+  // At the start a back scanner gets back_timeout to say something; the front scans of that
+  // wait are held, not lost (a bag played at 8x sends 20 of them in 0.5 s).
+  constexpr std::size_t kMostHeld = 1000;
   const ros::WallTime now = ros::WallTime::now();
   if (first_front_arrival_.isZero()) first_front_arrival_ = now;
-  const ros::WallTime heard = last_back_arrival_.isZero() ? first_front_arrival_ : last_back_arrival_;
-  if ((now - heard).toSec() <= options_.back_timeout) return;
+  if (last_back_arrival_.isZero()) {
+    if ((now - first_front_arrival_).toSec() <= options_.back_timeout) {
+      if (fronts_before_any_back_.size() < kMostHeld) fronts_before_any_back_.push_back(front);
+      return;
+    }
+    for (const auto& held : fronts_before_any_back_) {
+      llc::Scan held_scan;
+      if (toBase(*held, &held_scan)) publish(held_scan, nullptr, *held);
+    }
+    fronts_before_any_back_.clear();
+  } else if ((now - last_back_arrival_).toSec() <= options_.back_timeout) {
+    return;
+  } else if (!back_silent_) {
+    back_silent_ = true;
+    ++back_outages_;
+    ROS_WARN("scan_merger: no back scan for %.2f s of wall time: publishing the front scanner alone until the back "
+             "one talks again",
+             (now - last_back_arrival_).toSec());
+  }
   llc::Scan front_scan;
   if (toBase(*front, &front_scan)) publish(front_scan, nullptr, *front);
+}
+
+void ScanMergerRos::noteGeometry(const sensor_msgs::LaserScan& msg) {
+  const Geometry now{msg.ranges.size(), msg.angle_min, msg.angle_increment};
+  const std::string frame = tfFrame(msg.header.frame_id);
+  const auto known = geometry_.find(frame);
+  if (known == geometry_.end()) {
+    geometry_.emplace(frame, now);
+    return;
+  }
+  if (!(known->second != now)) return;
+  // Once per scanner: each scan carries its geometry and is converted with its own.
+  if (geometry_changes_per_frame_[frame]++ == 0)
+    ROS_WARN("scan_merger: scanner '%s' changed its geometry (%zu beams from %.4f rad by %.5f rad, now %zu from "
+             "%.4f by %.5f): each scan is converted with its own (said once per scanner)",
+             frame.c_str(), known->second.beams, known->second.angle_min, known->second.angle_increment, now.beams,
+             now.angle_min, now.angle_increment);
+  ++geometry_changes_;
+  known->second = now;
 }
 
 void ScanMergerRos::publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg) {
@@ -135,6 +182,9 @@ void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
   status.add("skipped scans", rejected_);
   status.add("scanner frames on the fallback mount", mounts_.fallbacks());
   status.add("skipped scans, not newer than the last", out_of_order_);
+  status.add("scan geometry changes (beams, first angle or increment)", geometry_changes_);
+  status.add("back scanner silent, front published alone", back_silent_ ? "yes" : "no");
+  status.add("back scanner outages", back_outages_);
   status.add("last problem", last_problem_);
 }
 

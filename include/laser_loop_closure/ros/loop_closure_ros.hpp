@@ -18,12 +18,12 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -32,6 +32,7 @@
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/scan_backlog.hpp"
+#include "laser_loop_closure/ros/tf_listener.hpp"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 
@@ -97,6 +98,9 @@ class LoopClosureRos {
   void onScanWithOdometry(const laser_loop_closure::Scan360::ConstPtr& msg);
   /// The tf filter gave up on a scan (its stamp older than tf's history, no frame, queue full).
   void onOdometryFailure(const laser_loop_closure::Scan360::ConstPtr& msg, tf2_ros::FilterFailureReason reason);
+  /// Hands scan `index` (null: it was dropped) on to the backlog once every older scan has been
+  /// handed on or dropped: the front end sees the scans in the order they came. Holds receive_mutex_.
+  void resolveInOrder(std::size_t index, const PendingScan* scan);
   void enqueue(PendingScan scan);
   /// The worker thread: takes scans from the backlog through the front end until stopped.
   void work();
@@ -116,7 +120,7 @@ class LoopClosureRos {
   llc::SystemOptions system_;
   std::unique_ptr<llc::SlamFrontEnd> front_;
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  TfListener tf_listener_;  ///< clears the buffer when tf stamps jump back (a looped bag)
   ros::Subscriber scan_sub_, path_sub_, session_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<laser_loop_closure::Scan360>> odometry_filter_;
   ros::ServiceServer train_srv_;
@@ -136,6 +140,12 @@ class LoopClosureRos {
   /// the worker broadcasts odom -> base itself. Set once, on the receiving thread.
   std::atomic<bool> without_wheels_{false};
   std::map<const laser_loop_closure::Scan360*, PendingScan> awaiting_odometry_;  ///< scans in the tf filter
+  std::map<std::size_t, std::optional<PendingScan>> resolved_;  ///< passed (or dropped) ahead of an older scan
+  std::size_t next_release_ = 0;  ///< index of the next scan the backlog gets
+  /// Scan stamps back by more than this (s) are a restart: a looped bag or a reset clock (as the merger's rule).
+  static constexpr double kClockJumpBack = 1.0;
+  ros::Time newest_received_stamp_;
+  std::size_t clock_jumps_back_ = 0, scans_given_up_at_jumps_ = 0, given_up_behind_newer_ = 0;
   std::string last_filter_problem_;
 
   std::mutex mutex_;     ///< guards everything below and front_

@@ -15,13 +15,15 @@
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
+#include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 
 #include "laser_loop_closure/ros/tf_bridge.hpp"
+#include "laser_loop_closure/ros/tf_listener.hpp"
 
 namespace llc_ros {
 
@@ -67,11 +69,15 @@ class ScanMergerRos {
   /// Converts one scanner's message into the base frame; false (warned, throttled) when it cannot.
   bool toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan);
   void publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg);
+  /// Warns once per scanner frame when its beam count, first angle or increment changes.
+  void noteGeometry(const sensor_msgs::LaserScan& msg);
+  /// The back scanner talks again after going silent: merging resumes (said once per outage).
+  void noteBackHeard();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ScanMergerOptions options_;
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  TfListener tf_listener_;  ///< clears the buffer when tf stamps jump back (a looped bag)
   MountCache mounts_;
   message_filters::Subscriber<sensor_msgs::LaserScan> front_filter_, back_filter_;
   std::unique_ptr<message_filters::Synchronizer<Policy>> sync_;
@@ -86,6 +92,20 @@ class ScanMergerRos {
   float range_max_ = 0.0f, range_min_ = 0.0f;  ///< of the published LaserScan: the scanners' widest
   std::size_t merged_ = 0, front_only_ = 0, rejected_ = 0, out_of_order_ = 0;
   std::string last_problem_;
+  /// Front scans that came before any back scan, held for back_timeout (then published alone) so
+  /// that a front-only robot or bag loses none of its first scans.
+  std::deque<sensor_msgs::LaserScan::ConstPtr> fronts_before_any_back_;
+  struct Geometry {
+    std::size_t beams = 0;
+    float angle_min = 0.0f, angle_increment = 0.0f;
+    bool operator!=(const Geometry& o) const {
+      return beams != o.beams || angle_min != o.angle_min || angle_increment != o.angle_increment;
+    }
+  };
+  std::map<std::string, Geometry> geometry_;  ///< per scanner frame, the last scan's
+  std::map<std::string, std::size_t> geometry_changes_per_frame_;
+  std::size_t geometry_changes_ = 0, back_outages_ = 0;
+  bool back_silent_ = false;  ///< the back scanner talked, then went quiet for back_timeout
 };
 
 }  // namespace llc_ros
