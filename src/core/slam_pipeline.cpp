@@ -21,6 +21,13 @@ std::string PlaceGateOptions::validate() const {
   return "";
 }
 
+std::string placeGateVerdict(const PlaceGateOptions& options, double chi2) {
+  if (chi2 <= options.chi2_threshold) return "";
+  char why[96];
+  std::snprintf(why, sizeof why, "place gate: too far apart for one place (statistic %.1f)", chi2);
+  return why;
+}
+
 std::string SlamOptions::validate() const {
   std::string error = place_gate.validate();
   if (!error.empty()) return "place_gate: " + error;
@@ -79,11 +86,7 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   CandidateCheck place_gate;
   if (options_.place_gate.enabled) {
     place_gate = [this](std::size_t from, std::size_t to) {
-      const double chi2 = back_.placeChi2(from, to, options_.place_gate.radius);
-      if (chi2 <= options_.place_gate.chi2_threshold) return std::string();
-      char why[96];
-      std::snprintf(why, sizeof why, "place gate: too far apart for one place (statistic %.1f)", chi2);
-      return std::string(why);
+      return placeGateVerdict(options_.place_gate, back_.placeChi2(from, to, options_.place_gate.radius));
     };
   }
   step.loops = front_.detectLoops(step.keyframe_index, place_gate);

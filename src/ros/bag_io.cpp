@@ -150,6 +150,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         logged.scan = llc::mergeScans(logged.scan, back);
         ++sequence.merged_count;
       }
+      logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
       logged.odometry = odometry.samples.empty() ? llc::Pose2{} : odometry.at(stamp);
       logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
       sequence.scans.push_back(std::move(logged));

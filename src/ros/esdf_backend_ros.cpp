@@ -51,6 +51,11 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   load_session_srv_ = service_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   service_spinner_->start();
+  ros::NodeHandle place_nh(private_nh);
+  place_nh.setCallbackQueue(&place_queue_);
+  place_check_srv_ = place_nh.advertiseService("place_check", &EsdfBackendRos::placeCheck, this);
+  place_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &place_queue_);
+  place_spinner_->start();
   if (options_.publish_tf) {
     ros::NodeHandle transform_nh(nh);
     transform_nh.setCallbackQueue(&transform_queue_);
@@ -69,6 +74,7 @@ EsdfBackendRos::~EsdfBackendRos() {
   // The transform and service threads read members: stopped before any of them goes.
   if (transform_spinner_) transform_spinner_->stop();
   if (service_spinner_) service_spinner_->stop();
+  if (place_spinner_) place_spinner_->stop();
   tf_timer_.stop();
   map_timer_.stop();
   diagnostics_timer_.stop();
@@ -83,21 +89,44 @@ std_msgs::Header EsdfBackendRos::mapHeader() const {
 
 void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  held_keyframes_.push_back(msg);
+  takeHeldKeyframes();
+}
+
+void EsdfBackendRos::takeHeldKeyframes() {
+  // Keyframes and loops come on two topics, whose order ROS does not keep; llc slam applies
+  // the loops of keyframe k before it adds keyframe k + 1, and so does this.
+  while (!held_keyframes_.empty()) {
+    const laser_loop_closure::Keyframe::ConstPtr next = held_keyframes_.front();
+    if (next->loops_before > loops_taken_) {
+      if (held_keyframes_.size() <= kMostHeldKeyframes) break;
+      ++loop_order_resyncs_;
+      ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe %u waited for %llu loop messages that did not come: taken anyway",
+                        next->index, static_cast<unsigned long long>(next->loops_before - loops_taken_));
+      loops_taken_ = next->loops_before;
+    }
+    held_keyframes_.pop_front();
+    takeKeyframe(*next);
+  }
+  state_changed_.notify_all();
+}
+
+void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
   const std::size_t expected = back_->keyframes().size();
   std::string error;
   llc::Keyframe keyframe;
   llc::Pose2 motion;
   Eigen::Matrix3d covariance;
-  if (msg->index != expected) {
-    error = "keyframe " + std::to_string(msg->index) + " arrived, " + std::to_string(expected) + " expected";
-  } else if (fromKeyframeMsg(*msg, &keyframe, &motion, &covariance, &error)) {
+  if (msg.index != expected) {
+    error = "keyframe " + std::to_string(msg.index) + " arrived, " + std::to_string(expected) + " expected";
+  } else if (fromKeyframeMsg(msg, &keyframe, &motion, &covariance, &error)) {
     // Kept whatever its odometry: a note says what was unusable and replaced.
     const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
     if (!note.empty()) {
-      last_problem_ = "keyframe " + std::to_string(msg->index) + ": " + note;
+      last_problem_ = "keyframe " + std::to_string(msg.index) + ": " + note;
       ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
     }
-    features_.push_back(msg->features);
+    features_.push_back(msg.features);
   }
   if (!error.empty()) {
     ++refused_keyframes_;
@@ -123,6 +152,12 @@ void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& ms
 
 void EsdfBackendRos::onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  ++loops_taken_;
+  takeLoop(msg);
+  takeHeldKeyframes();  // one may have waited for this loop
+}
+
+void EsdfBackendRos::takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
   if (!msg->accepted) {
     llc::LoopRecord record;
     record.loop = fromLoopClosureMsg(*msg);
@@ -143,6 +178,31 @@ void EsdfBackendRos::onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg
     pending_loops_.pop_front();
   }
   pending_loops_.push_back(*msg);
+}
+
+bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request,
+                                laser_loop_closure::PlaceCheck::Response& response) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  ++place_checks_;
+  // Wall time: the front end waits on this answer, and the clock may stand still.
+  const bool reached = state_changed_.wait_for(lock, std::chrono::seconds(2), [&] {
+    return back_->keyframes().size() >= request.keyframes && loops_taken_ >= request.loops;
+  });
+  if (!reached) {
+    ++place_checks_unanswered_;
+    response.message = "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
+                       std::to_string(loops_taken_) + " loop messages, not " + std::to_string(request.keyframes) +
+                       " and " + std::to_string(request.loops) + ", after 2 s";
+    return true;
+  }
+  try {
+    response.chi2 = back_->placeChi2(request.from_keyframe, request.to_keyframe, request.radius);
+    response.answered = true;
+  } catch (const std::exception& e) {
+    ++place_checks_unanswered_;
+    response.message = e.what();
+  }
+  return true;
 }
 
 void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
@@ -320,6 +380,10 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops refused by the gate", c.refused_by_gate);
   status.add("malformed loops", c.refused_loops);
   status.add("candidates refused by alignment", refused_by_alignment_.size());
+  status.add("place checks answered for the front end", place_checks_ - place_checks_unanswered_);
+  status.add("place checks unanswered", place_checks_unanswered_);
+  status.add("keyframes held for their loops", held_keyframes_.size());
+  status.add("keyframes taken without all their loops (loop messages lost)", loop_order_resyncs_);
   status.add("loops waiting for keyframes", pending_loops_.size());
   status.add("loops dropped", dropped_loops_);
   status.add("seconds in the filter", c.seconds);

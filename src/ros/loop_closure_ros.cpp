@@ -35,7 +35,7 @@ const char* failureName(tf2_ros::FilterFailureReason reason) {
 }  // namespace
 
 LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : tf_listener_(tf_buffer_, nh), diagnostics_(nh, private_nh) {
+    : tf_listener_(tf_buffer_, nh), diagnostics_(nh, private_nh), nh_(nh) {
   loadNodeParameters(
       private_nh, "loop_closure", &options_,
       [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &system_);
@@ -256,9 +256,43 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
+  keyframe_msg.loops_before = loops_published_;
   keyframe_pub_.publish(keyframe_msg);
-  const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index);
-  for (const llc::LoopClosure& loop : loops.aligned) loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
+  llc::CandidateCheck place_gate;
+  if (system_.slam.place_gate.enabled) {
+    const std::size_t k = step.keyframe_index;
+    place_gate = [this, k](std::size_t from, std::size_t to) { return placeCheck(from, to, k); };
+  }
+  const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index, place_gate);
+  for (const llc::LoopClosure& loop : loops.aligned) {
+    loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
+    ++loops_published_;
+  }
+}
+
+std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::size_t keyframe) {
+  ++place_checks_;
+  const ros::WallTime now = ros::WallTime::now();
+  if (!place_client_.isValid() && now >= place_client_retry_) {
+    place_client_ = nh_.serviceClient<laser_loop_closure::PlaceCheck>(options_.place_check_service, true);
+    place_client_retry_ = now + ros::WallDuration(5.0);
+  }
+  laser_loop_closure::PlaceCheck check;
+  check.request.from_keyframe = std::uint32_t(from);
+  check.request.to_keyframe = std::uint32_t(to);
+  check.request.keyframes = std::uint32_t(keyframe + 1);
+  check.request.loops = loops_published_;
+  check.request.radius = system_.slam.place_gate.radius;
+  // The back end bounds its own wait, so this call returns; a back end that is not there fails at once.
+  if (!place_client_.isValid() || !place_client_.call(check) || !check.response.answered) {
+    ++place_checks_unanswered_;
+    const std::string why = !place_client_.isValid() ? "no connection" : check.response.message.empty() ? "the call failed" : check.response.message;
+    ROS_WARN_THROTTLE(10.0, "loop_closure: the place gate got no answer from %s (%s): candidates are aligned ungated",
+                      options_.place_check_service.c_str(), why.c_str());
+    if (!place_client_.isValid() || check.response.message.empty()) place_client_.shutdown();
+    return "";
+  }
+  return llc::placeGateVerdict(system_.slam.place_gate, check.response.chi2);
 }
 
 void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {
@@ -427,6 +461,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("pairs classified", c.pairs_classified);
   status.add("candidates", c.candidates);
   status.add("classifier threshold K", front_->detector().threshold());
+  status.add("candidates kept from alignment by the place gate", c.not_aligned);
+  status.add("place checks asked of the back end", place_checks_);
+  status.add("place checks unanswered (aligned ungated)", place_checks_unanswered_);
   status.add("threshold calibration pairs", c.calibration_pairs);
   status.add("loops found", c.loops_found);
   status.add("refused by alignment", c.refused_by_alignment);

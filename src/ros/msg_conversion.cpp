@@ -67,6 +67,13 @@ bool fromScan360(const laser_loop_closure::Scan360& msg, llc::Scan* scan, std::s
   return true;
 }
 
+llc::Scan asTransmitted(const llc::Scan& scan) {
+  llc::Scan out = scan;
+  for (double& r : out.ranges) r = double(float(r));
+  for (double& b : out.bearings) b = double(float(b));
+  return out;
+}
+
 llc::Pose2 toPose2(const geometry_msgs::Pose& pose) {
   const tf2::Quaternion q(pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w);
   double roll, pitch, yaw;

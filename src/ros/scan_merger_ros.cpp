@@ -49,17 +49,18 @@ ScanMergerRos::ScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
-bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
+ScanMergerRos::Conversion ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan, bool retry) {
   std::string error;
   ScannerMount mount;
-  bool fell_back = false;
-  const bool mounted = mounts_.lookup(msg.header.frame_id, &mount, &error, &fell_back);
+  bool fell_back = false, waiting = false;
+  const bool mounted = mounts_.lookup(msg.header.frame_id, &mount, &error, &fell_back, &waiting, !retry);
   if (fell_back)
     ROS_WARN("scan_merger: tf has no mounting of scanner frame '%s' on '%s' after %d scans: taking it to sit at "
              "x %.3f m, y %.3f m, yaw %.3f rad (parameters mount_x, mount_y, mount_yaw; set mount_wait_scans 0 to "
              "wait for tf instead)",
              tfFrame(msg.header.frame_id).c_str(), mounts_.baseFrame().c_str(), options_.mount_wait_scans, options_.mount_x,
              options_.mount_y, options_.mount_yaw);
+  if (!mounted && waiting) return Conversion::kWaiting;  // held; tf's /tf_static may come a moment after the scan
   if (!mounted || !toBaseScan(msg, mount, scan, &error)) {
     ++rejected_;
     // A new kind of problem is said at once; the same one again at most every 5 s.
@@ -68,12 +69,50 @@ bool ScanMergerRos::toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan) {
     else
       ROS_WARN_THROTTLE(5.0, "scan_merger: scan from '%s' skipped: %s", msg.header.frame_id.c_str(), error.c_str());
     last_problem_ = error;
-    return false;
+    return Conversion::kRefused;
   }
   noteGeometry(msg);
   range_max_ = std::max(range_max_, msg.range_max);
   range_min_ = range_min_ == 0.0f ? msg.range_min : std::min(range_min_, msg.range_min);
-  return true;
+  return Conversion::kDone;
+}
+
+void ScanMergerRos::handle(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
+  llc::Scan front_scan, back_scan;
+  const Conversion f = toBase(*front, &front_scan, false);
+  const Conversion b = back ? toBase(*back, &back_scan, false) : Conversion::kRefused;
+  if (f == Conversion::kRefused) return;
+  if (f == Conversion::kWaiting || b == Conversion::kWaiting || !awaiting_mount_.empty()) {
+    // Behind scans that wait for their mount: in order, or not at all.
+    awaiting_mount_.push_back({front, b == Conversion::kRefused ? nullptr : back});
+    // Held only for the moment /tf_static may lag behind the first scans; a scan held longer
+    // (or beyond queue_size) is skipped, as before there was a hold.
+    constexpr double kLongestMountWait = 0.5;  // s of scan time
+    while (awaiting_mount_.size() > std::size_t(options_.queue_size) ||
+           (front->header.stamp - awaiting_mount_.front().first->header.stamp).toSec() > kLongestMountWait) {
+      ++rejected_;
+      last_problem_ = "no mounting of scanner frame '" + tfFrame(awaiting_mount_.front().first->header.frame_id) +
+                      "' in tf (held 0.5 s)";
+      ROS_WARN_THROTTLE(5.0, "scan_merger: scan skipped: %s", last_problem_.c_str());
+      awaiting_mount_.pop_front();
+      if (awaiting_mount_.empty()) break;
+    }
+    publishAwaitingMount();
+    return;
+  }
+  publish(front_scan, b == Conversion::kDone ? &back_scan : nullptr, *front);
+}
+
+void ScanMergerRos::publishAwaitingMount() {
+  while (!awaiting_mount_.empty()) {
+    const auto& [front, back] = awaiting_mount_.front();
+    llc::Scan front_scan, back_scan;
+    const Conversion f = toBase(*front, &front_scan, true);
+    const Conversion b = back ? toBase(*back, &back_scan, true) : Conversion::kRefused;
+    if (f == Conversion::kWaiting || b == Conversion::kWaiting) return;
+    if (f == Conversion::kDone) publish(front_scan, b == Conversion::kDone ? &back_scan : nullptr, *front);
+    awaiting_mount_.pop_front();
+  }
 }
 
 void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& /*back*/) {
@@ -91,10 +130,7 @@ void ScanMergerRos::noteBackHeard() {
 
 void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
   std::lock_guard<std::mutex> lock(mutex_);
-  llc::Scan front_scan, back_scan;
-  if (!toBase(*front, &front_scan)) return;
-  const bool back_ok = toBase(*back, &back_scan);  // a bad back scan leaves the front alone
-  publish(front_scan, back_ok ? &back_scan : nullptr, *front);
+  handle(front, back);  // a bad back scan leaves the front alone
 }
 
 void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
@@ -110,10 +146,7 @@ void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
       if (fronts_before_any_back_.size() < kMostHeld) fronts_before_any_back_.push_back(front);
       return;
     }
-    for (const auto& held : fronts_before_any_back_) {
-      llc::Scan held_scan;
-      if (toBase(*held, &held_scan)) publish(held_scan, nullptr, *held);
-    }
+    for (const auto& held : fronts_before_any_back_) handle(held, nullptr);
     fronts_before_any_back_.clear();
   } else if ((now - last_back_arrival_).toSec() <= options_.back_timeout) {
     return;
@@ -124,8 +157,7 @@ void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
              "one talks again",
              (now - last_back_arrival_).toSec());
   }
-  llc::Scan front_scan;
-  if (toBase(*front, &front_scan)) publish(front_scan, nullptr, *front);
+  handle(front, nullptr);
 }
 
 void ScanMergerRos::noteGeometry(const sensor_msgs::LaserScan& msg) {
@@ -182,6 +214,7 @@ void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
   status.add("skipped scans", rejected_);
   status.add("scanner frames on the fallback mount", mounts_.fallbacks());
   status.add("skipped scans, not newer than the last", out_of_order_);
+  status.add("scans held for their scanner's mount in tf", awaiting_mount_.size());
   status.add("scan geometry changes (beams, first angle or increment)", geometry_changes_);
   status.add("back scanner silent, front published alone", back_silent_ ? "yes" : "no");
   status.add("back scanner outages", back_outages_);

@@ -12,7 +12,9 @@ std::string tfFrame(const std::string& frame_id) {
   return first == std::string::npos ? std::string() : frame_id.substr(first);
 }
 
-bool MountCache::lookup(const std::string& frame_id, ScannerMount* mount, std::string* error, bool* fell_back) {
+bool MountCache::lookup(const std::string& frame_id, ScannerMount* mount, std::string* error, bool* fell_back,
+                        bool* waiting, bool count_failure) {
+  if (waiting) *waiting = false;
   const std::string frame = tfFrame(frame_id);
   const auto found = cache_.find(frame);
   if (found != cache_.end()) {
@@ -30,7 +32,12 @@ bool MountCache::lookup(const std::string& frame_id, ScannerMount* mount, std::s
       t = buffer_.lookupTransform(base_, frame, ros::Time(0));
     } catch (const tf2::TransformException& e) {
       *error = "no mounting of scanner frame '" + frame + "' on '" + base_ + "' in tf: " + e.what();
-      if (fallback_.after_failures <= 0 || ++failures_[frame] < fallback_.after_failures) return false;
+      int& failures = failures_[frame];
+      if (count_failure) ++failures;
+      if (fallback_.after_failures <= 0 || failures < fallback_.after_failures) {
+        if (waiting) *waiting = true;
+        return false;
+      }
       // tf will not tell: the robot's description has no such frame (a bag with no /tf).
       fresh.pose = fallback_.pose;
       ++fallbacks_;

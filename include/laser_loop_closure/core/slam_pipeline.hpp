@@ -25,6 +25,10 @@ struct PlaceGateOptions {
   std::string validate() const;
 };
 
+/// The place gate's verdict on a statistic: "" (align it) or why it is kept from alignment.
+/// One rule for `llc slam` and the nodelets.
+std::string placeGateVerdict(const PlaceGateOptions& options, double chi2);
+
 struct SlamOptions {
   ScanOdometryOptions odometry{};
   ScanAlignerOptions aligner{};

@@ -9,6 +9,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <condition_variable>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -18,6 +19,7 @@
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/LoadSession.h"
+#include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam_back_end.hpp"
@@ -67,7 +69,15 @@ class EsdfBackendRos {
 
  private:
   void onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg);
+  /// Takes the held keyframes whose loops_before have all come (under mutex_). A keyframe held
+  /// behind more than kMostHeldKeyframes others is taken anyway (its loops were lost, or the
+  /// front end restarted): the count starts again from it.
+  void takeHeldKeyframes();
+  void takeKeyframe(const laser_loop_closure::Keyframe& msg);
+  /// loop_closure's place gate: answers from the state llc slam would have (waits for it, bounded).
+  bool placeCheck(laser_loop_closure::PlaceCheck::Request& request, laser_loop_closure::PlaceCheck::Response& response);
   void onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
+  void takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   /// Applies one loop whose keyframes exist; publishes its record.
   void applyLoop(const laser_loop_closure::LoopClosure& msg);
   /// Publishes path and pose, and hands map -> odom to the transform thread; called whenever
@@ -87,7 +97,10 @@ class EsdfBackendRos {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Subscriber keyframe_sub_, loop_sub_;
   ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
-  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_;
+  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_;
+  // The place check has its own queue and thread: it waits for keyframes the main queue brings.
+  ros::CallbackQueue place_queue_;
+  std::unique_ptr<ros::AsyncSpinner> place_spinner_;
   // The services have their own queue and thread: they answer while keyframes queue up and
   // while the clock stands still (a bag ended or paused).
   ros::CallbackQueue service_queue_;
@@ -98,7 +111,13 @@ class EsdfBackendRos {
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;
+  std::condition_variable state_changed_;  ///< a keyframe or a loop was taken (with mutex_)
   std::deque<laser_loop_closure::LoopClosure> pending_loops_;
+  /// Keyframes whose loops_before have not all come yet: taken in the order llc slam takes them.
+  std::deque<laser_loop_closure::Keyframe::ConstPtr> held_keyframes_;
+  static constexpr std::size_t kMostHeldKeyframes = 3;
+  std::uint64_t loops_taken_ = 0;  ///< LoopClosure messages received (applied, pending or refused)
+  std::size_t loop_order_resyncs_ = 0, place_checks_ = 0, place_checks_unanswered_ = 0;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
   std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
   bool map_dirty_ = false;

@@ -28,6 +28,7 @@
 #include <thread>
 #include <vector>
 
+#include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/Scan360.h"
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
@@ -56,6 +57,9 @@ struct LoopClosureNodeOptions {
   /// waiting scans, to catch up (with wheel odometry only: without, every scan is odometry); 0: never.
   double max_lag = 5.0;
   std::string trained_model_path = "llc_classifier.yaml";  ///< default file of ~train_classifier (relative: to the working directory)
+  /// The back end's place check (PlaceCheck.srv), asked for every candidate when
+  /// place_gate/enabled (as `llc slam` asks its back end); unanswered: the candidate is aligned.
+  std::string place_check_service = "esdf_backend/place_check";
   std::string validate() const;
 };
 
@@ -70,6 +74,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("queue_size", o.queue_size);
   visit("max_lag", o.max_lag);
   visit("trained_model_path", o.trained_model_path);
+  visit("place_check_service", o.place_check_service);
 }
 
 class LoopClosureRos {
@@ -105,6 +110,9 @@ class LoopClosureRos {
   /// The worker thread: takes scans from the backlog through the front end until stopped.
   void work();
   void processScan(const PendingScan& pending);
+  /// The place gate for keyframe `keyframe`'s candidates: the back end's verdict through
+  /// place_check_service, or none (align) when it does not answer. Worker thread, under mutex_.
+  std::string placeCheck(std::size_t from, std::size_t to, std::size_t keyframe);
   /// publish_odometry_tf: broadcasts odom_frame -> the scan's frame for this scan and, for a
   /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
   void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);
@@ -161,6 +169,12 @@ class LoopClosureRos {
   bool has_keyframe_in_odometry_ = false;
   ros::Time last_odometry_stamp_;
   std::string last_problem_;
+  // The place gate through the back end (worker thread only).
+  ros::NodeHandle nh_;
+  ros::ServiceClient place_client_;  ///< persistent; made again after a failure, at most every 5 s
+  ros::WallTime place_client_retry_;
+  std::uint64_t loops_published_ = 0;  ///< LoopClosure messages so far (Keyframe.loops_before)
+  std::size_t place_checks_ = 0, place_checks_unanswered_ = 0;
 };
 
 }  // namespace llc_ros

@@ -39,6 +39,10 @@ sensor_msgs::LaserScan toLaserScan(const llc::Scan& resampled, const std_msgs::H
 laser_loop_closure::Scan360 toScan360(const llc::Scan& scan, const std_msgs::Header& header);
 /// False with a reason when ranges and bearings differ in length.
 bool fromScan360(const laser_loop_closure::Scan360& msg, llc::Scan* scan, std::string* error);
+/// The scan as a Scan360 message carries it (ranges and bearings rounded to float32): what the
+/// loop_closure nodelet computes with. `llc slam --bag` takes its scans through this too, so that
+/// the nodelets and the offline tool compute on the same numbers (online = offline).
+llc::Scan asTransmitted(const llc::Scan& scan);
 
 geometry_msgs::Pose2D toPose2D(const llc::Pose2& pose);
 llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose);

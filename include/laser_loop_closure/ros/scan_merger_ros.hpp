@@ -66,8 +66,16 @@ class ScanMergerRos {
   void onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back);
   void onFront(const sensor_msgs::LaserScan::ConstPtr& front);
   void onBack(const sensor_msgs::LaserScan::ConstPtr& back);
-  /// Converts one scanner's message into the base frame; false (warned, throttled) when it cannot.
-  bool toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan);
+  enum class Conversion { kDone, kWaiting, kRefused };
+  /// Converts one scanner's message into the base frame: kWaiting while tf has no mount for its
+  /// frame yet (before mount_wait_scans: the scan is held), kRefused (warned, throttled) when it
+  /// cannot be used. retry: a held scan tried again (not counted towards the fallback mount).
+  Conversion toBase(const sensor_msgs::LaserScan& msg, llc::Scan* scan, bool retry);
+  /// One front scan with its back one (or none): published, held behind scans that wait for
+  /// their mount, or skipped.
+  void handle(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back);
+  /// Publishes the held scans, oldest first, as far as their mounts are known now.
+  void publishAwaitingMount();
   void publish(const llc::Scan& front, const llc::Scan* back, const sensor_msgs::LaserScan& front_msg);
   /// Warns once per scanner frame when its beam count, first angle or increment changes.
   void noteGeometry(const sensor_msgs::LaserScan& msg);
@@ -95,6 +103,8 @@ class ScanMergerRos {
   /// Front scans that came before any back scan, held for back_timeout (then published alone) so
   /// that a front-only robot or bag loses none of its first scans.
   std::deque<sensor_msgs::LaserScan::ConstPtr> fronts_before_any_back_;
+  /// (front, back or null) whose scanner mount tf has not told yet; at most queue_size.
+  std::deque<std::pair<sensor_msgs::LaserScan::ConstPtr, sensor_msgs::LaserScan::ConstPtr>> awaiting_mount_;
   struct Geometry {
     std::size_t beams = 0;
     float angle_min = 0.0f, angle_increment = 0.0f;

@@ -34,7 +34,10 @@ class MountCache {
   /// tilted out of the base plane (refused; the reason says so and it is not cached). After
   /// fallback.after_failures lookups without a transform the fallback mount is kept for the
   /// frame and *fell_back (when given) is set, once, so the caller can say so.
-  bool lookup(const std::string& frame, ScannerMount* mount, std::string* error, bool* fell_back = nullptr);
+  /// *waiting (when given) is set when tf simply has no mount for the frame yet. count_failure
+  /// false: a retry of a scan already counted (the fallback comes after that many scans).
+  bool lookup(const std::string& frame, ScannerMount* mount, std::string* error, bool* fell_back = nullptr,
+              bool* waiting = nullptr, bool count_failure = true);
   const std::string& baseFrame() const { return base_; }
   /// Scanner frames on the fallback mount.
   std::size_t fallbacks() const { return fallbacks_; }
