@@ -127,6 +127,7 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
       ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
     }
     features_.push_back(msg.features);
+    map_scans_.push_back(std::make_shared<const llc::Scan>(back_->keyframes().back().scan));
   }
   if (!error.empty()) {
     ++refused_keyframes_;
@@ -232,26 +233,40 @@ void EsdfBackendRos::publishPoses() {
 }
 
 void EsdfBackendRos::publishMap() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!map_dirty_ || back_->keyframes().empty()) return;
-  map_dirty_ = false;
+  // A snapshot under the lock (poses, loops and shared scans: cheap), the rebuild outside it:
+  // keyframes, loops and place checks go on meanwhile (a 10 km map takes seconds).
+  std::lock_guard<std::mutex> building(map_building_);
+  std::vector<llc::Pose2> poses;
+  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<llc::LoopRecord> loops;
+  std_msgs::Header header;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!map_dirty_ || back_->keyframes().empty()) return;
+    map_dirty_ = false;
+    header = mapHeader();
+    poses = back_->poses();
+    scans_held = map_scans_;
+    loops = refused_by_alignment_;
+    loops.insert(loops.end(), back_->loops().begin(), back_->loops().end());
+  }
   const auto start = std::chrono::steady_clock::now();
-  const std_msgs::Header header = mapHeader();
-  std::vector<llc::LoopRecord> loops = refused_by_alignment_;
-  loops.insert(loops.end(), back_->loops().begin(), back_->loops().end());
-  marker_pub_.publish(graphMarkers(back_->poses(), loops, header));
+  marker_pub_.publish(graphMarkers(poses, loops, header));
   std::vector<const llc::Scan*> scans;
-  for (const llc::Keyframe& k : back_->keyframes()) scans.push_back(&k.scan);
+  for (const auto& scan : scans_held) scans.push_back(scan.get());
+  std::string problem;
   try {
-    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, back_->poses(), system_.map), header));
+    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, poses, system_.map), header));
   } catch (const std::exception& e) {
-    last_problem_ = std::string("map: ") + e.what();
+    problem = std::string("map: ") + e.what();
     ROS_WARN_THROTTLE(30.0, "esdf_backend: map not rebuilt: %s", e.what());
   }
   // The cloud of every return costs as much as the grid: built only for someone listening.
   if (cloud_pub_.getNumSubscribers() > 0)
-    cloud_pub_.publish(toCloudMsg(back_->keyframes(), back_->poses(), system_.map.max_range, options_.cloud_voxel_size, header));
+    cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
+  std::lock_guard<std::mutex> lock(mutex_);
   last_map_seconds_ = llc::secondsSince(start);
+  if (!problem.empty()) last_problem_ = problem;
 }
 
 void EsdfBackendRos::publishTransform() {
@@ -275,17 +290,23 @@ void EsdfBackendRos::publishTransform() {
 }
 
 bool EsdfBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
-  std::lock_guard<std::mutex> lock(mutex_);
   const std::string stem = request.path.empty() ? options_.map_path : request.path;
-  if (back_->keyframes().empty()) {
+  std::vector<llc::Pose2> poses;
+  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);  // a snapshot; the map is built outside the lock
+    poses = back_->poses();
+    scans_held = map_scans_;
+  }
+  if (scans_held.empty()) {
     response.success = false;
     response.message = "no keyframe yet: nothing to save";
     return true;
   }
   std::vector<const llc::Scan*> scans;
-  for (const llc::Keyframe& k : back_->keyframes()) scans.push_back(&k.scan);
+  for (const auto& scan : scans_held) scans.push_back(scan.get());
   try {
-    llc::saveMapFiles(llc::buildOccupancyGrid(scans, back_->poses(), system_.map), stem, system_.map);
+    llc::saveMapFiles(llc::buildOccupancyGrid(scans, poses, system_.map), stem, system_.map);
     response.success = true;
     response.message = "wrote " + stem + ".pgm and " + stem + ".yaml";
   } catch (const std::exception& e) {
@@ -335,6 +356,8 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     return true;
   }
   features_ = session.features;
+  map_scans_.clear();
+  for (const llc::Keyframe& k : back_->keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
   pending_loops_.clear();
   refused_by_alignment_.clear();
   refused_keyframes_ = 0;

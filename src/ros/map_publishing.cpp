@@ -39,12 +39,12 @@ nav_msgs::Path toPathMsg(const std::vector<llc::Keyframe>& keyframes, const std:
   return path;
 }
 
-sensor_msgs::PointCloud2 toCloudMsg(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
+sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, const std::vector<llc::Pose2>& poses,
                                     double max_range, double voxel_size, const std_msgs::Header& header) {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  const std::size_t n = std::min(keyframes.size(), poses.size());
+  const std::size_t n = std::min(scans.size(), poses.size());
   for (std::size_t k = 0; k < n; ++k) {
-    const llc::Scan& scan = keyframes[k].scan;
+    const llc::Scan& scan = *scans[k];
     const double c = std::cos(poses[k].theta), s = std::sin(poses[k].theta);
     for (std::size_t i = 0; i < scan.size(); ++i) {
       const double r = scan.ranges[i];

@@ -120,6 +120,9 @@ class EsdfBackendRos {
   std::size_t loop_order_resyncs_ = 0, place_checks_ = 0, place_checks_unanswered_ = 0;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
   std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
+  /// Each keyframe's scan, shared with the map rebuild, which runs outside mutex_.
+  std::vector<std::shared_ptr<const llc::Scan>> map_scans_;
+  std::mutex map_building_;  ///< one rebuild at a time
   bool map_dirty_ = false;
 
   // map -> odom is broadcast from its own thread and queue, so that a map rebuild (which holds

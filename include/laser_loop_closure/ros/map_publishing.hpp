@@ -22,7 +22,7 @@ nav_msgs::Path toPathMsg(const std::vector<llc::Keyframe>& keyframes, const std:
 
 /// Every keyframe's returns (finite ranges below max_range) at its pose, thinned by PCL's
 /// VoxelGrid to one point per voxel_size cube (0: every point).
-sensor_msgs::PointCloud2 toCloudMsg(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
+sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, const std::vector<llc::Pose2>& poses,
                                     double max_range, double voxel_size, const std_msgs::Header& header);
 
 /// The graph: keyframes (dots), odometry chain (blue), applied loops (green), loops refused by
