@@ -2,6 +2,7 @@
 #include <benchmark/benchmark.h>
 
 #include <Eigen/LU>
+#include <malloc.h>
 
 #include <cmath>
 #include <cstdio>
@@ -158,10 +159,22 @@ const llc::ScanSequence& simulatedScans() {
 }
 
 /// What a keyframe computes once for alignment: points, CRF nodes, k-d tree and normals.
+/// Counter heap_kB: what one prepared scan keeps on the heap (glibc's mallinfo2 before and after
+/// 100 of them are held): the biggest share of a keyframe's memory in the front end.
 void BM_PrepareScanForAlignment(benchmark::State& state) {
   const llc::ScanAligner aligner;
   const llc::Scan& scan = simulatedScans().scans[100].scan;
   state.counters["beams"] = double(scan.size());
+  {
+    std::vector<std::shared_ptr<const llc::PreparedScan>> held;
+    const std::size_t before = mallinfo2().uordblks;
+    for (int k = 0; k < 100; ++k) held.push_back(aligner.prepare(simulatedScans().scans[std::size_t(k)].scan));
+    state.counters["heap_kB"] = double(mallinfo2().uordblks - before) / 100.0 / 1024.0;
+    const std::size_t scans_before = mallinfo2().uordblks;
+    std::vector<llc::Scan> copies;
+    for (int k = 0; k < 100; ++k) copies.push_back(simulatedScans().scans[std::size_t(k)].scan);
+    state.counters["scan_heap_kB"] = double(mallinfo2().uordblks - scans_before) / 100.0 / 1024.0;
+  }
   for (auto _ : state) benchmark::DoNotOptimize(aligner.prepare(scan));
 }
 BENCHMARK(BM_PrepareScanForAlignment)->Unit(benchmark::kMillisecond);
