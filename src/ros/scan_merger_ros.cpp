@@ -85,17 +85,16 @@ void ScanMergerRos::handle(const sensor_msgs::LaserScan::ConstPtr& front, const 
   if (f == Conversion::kWaiting || b == Conversion::kWaiting || !awaiting_mount_.empty()) {
     // Behind scans that wait for their mount: in order, or not at all.
     awaiting_mount_.push_back({front, b == Conversion::kRefused ? nullptr : back});
-    // Held only for the moment /tf_static may lag behind the first scans; a scan held longer
-    // (or beyond queue_size) is skipped, as before there was a hold.
-    constexpr double kLongestMountWait = 0.5;  // s of scan time
-    while (awaiting_mount_.size() > std::size_t(options_.queue_size) ||
-           (front->header.stamp - awaiting_mount_.front().first->header.stamp).toSec() > kLongestMountWait) {
+    // Held until tf tells the mount or the fallback mount is taken (after mount_wait_scans
+    // scans): the first scans of a bag come before its /tf_static, or with no tf at all. Beyond
+    // that many (or queue_size when waiting for tf for ever) the oldest is skipped.
+    const std::size_t most_held = std::size_t(std::max(options_.queue_size, options_.mount_wait_scans + 1));
+    while (awaiting_mount_.size() > most_held) {
       ++rejected_;
       last_problem_ = "no mounting of scanner frame '" + tfFrame(awaiting_mount_.front().first->header.frame_id) +
-                      "' in tf (held 0.5 s)";
+                      "' in tf yet (" + std::to_string(most_held) + " scans held)";
       ROS_WARN_THROTTLE(5.0, "scan_merger: scan skipped: %s", last_problem_.c_str());
       awaiting_mount_.pop_front();
-      if (awaiting_mount_.empty()) break;
     }
     publishAwaitingMount();
     return;

@@ -103,7 +103,7 @@ class ScanMergerRos {
   /// Front scans that came before any back scan, held for back_timeout (then published alone) so
   /// that a front-only robot or bag loses none of its first scans.
   std::deque<sensor_msgs::LaserScan::ConstPtr> fronts_before_any_back_;
-  /// (front, back or null) whose scanner mount tf has not told yet; at most queue_size.
+  /// (front, back or null) whose scanner mount tf has not told yet; at most max(queue_size, mount_wait_scans + 1).
   std::deque<std::pair<sensor_msgs::LaserScan::ConstPtr, sensor_msgs::LaserScan::ConstPtr>> awaiting_mount_;
   struct Geometry {
     std::size_t beams = 0;
