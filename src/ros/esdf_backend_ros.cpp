@@ -3,6 +3,7 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -21,6 +22,8 @@ std::string EsdfBackendNodeOptions::validate() const {
   if (map_frame == odom_frame) return "map_frame and odom_frame must differ";
   if (!(transform_tolerance >= 0.0)) return "transform_tolerance must not be negative";
   if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
+  if (!(map_cpu_share > 0.0 && map_cpu_share <= 1.0)) return "map_cpu_share must be in (0, 1]";
+  if (session_part_keyframes < 1) return "session_part_keyframes must be at least 1";
   if (!(cloud_voxel_size >= 0.0)) return "cloud_voxel_size must not be negative";
   if (max_pending_loops < 0 || queue_size < 1) return "max_pending_loops >= 0 and queue_size >= 1";
   if (session_path.empty()) return "session_path must not be empty";
@@ -43,7 +46,9 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
   keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
   loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
-  session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1, true);
+  // Not latched: a session comes in parts (a latch would keep only the last); the queue holds
+  // every part of a long one for a subscriber over TCP.
+  session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1000, false);
   ros::NodeHandle service_nh(private_nh);
   service_nh.setCallbackQueue(&service_queue_);
   save_map_srv_ = service_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
@@ -88,6 +93,7 @@ std_msgs::Header EsdfBackendRos::mapHeader() const {
 }
 
 void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(mutex_);
   held_keyframes_.push_back(msg);
   takeHeldKeyframes();
@@ -152,6 +158,7 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
 }
 
 void EsdfBackendRos::onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(mutex_);
   ++loops_taken_;
   takeLoop(msg);
@@ -236,6 +243,8 @@ void EsdfBackendRos::publishMap() {
   // A snapshot under the lock (poses, loops and shared scans: cheap), the rebuild outside it:
   // keyframes, loops and place checks go on meanwhile (a 10 km map takes seconds).
   std::lock_guard<std::mutex> building(map_building_);
+  // Throttled by its own cost (map_cpu_share): a large map is rebuilt less often; it stays dirty.
+  if (std::chrono::steady_clock::now() < next_map_allowed_) return;
   std::vector<llc::Pose2> poses;
   std::vector<std::shared_ptr<const llc::Scan>> scans_held;
   std::vector<llc::LoopRecord> loops;
@@ -264,8 +273,12 @@ void EsdfBackendRos::publishMap() {
   // The cloud of every return costs as much as the grid: built only for someone listening.
   if (cloud_pub_.getNumSubscribers() > 0)
     cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
+  const double took = llc::secondsSince(start);
+  next_map_allowed_ = std::chrono::steady_clock::now() +
+                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(took / options_.map_cpu_share - took));
   std::lock_guard<std::mutex> lock(mutex_);
-  last_map_seconds_ = llc::secondsSince(start);
+  last_map_seconds_ = took;
   if (!problem.empty()) last_problem_ = problem;
 }
 
@@ -363,16 +376,27 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   refused_keyframes_ = 0;
   refused_in_a_row_ = 0;
   map_dirty_ = true;
-  // The front end restores its keyframes from this; latched, so it may subscribe late.
-  laser_loop_closure::Session msg;
-  msg.header.stamp = ros::Time::now();
-  msg.path = path;
-  msg.continue_odometry = request.continue_odometry;
-  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
-    msg.keyframes.push_back(toKeyframeMsg(session.keyframes[k], k, llc::OdometryStep{}, ""));
-    msg.keyframes.back().features = session.features[k];
+  // The front end restores its keyframes from these parts, in order (one message of a long
+  // session would be tens of MB).
+  ++session_loads_;
+  const std::size_t n = session.keyframes.size(), per_part = std::size_t(options_.session_part_keyframes);
+  const std::size_t parts = std::max<std::size_t>(1, (n + per_part - 1) / per_part);
+  for (std::size_t part = 0; part < parts; ++part) {
+    laser_loop_closure::Session msg;
+    msg.header.stamp = ros::Time::now();
+    msg.load = session_loads_;
+    msg.part = std::uint32_t(part);
+    msg.parts = std::uint32_t(parts);
+    msg.first_keyframe = std::uint32_t(part * per_part);
+    msg.total_keyframes = std::uint32_t(n);
+    msg.path = path;
+    msg.continue_odometry = request.continue_odometry;
+    for (std::size_t k = part * per_part; k < std::min(n, (part + 1) * per_part); ++k) {
+      msg.keyframes.push_back(toKeyframeMsg(session.keyframes[k], k, llc::OdometryStep{}, ""));
+      msg.keyframes.back().features = session.features[k];
+    }
+    session_pub_.publish(msg);
   }
-  session_pub_.publish(msg);
   publishPoses();
   response.success = true;
   response.keyframes = std::uint32_t(session.keyframes.size());
@@ -411,6 +435,8 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops dropped", dropped_loops_);
   status.add("seconds in the filter", c.seconds);
   status.add("seconds of the last map rebuild", last_map_seconds_);
+  status.add("sessions restored (~load_session)", session_loads_);
+  callback_timing_.addTo(status, "keyframe and loop callbacks");
   status.add("last problem", last_problem_);
 }
 

@@ -73,7 +73,7 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScanReceived, this);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
-  session_sub_ = nh.subscribe("session", 1, &LoopClosureRos::onSession, this);
+  session_sub_ = nh.subscribe("session", 1000, &LoopClosureRos::onSession, this);  // every part of a long session
   ros::NodeHandle service_nh(private_nh);
   service_nh.setCallbackQueue(&service_queue_);
   train_srv_ = service_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
@@ -94,8 +94,10 @@ LoopClosureRos::~LoopClosureRos() {
 }
 
 void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
   PendingScan pending;
   pending.msg = msg;
+  pending.arrival = std::chrono::steady_clock::now();
   bool clear_filter = false;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
@@ -175,6 +177,7 @@ void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) 
 }
 
 void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(receive_mutex_);
   const auto found = awaiting_odometry_.find(msg.get());
   if (found == awaiting_odometry_.end()) return;  // released without wheels, or given up at a jump back
@@ -223,6 +226,7 @@ void LoopClosureRos::work() {
   PendingScan pending;
   while (backlog_->pop(&pending)) {
     processScan(pending);
+    scan_latency_.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - pending.arrival).count());
     pending = PendingScan{};  // let go of the message while waiting
   }
 }
@@ -329,16 +333,30 @@ void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {
 }
 
 void LoopClosureRos::onSession(const laser_loop_closure::Session::ConstPtr& msg) {
-  std::vector<llc::Keyframe> keyframes(msg->keyframes.size());
-  std::vector<std::vector<double>> features;
+  // A session comes in parts, in order; it is restored when the last part of a load came after
+  // all its earlier ones (a part missing: that load is not restored, and it is said).
+  SessionParts& parts = session_parts_;
+  if (msg->part == 0) parts = SessionParts{msg->load, 0, {}, {}};
+  std::string error;
+  if (msg->load != parts.load || msg->part != parts.next_part || msg->first_keyframe != parts.keyframes.size())
+    error = "part " + std::to_string(msg->part) + " of load " + std::to_string(msg->load) + " came without the parts before it";
   llc::Pose2 motion;
   Eigen::Matrix3d covariance;
-  std::string error;
-  for (std::size_t k = 0; k < keyframes.size() && error.empty(); ++k) {
-    if (!fromKeyframeMsg(msg->keyframes[k], &keyframes[k], &motion, &covariance, &error))
-      error = "keyframe " + std::to_string(k) + ": " + error;
-    features.push_back(msg->keyframes[k].features);
+  for (std::size_t k = 0; k < msg->keyframes.size() && error.empty(); ++k) {
+    parts.keyframes.emplace_back();
+    if (!fromKeyframeMsg(msg->keyframes[k], &parts.keyframes.back(), &motion, &covariance, &error))
+      error = "keyframe " + std::to_string(msg->first_keyframe + k) + ": " + error;
+    parts.features.push_back(msg->keyframes[k].features);
   }
+  if (error.empty() && msg->part + 1 == msg->parts && parts.keyframes.size() != msg->total_keyframes)
+    error = std::to_string(parts.keyframes.size()) + " keyframes came, the session has " + std::to_string(msg->total_keyframes);
+  if (error.empty() && msg->part + 1 < msg->parts) {
+    ++parts.next_part;
+    return;  // more to come
+  }
+  const std::vector<llc::Keyframe> keyframes = std::move(parts.keyframes);
+  const std::vector<std::vector<double>> features = std::move(parts.features);
+  parts = SessionParts{};
   std::lock_guard<std::mutex> lock(mutex_);
   bool recomputed = false;
   if (error.empty()) error = front_->restore(keyframes, features, msg->continue_odometry, &recomputed);
@@ -347,6 +365,7 @@ void LoopClosureRos::onSession(const laser_loop_closure::Session::ConstPtr& msg)
     ROS_ERROR("loop_closure: the session from %s was not restored: %s", msg->path.c_str(), error.c_str());
     return;
   }
+  keyframes_restored_ = keyframes.size();
   keyframes_full_circle_ = true;
   for (const llc::Keyframe& k : keyframes) keyframes_full_circle_ = keyframes_full_circle_ && k.scan.full_circle;
   ROS_INFO("loop_closure: restored %zu keyframes from %s (%s%s)", keyframes.size(), msg->path.c_str(),
@@ -445,6 +464,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("lag behind the newest scan (s)", backlog.lag);
   status.add("largest lag (s)", backlog.largest_lag);
   status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
+  status.add("keyframes of the last restored session", keyframes_restored_);
+  callback_timing_.addTo(status, "scan callbacks");
+  scan_latency_.addTo(status, "scan arrival to processed");
   status.add("scans dropped, queue full (queue_size)", backlog.dropped_full);
   status.add("scans processed", backlog.popped);
   status.add("malformed scans", malformed_);

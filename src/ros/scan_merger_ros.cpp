@@ -115,6 +115,7 @@ void ScanMergerRos::publishAwaitingMount() {
 }
 
 void ScanMergerRos::onBack(const sensor_msgs::LaserScan::ConstPtr& /*back*/) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(mutex_);
   last_back_arrival_ = ros::WallTime::now();
   fronts_before_any_back_.clear();  // two scanners: the synchroniser pairs them
@@ -128,11 +129,13 @@ void ScanMergerRos::noteBackHeard() {
 }
 
 void ScanMergerRos::onPair(const sensor_msgs::LaserScan::ConstPtr& front, const sensor_msgs::LaserScan::ConstPtr& back) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(mutex_);
   handle(front, back);  // a bad back scan leaves the front alone
 }
 
 void ScanMergerRos::onFront(const sensor_msgs::LaserScan::ConstPtr& front) {
+  const auto timed = callback_timing_.measure();
   std::lock_guard<std::mutex> lock(mutex_);
   // While the back scanner talks, the synchroniser publishes; this path is for when it does not.
   // At the start a back scanner gets back_timeout to say something; the front scans of that
@@ -217,6 +220,7 @@ void ScanMergerRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status
   status.add("scan geometry changes (beams, first angle or increment)", geometry_changes_);
   status.add("back scanner silent, front published alone", back_silent_ ? "yes" : "no");
   status.add("back scanner outages", back_outages_);
+  callback_timing_.addTo(status, "scan callbacks");
   status.add("last problem", last_problem_);
 }
 

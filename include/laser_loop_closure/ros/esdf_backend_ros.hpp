@@ -9,6 +9,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <memory>
@@ -23,6 +24,7 @@
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam_back_end.hpp"
+#include "laser_loop_closure/ros/callback_timing.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
 
 namespace llc_ros {
@@ -34,9 +36,13 @@ struct EsdfBackendNodeOptions {
   double transform_tolerance = 0.1;    ///< s the published transform is dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
   double map_publish_period = 2.0;     ///< s of wall time between rebuilds of /map, the cloud and the markers (when changed)
+  /// At most this share of one core rebuilds /map, the cloud and the markers: after a rebuild of
+  /// t s the next waits max(map_publish_period, t / map_cpu_share) s (a large map comes less often).
+  double map_cpu_share = 0.25;
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
+  int session_part_keyframes = 100;    ///< keyframes per message of a restored session on topic session
   int max_pending_loops = 1000;        ///< loops held until their keyframes arrive
   int queue_size = 1000;               ///< keyframes and loops kept while the back end is busy
   std::string validate() const;
@@ -50,9 +56,11 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
   visit("transform_tolerance", o.transform_tolerance);
   visit("tf_publish_period", o.tf_publish_period);
   visit("map_publish_period", o.map_publish_period);
+  visit("map_cpu_share", o.map_cpu_share);
   visit("cloud_voxel_size", o.cloud_voxel_size);
   visit("map_path", o.map_path);
   visit("session_path", o.session_path);
+  visit("session_part_keyframes", o.session_part_keyframes);
   visit("max_pending_loops", o.max_pending_loops);
   visit("queue_size", o.queue_size);
 }
@@ -60,7 +68,7 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
 class EsdfBackendRos {
  public:
   /// Subscribes keyframes and loop_closures; publishes path, pose, map (latched), map_cloud,
-  /// graph_markers, ~loop_records and session (latched, after a load); serves ~save_map,
+  /// graph_markers, ~loop_records and session (in parts, after a load); serves ~save_map,
   /// ~save_session and ~load_session. Throws std::runtime_error on bad parameters.
   EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~EsdfBackendRos();
@@ -138,6 +146,9 @@ class EsdfBackendRos {
   /// race with the front end refuses a few, then mapping goes on and this is 0 again).
   std::size_t refused_in_a_row_ = 0;
   double last_map_seconds_ = 0.0;
+  std::chrono::steady_clock::time_point next_map_allowed_;  ///< map_cpu_share's throttle (under map_building_)
+  std::uint32_t session_loads_ = 0;                           ///< ~load_session calls that restored a session
+  CallbackTiming callback_timing_;  ///< onKeyframe and onLoop (lock wait and the ESDF update included)
   std::string last_problem_;
 };
 

@@ -22,6 +22,7 @@
 #include <atomic>
 #include <map>
 #include <memory>
+#include <chrono>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -33,6 +34,7 @@
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/scan_backlog.hpp"
+#include "laser_loop_closure/ros/callback_timing.hpp"
 #include "laser_loop_closure/ros/tf_listener.hpp"
 #include "laser_loop_closure/core/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam_parameters.hpp"
@@ -96,6 +98,7 @@ class LoopClosureRos {
     std::size_t index = 0;  ///< among the scans received, from 0
     bool has_wheel_odometry = false;
     llc::Pose2 wheel_odometry;
+    std::chrono::steady_clock::time_point arrival;  ///< when onScanReceived took it
   };
   /// Every scan as it arrives: numbered, then to the tf filter (wheels) or the backlog.
   void onScanReceived(const laser_loop_closure::Scan360::ConstPtr& msg);
@@ -136,7 +139,16 @@ class LoopClosureRos {
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
-  ros::WallTimer diagnostics_timer_;  ///< wall time: the health is told while the clock stands still too
+  ros::WallTimer diagnostics_timer_;
+  /// The parts of a restored session so far (session_sub_'s callback only).
+  struct SessionParts {
+    std::uint32_t load = 0, next_part = 0;
+    std::vector<llc::Keyframe> keyframes;
+    std::vector<std::vector<double>> features;
+  };
+  SessionParts session_parts_;
+  CallbackTiming callback_timing_;  ///< onScanReceived and onScanWithOdometry (lock wait included)
+  CallbackTiming scan_latency_;     ///< a scan's arrival to the end of its processing (queue + front end)  ///< wall time: the health is told while the clock stands still too
 
   std::unique_ptr<llc::ScanBacklog<PendingScan>> backlog_;
   std::thread worker_;
@@ -161,6 +173,7 @@ class LoopClosureRos {
   std::size_t malformed_ = 0;
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
   bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
+  std::size_t keyframes_restored_ = 0;       ///< keyframes of the last session restored (~load_session of the back end)
   std::size_t models_trained_ = 0, models_swapped_ = 0;
   std::string model_path_;  ///< of the running model
   // Scan-matching odometry (publish_odometry_tf): the newest keyframe's pose in odom_frame.

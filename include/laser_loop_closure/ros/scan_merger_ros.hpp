@@ -23,6 +23,7 @@
 #include <string>
 
 #include "laser_loop_closure/ros/tf_bridge.hpp"
+#include "laser_loop_closure/ros/callback_timing.hpp"
 #include "laser_loop_closure/ros/tf_listener.hpp"
 
 namespace llc_ros {
@@ -93,6 +94,7 @@ class ScanMergerRos {
   ros::Publisher scan360_pub_, laser_pub_;
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;  ///< wall time: told while the clock stands still too
+  CallbackTiming callback_timing_;    ///< onFront, onBack, onPair (lock wait included)
 
   std::mutex mutex_;
   ros::WallTime last_back_arrival_, first_front_arrival_;
