@@ -69,17 +69,24 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
     transform_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &transform_queue_);
     transform_spinner_->start();
   }
-  map_timer_ = nh.createWallTimer(ros::WallDuration(options_.map_publish_period), [this](const ros::WallTimerEvent&) { publishMap(); });
+  // The map is rebuilt on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
+  // held every keyframe behind it, and the front end's place checks timed out meanwhile.
+  ros::NodeHandle map_nh(nh);
+  map_nh.setCallbackQueue(&map_queue_);
+  map_timer_ = map_nh.createWallTimer(ros::WallDuration(options_.map_publish_period), [this](const ros::WallTimerEvent&) { publishMap(); });
+  map_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &map_queue_);
+  map_spinner_->start();
   diagnostics_.setHardwareID("none");
   diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
 EsdfBackendRos::~EsdfBackendRos() {
-  // The transform and service threads read members: stopped before any of them goes.
+  // The transform, service, place-check and map threads read members: stopped before any of them goes.
   if (transform_spinner_) transform_spinner_->stop();
   if (service_spinner_) service_spinner_->stop();
   if (place_spinner_) place_spinner_->stop();
+  if (map_spinner_) map_spinner_->stop();
   tf_timer_.stop();
   map_timer_.stop();
   diagnostics_timer_.stop();

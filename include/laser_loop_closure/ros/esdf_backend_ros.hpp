@@ -114,6 +114,9 @@ class EsdfBackendRos {
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   ros::Timer tf_timer_;  // on transform_queue_
+  // /map, the cloud and the markers are rebuilt on their own queue and thread (map_timer_).
+  ros::CallbackQueue map_queue_;
+  std::unique_ptr<ros::AsyncSpinner> map_spinner_;
   // Wall time: the last keyframes of a bag reach /map, and the health is told, after the clock stopped.
   ros::WallTimer map_timer_, diagnostics_timer_;
   diagnostic_updater::Updater diagnostics_;
