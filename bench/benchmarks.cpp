@@ -9,17 +9,17 @@
 #include <map>
 #include <memory>
 
-#include "laser_loop_closure/core/classifier_model.hpp"
-#include "laser_loop_closure/core/features.hpp"
-#include "laser_loop_closure/core/keyframe_store.hpp"
-#include "laser_loop_closure/core/random.hpp"
-#include "laser_loop_closure/core/range_profile.hpp"
-#include "laser_loop_closure/core/carmen_writer.hpp"
-#include "laser_loop_closure/core/esdf.hpp"
-#include "laser_loop_closure/core/scan_aligner.hpp"
-#include "laser_loop_closure/core/scan_sequence.hpp"
-#include "laser_loop_closure/core/sim_drive.hpp"
-#include "laser_loop_closure/core/sim_world.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/features/features.hpp"
+#include "laser_loop_closure/core/classifier/keyframe_store.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
+#include "laser_loop_closure/core/features/range_profile.hpp"
+#include "laser_loop_closure/core/sim/carmen_writer.hpp"
+#include "laser_loop_closure/core/backend/esdf.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/sim/sim_drive.hpp"
+#include "laser_loop_closure/core/sim/sim_world.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <iomanip>
 #include <iostream>
 
-#include "laser_loop_closure/core/g2o_io.hpp"
+#include "laser_loop_closure/core/io/g2o_io.hpp"
 
 namespace {
 

@@ -1,10 +1,10 @@
-// The esdf_backend nodelet: builds its adapter object (src/ros/esdf_backend_ros.cpp) and nothing else.
+// The esdf_backend nodelet: builds its adapter object (src/ros/nodes/esdf_backend_ros.cpp) and nothing else.
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include <memory>
 
-#include "laser_loop_closure/ros/esdf_backend_ros.hpp"
+#include "laser_loop_closure/ros/nodes/esdf_backend_ros.hpp"
 
 namespace laser_loop_closure {
 

@@ -1,10 +1,10 @@
-// The loop_closure nodelet: builds its adapter object (src/ros/loop_closure_ros.cpp) and nothing else.
+// The loop_closure nodelet: builds its adapter object (src/ros/nodes/loop_closure_ros.cpp) and nothing else.
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include <memory>
 
-#include "laser_loop_closure/ros/loop_closure_ros.hpp"
+#include "laser_loop_closure/ros/nodes/loop_closure_ros.hpp"
 
 namespace laser_loop_closure {
 

@@ -1,10 +1,10 @@
-// The scan_merger nodelet: builds its adapter object (src/ros/scan_merger_ros.cpp) and nothing else.
+// The scan_merger nodelet: builds its adapter object (src/ros/nodes/scan_merger_ros.cpp) and nothing else.
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include <memory>
 
-#include "laser_loop_closure/ros/scan_merger_ros.hpp"
+#include "laser_loop_closure/ros/nodes/scan_merger_ros.hpp"
 
 namespace laser_loop_closure {
 

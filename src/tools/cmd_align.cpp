@@ -10,10 +10,10 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
-#include "laser_loop_closure/core/classifier_model.hpp"
-#include "laser_loop_closure/core/crf_training.hpp"
-#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/alignment/crf_training.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "pcl_baselines.hpp"
 
 namespace llc_tool {

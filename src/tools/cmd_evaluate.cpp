@@ -12,16 +12,16 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
-#include "laser_loop_closure/core/classifier_training.hpp"
-#include "laser_loop_closure/core/evaluation.hpp"
-#include "laser_loop_closure/core/log_out_evaluation.hpp"
-#include "laser_loop_closure/core/loop_detector.hpp"
-#include "laser_loop_closure/core/odometry_prior_gate.hpp"
-#include "laser_loop_closure/core/pair_labeling.hpp"
-#include "laser_loop_closure/core/random.hpp"
-#include "laser_loop_closure/core/scan_aligner.hpp"
-#include "laser_loop_closure/core/threshold_calibration.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/classifier/classifier_training.hpp"
+#include "laser_loop_closure/core/classifier/evaluation.hpp"
+#include "laser_loop_closure/core/classifier/log_out_evaluation.hpp"
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/odometry_prior_gate.hpp"
+#include "laser_loop_closure/core/classifier/pair_labeling.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/classifier/threshold_calibration.hpp"
 
 namespace llc_tool {
 namespace {

@@ -6,8 +6,8 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/esdf.hpp"
-#include "laser_loop_closure/core/g2o_io.hpp"
+#include "laser_loop_closure/core/backend/esdf.hpp"
+#include "laser_loop_closure/core/io/g2o_io.hpp"
 
 namespace llc_tool {
 

@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
 
 namespace llc_tool {
 

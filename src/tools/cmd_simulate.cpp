@@ -6,11 +6,11 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/carmen_writer.hpp"
-#include "laser_loop_closure/core/png_image.hpp"
-#include "laser_loop_closure/core/sim_drive.hpp"
-#include "laser_loop_closure/core/sim_world.hpp"
-#include "laser_loop_closure/ros/bag_io.hpp"
+#include "laser_loop_closure/core/sim/carmen_writer.hpp"
+#include "laser_loop_closure/core/common/png_image.hpp"
+#include "laser_loop_closure/core/sim/sim_drive.hpp"
+#include "laser_loop_closure/core/sim/sim_world.hpp"
+#include "laser_loop_closure/ros/io/bag_io.hpp"
 
 namespace llc_tool {
 namespace {

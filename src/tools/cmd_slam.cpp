@@ -14,15 +14,15 @@
 #include <Eigen/Cholesky>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
-#include "laser_loop_closure/core/session_io.hpp"
-#include "laser_loop_closure/core/classifier_model.hpp"
-#include "laser_loop_closure/core/map_picture.hpp"
-#include "laser_loop_closure/core/odometry_drift.hpp"
-#include "laser_loop_closure/core/odometry_offset.hpp"
-#include "laser_loop_closure/core/slam_evaluation.hpp"
-#include "laser_loop_closure/core/slam_parameters.hpp"
-#include "laser_loop_closure/core/trajectory_error.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/map/map_picture.hpp"
+#include "laser_loop_closure/core/sim/odometry_drift.hpp"
+#include "laser_loop_closure/core/slam/odometry_offset.hpp"
+#include "laser_loop_closure/core/slam/slam_evaluation.hpp"
+#include "laser_loop_closure/core/slam/slam_parameters.hpp"
+#include "laser_loop_closure/core/geometry/trajectory_error.hpp"
 
 namespace llc_tool {
 namespace {

@@ -5,12 +5,12 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
-#include "laser_loop_closure/core/classifier_model.hpp"
-#include "laser_loop_closure/core/classifier_training.hpp"
-#include "laser_loop_closure/core/evaluation.hpp"
-#include "laser_loop_closure/core/loop_detector.hpp"
-#include "laser_loop_closure/core/session_io.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/classifier/classifier_training.hpp"
+#include "laser_loop_closure/core/classifier/evaluation.hpp"
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
 
 namespace llc_tool {
 

@@ -4,7 +4,7 @@
 #include <map>
 #include <memory>
 
-#include "laser_loop_closure/core/scan_aligner.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "tool_common.hpp"
 
 namespace llc_tool {

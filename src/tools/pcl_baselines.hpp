@@ -3,7 +3,7 @@
 // started from the ground truth is `llc align --truth-check`'s independent second opinion.
 #pragma once
 
-#include "laser_loop_closure/core/icp.hpp"
+#include "laser_loop_closure/core/alignment/icp.hpp"
 
 namespace llc_tool {
 

@@ -9,9 +9,9 @@
 #include <fstream>
 #include <iostream>
 
-#include "laser_loop_closure/core/classifier_training.hpp"
-#include "laser_loop_closure/core/file_util.hpp"
-#include "laser_loop_closure/ros/drive_input.hpp"
+#include "laser_loop_closure/core/classifier/classifier_training.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/ros/io/drive_input.hpp"
 
 namespace llc_tool {
 

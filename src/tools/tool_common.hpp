@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "laser_loop_closure/core/adaboost.hpp"
-#include "laser_loop_closure/core/features.hpp"
-#include "laser_loop_closure/core/odometry_drift.hpp"
-#include "laser_loop_closure/core/pair_labeling.hpp"
-#include "laser_loop_closure/core/scan_sequence.hpp"
-#include "laser_loop_closure/ros/drive_input.hpp"
+#include "laser_loop_closure/core/classifier/adaboost.hpp"
+#include "laser_loop_closure/core/features/features.hpp"
+#include "laser_loop_closure/core/sim/odometry_drift.hpp"
+#include "laser_loop_closure/core/classifier/pair_labeling.hpp"
+#include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/ros/io/drive_input.hpp"
 
 namespace llc_tool {
 

@@ -5,8 +5,8 @@
 #include <limits>
 #include <vector>
 
-#include "laser_loop_closure/core/point_cloud.hpp"
-#include "laser_loop_closure/core/random.hpp"
+#include "laser_loop_closure/core/geometry/point_cloud.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
 #include "test_util.hpp"
 
 namespace llc_test {

@@ -9,13 +9,13 @@
 #include <vector>
 #include <unistd.h>
 
-#include "laser_loop_closure/core/classifier_model.hpp"
-#include "laser_loop_closure/core/classifier_training.hpp"
-#include "laser_loop_closure/core/features.hpp"
-#include "laser_loop_closure/core/sim_drive.hpp"
-#include "laser_loop_closure/core/random.hpp"
-#include "laser_loop_closure/core/scan.hpp"
-#include "laser_loop_closure/core/se2.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/classifier/classifier_training.hpp"
+#include "laser_loop_closure/core/features/features.hpp"
+#include "laser_loop_closure/core/sim/sim_drive.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
+#include "laser_loop_closure/core/geometry/scan.hpp"
+#include "laser_loop_closure/core/geometry/se2.hpp"
 
 namespace llc_test {
 

@@ -4,9 +4,9 @@
 #include <gtest/gtest.h>
 
 #include "../core/test_util.hpp"
-#include "laser_loop_closure/core/carmen_writer.hpp"
-#include "laser_loop_closure/core/sim_world.hpp"
-#include "laser_loop_closure/ros/classifier_retraining.hpp"
+#include "laser_loop_closure/core/sim/carmen_writer.hpp"
+#include "laser_loop_closure/core/sim/sim_world.hpp"
+#include "laser_loop_closure/ros/nodes/classifier_retraining.hpp"
 
 namespace {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
 
 namespace {
 

@@ -6,9 +6,9 @@
 #include <set>
 #include <string>
 
-#include "laser_loop_closure/ros/esdf_backend_ros.hpp"
-#include "laser_loop_closure/ros/loop_closure_ros.hpp"
-#include "laser_loop_closure/ros/scan_merger_ros.hpp"
+#include "laser_loop_closure/ros/nodes/esdf_backend_ros.hpp"
+#include "laser_loop_closure/ros/nodes/loop_closure_ros.hpp"
+#include "laser_loop_closure/ros/nodes/scan_merger_ros.hpp"
 
 namespace {
 

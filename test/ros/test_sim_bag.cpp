@@ -17,10 +17,10 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "../core/test_util.hpp"
-#include "laser_loop_closure/core/carmen_writer.hpp"
-#include "laser_loop_closure/core/sim_world.hpp"
-#include "laser_loop_closure/ros/bag_io.hpp"
-#include "laser_loop_closure/ros/msg_conversion.hpp"
+#include "laser_loop_closure/core/sim/carmen_writer.hpp"
+#include "laser_loop_closure/core/sim/sim_world.hpp"
+#include "laser_loop_closure/ros/io/bag_io.hpp"
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
 
 namespace {
 

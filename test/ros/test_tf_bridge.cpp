@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-#include "laser_loop_closure/ros/tf_bridge.hpp"
+#include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
 namespace {
 

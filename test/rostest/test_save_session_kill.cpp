@@ -17,7 +17,7 @@
 
 #include "laser_loop_closure/LoadSession.h"
 #include "laser_loop_closure/SaveSession.h"
-#include "laser_loop_closure/core/session_io.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
 
 extern char** environ;
 

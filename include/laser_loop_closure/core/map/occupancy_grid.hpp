@@ -1,0 +1,54 @@
+// An occupancy grid rebuilt from keyframe scans at their (optimised) poses, by ray casting
+// with log-odds, and the map_server file format (PGM + YAML) it is saved in.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/geometry/scan.hpp"
+#include "laser_loop_closure/core/geometry/se2.hpp"
+
+namespace llc {
+
+struct OccupancyGridOptions {
+  double resolution = 0.1;       ///< m per cell
+  double max_range = 30.0;       ///< m; returns at or beyond are not drawn (taken as no return)
+  /// m; a beam with no return (+inf, REP-117) marks free space up to this range; 0: nothing
+  /// (a window or a black surface would otherwise carve free space through a wall)
+  double no_return_free_range = 0.0;
+  double hit_log_odds = 0.85;    ///< added to the cell a beam ends in
+  double miss_log_odds = -0.4;   ///< added to every cell a beam crosses
+  double clamp_log_odds = 5.0;   ///< |log-odds| never exceeds this (a changing world can change the map)
+  double occupied_threshold = 0.65;  ///< probability above which a cell is occupied (map_server's occupied_thresh)
+  double free_threshold = 0.196;     ///< below which it is free (map_server's free_thresh)
+  double margin = 2.0;           ///< m of unknown border around everything observed
+  std::size_t max_cells = 200000000;  ///< refuse a grid larger than this (memory), instead of swapping
+  std::string validate() const;
+};
+
+/// Row-major, row 0 at origin_y (the bottom, as in nav_msgs/OccupancyGrid): -1 unknown, else
+/// the occupancy probability in percent (0 free .. 100 occupied).
+struct OccupancyGrid {
+  double resolution = 0.1;
+  double origin_x = 0.0, origin_y = 0.0;  ///< m, the corner of cell (0, 0)
+  int width = 0, height = 0;
+  std::vector<std::int8_t> cells;
+  std::int8_t at(int col, int row) const { return cells[std::size_t(row) * std::size_t(width) + std::size_t(col)]; }
+};
+
+/// Builds the grid from scans[i] seen at poses[i] (base frame in map frame). Throws
+/// std::invalid_argument on bad options, mismatched sizes, or a grid above max_cells.
+OccupancyGrid buildOccupancyGrid(const std::vector<const Scan*>& scans, const std::vector<Pose2>& poses,
+                                 const OccupancyGridOptions& options = {});
+
+/// Writes `stem`.pgm and `stem`.yaml as map_server reads them (254 free, 0 occupied, 205
+/// unknown; top image row = largest y). Each file goes to a temporary name and is renamed.
+/// Throws std::runtime_error when it cannot write.
+void saveMapFiles(const OccupancyGrid& grid, const std::string& stem, const OccupancyGridOptions& options = {});
+
+/// Reads what saveMapFiles wrote (trinary: 0, 100 or -1 per cell). Throws std::runtime_error
+/// naming the file on anything malformed or truncated.
+OccupancyGrid loadMapFiles(const std::string& yaml_path);
+
+}  // namespace llc

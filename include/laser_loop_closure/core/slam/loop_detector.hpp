@@ -1,0 +1,128 @@
+// Loop detection for one new keyframe: the classifier against every stored keyframe older than
+// min_keyframe_gap (no pose prior), then the best candidates aligned with no initial guess
+// (CRF-match, ICP) and shape-validated. One class for the nodelet and `llc slam`.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/features/features.hpp"
+#include "laser_loop_closure/core/classifier/keyframe_store.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/classifier/threshold_calibration.hpp"
+
+namespace llc {
+
+struct LoopDetectorOptions {
+  std::size_t min_keyframe_gap = 30;  ///< keyframes; the most recent ones are never loop candidates
+  std::size_t max_candidates = 3;     ///< candidates (score >= threshold) aligned per keyframe, best first
+  /// Candidates a CandidateCheck (the place gate) looks at, best first, to find max_candidates
+  /// it lets through: a refused one frees its slot for the next. 0: max_candidates (a refused
+  /// one's slot stays empty). More closes more revisits, and lets more aliased places through.
+  std::size_t checked_candidates = 0;
+  double score_threshold = 0.0;       ///< on the normalised score; 0 = the model's K
+  bool stop_at_first_accepted = true;  ///< align no further candidate once one is accepted
+  std::size_t threads = 1;            ///< threads of the classifier query
+  /// Floors added to ICP's covariance of a loop (which only knows the residuals, and is
+  /// optimistic): standard deviations, as the back end's chi-square gate sees them.
+  double translation_sigma = 0.05;  ///< m
+  double rotation_sigma = 0.01;     ///< rad
+  /// K fitted again in this building from surely-different keyframe pairs (used only when
+  /// score_threshold is 0, i.e. the model's K would be used).
+  ThresholdCalibrationOptions calibration{};
+  std::string validate() const;
+};
+
+/// One aligned candidate pair and its verdict.
+struct LoopClosure {
+  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
+  double score = 0.0;            ///< classifier, normalised
+  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
+  double inlier_share = 0.0;     ///< shape validation
+  bool accepted = false;         ///< aligned and shape-validated
+  std::string reject_reason;     ///< "crf: ...", "icp: ..." or "validation: ..." (empty when accepted)
+  double seconds = 0.0;
+};
+
+struct LoopDetectionResult {
+  std::size_t keyframe = 0;
+  std::size_t compared = 0;    ///< stored keyframes the classifier saw
+  std::size_t candidates = 0;  ///< of those, at or above the threshold (at most checked_candidates kept)
+  std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
+  /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
+  std::vector<LoopClosure> not_aligned;
+  double classify_seconds = 0.0, check_seconds = 0.0, seconds = 0.0;  ///< check: inside CandidateCheck
+};
+
+/// Asked before a candidate pair (from, to) is aligned: "" to align it, else why not (e.g. the
+/// back end says the two keyframes cannot be at one place). Detection itself needs none.
+using CandidateCheck = std::function<std::string(std::size_t from, std::size_t to)>;
+
+class LoopDetector {
+ public:
+  /// Throws std::invalid_argument on bad options or a model whose features differ from
+  /// what the extractor can compute.
+  LoopDetector(const ClassifierModel& model, const ScanAlignerOptions& aligner,
+               const LoopDetectorOptions& options = {});
+
+  const LoopDetectorOptions& options() const { return options_; }
+  const ScanAligner& aligner() const { return aligner_; }
+  const ClassifierModel& model() const { return model_; }
+  std::size_t size() const { return prepared_.size(); }
+
+  /// Stores a keyframe: its features and its scan prepared for alignment (prepared by
+  /// aligner(), or nullptr to prepare it here). Returns its index.
+  std::size_t add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared = nullptr);
+  /// Stores a keyframe whose features are already known (a loaded session).
+  std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared);
+  /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
+  /// the best candidates, each after `check` (when given) let it through. Throws
+  /// std::out_of_range for an unknown keyframe.
+  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}) const;
+  /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
+  LoopClosure verify(std::size_t from, std::size_t to, double score) const;
+
+  std::vector<double> features(std::size_t index) const { return store_.features(index); }
+  /// The feature vector the detector would store for this scan.
+  std::vector<double> describe(const Scan& scan) { return extractor_.extract(scan); }
+  const PreparedScan& prepared(std::size_t index) const { return *prepared_.at(index); }
+  /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
+  /// The calibration starts again (its scores were the old model's).
+  void setModel(const ClassifierModel& model);
+
+  /// The classifier's score of keyframe `query` against keyframe `stored`, as detect() scores
+  /// it. Throws std::out_of_range.
+  double pairScore(std::size_t stored, std::size_t query) const;
+  /// Feeds the calibration the scores of keyframe `index` against `surely_elsewhere` (older
+  /// keyframes the odometry puts surely at other places) and applies the calibrated K when
+  /// score_threshold is 0. Returns how many pairs were scored.
+  std::size_t calibrate(std::size_t index, const std::vector<std::size_t>& surely_elsewhere);
+  /// The K candidates must reach now.
+  double threshold() const { return classifier_.thresholdK(); }
+  const ThresholdCalibrator& calibrator() const { return calibrator_; }
+
+ private:
+  ClassifierModel model_;
+  StrongClassifier classifier_;  ///< the model's, with score_threshold applied
+  LoopDetectorOptions options_;
+  ScanAligner aligner_;
+  FeatureExtractor extractor_;
+  KeyframeStore store_;
+  std::vector<std::shared_ptr<const PreparedScan>> prepared_;
+  ThresholdCalibrator calibrator_;
+};
+
+/// A covariance of a small motion applied in the target frame (ICP's) as the covariance of
+/// the pose's own x, y, theta: J C J^T with J the Jacobian of exp(delta) * pose.
+Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance);
+
+/// A loop's covariance as the back end gets it: ICP's (poseParameterCovariance) plus the floors
+/// translation_sigma and rotation_sigma of `options`.
+Eigen::Matrix3d loopCovariance(const Pose2& pose, const Eigen::Matrix3d& icp_covariance, const LoopDetectorOptions& options);
+
+}  // namespace llc

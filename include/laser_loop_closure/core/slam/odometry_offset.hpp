@@ -1,0 +1,46 @@
+// Is the wheel odometry of a drive in step with its scans? Consecutive scans are aligned by
+// ICP seeded by the odometry of the same scans shifted by each candidate offset; the offset
+// whose seeds ICP has to correct least, on average, is the one in step. (An average, not a
+// median: at steady speed every offset predicts the same step, and only turns and changes of
+// speed tell them apart.) Some logs write each pose one
+// scan early or late (the raw Intel log), which bends every map made from them.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/slam/scan_odometry.hpp"
+#include "laser_loop_closure/core/io/scan_sequence.hpp"
+
+namespace llc {
+
+struct OdometryOffsetOptions {
+  int max_offset = 3;            ///< scans; offsets -max_offset..max_offset are tried
+  std::size_t max_pairs = 300;   ///< consecutive scan pairs used at most (evenly spread)
+  double min_motion = 0.05;      ///< m or rad the odometry moved between the two scans; stiller pairs tell nothing
+  std::string validate() const;
+};
+
+/// How well the odometry shifted by `offset` predicts the scans' own motion.
+struct OdometryOffsetScore {
+  int offset = 0;
+  std::size_t pairs = 0;                 ///< pairs tried
+  std::size_t matched = 0;               ///< ICP converged, near its seed and overlapping
+  double mean_correction_m = 0.0;        ///< of the matched pairs: how far ICP moved the seed
+  double mean_correction_rad = 0.0;      ///< and how far it turned it
+};
+
+struct OdometryOffsetResult {
+  bool ok = false;
+  int best_offset = 0;                   ///< the smallest mean_correction_rad (ties: nearest 0)
+  std::vector<OdometryOffsetScore> scores;  ///< one per offset, -max_offset first
+  std::string reason;                    ///< why not ok (no odometry, too few moving pairs)
+};
+
+/// Needs sequence.has_odometry. Throws std::invalid_argument on bad options only.
+OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const ScanOdometry& odometry,
+                                            const ScanAligner& aligner, const OdometryOffsetOptions& options = {});
+
+}  // namespace llc

@@ -1,0 +1,113 @@
+// Keyframe selection and scan-matching odometry: a scan becomes a keyframe once the robot has
+// moved keyframe_distance or turned keyframe_angle since the last one, and its motion from the
+// last keyframe is refined by ICP, seeded by wheel odometry when there is any.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/alignment/icp.hpp"
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/geometry/se2.hpp"
+
+namespace llc {
+
+struct ScanOdometryOptions {
+  double keyframe_distance = 1.0;  ///< m moved since the last keyframe that makes a scan a keyframe
+  double keyframe_angle = 0.35;    ///< rad turned since the last keyframe that does it too
+  bool scan_matching = true;       ///< refine each step by ICP (false: wheel odometry alone)
+  double max_correction_translation = 1.0;  ///< m; an ICP result farther from the wheel guess is not trusted
+  double max_correction_rotation = 0.6;     ///< rad; likewise for its heading
+  /// Squared Mahalanobis distance of ICP's result from the wheel guess, under the covariance of a
+  /// wheel step (wheel_sigma_scale, widened by WheelNoiseScale when the robot's wheels disagree
+  /// with ICP more than that as a rule), above which the step is disputed: ICP's motion with a
+  /// covariance that also holds the wheels' (a wrong ICP minimum with a matched step's tight
+  /// covariance bends the map for good; a wide one lets loops mend it). 0: off.
+  double max_wheel_disagreement = 9.0;
+  /// Recent matched steps whose disagreement with the wheels sets WheelNoiseScale.
+  std::size_t wheel_noise_window = 100;
+  double min_overlap_share = 0.5;  ///< share of the new scan's points within overlap_distance of the old one, or ICP is not trusted
+  double overlap_distance = 0.3;   ///< m
+  /// Standard deviations of a matched step: a floor, plus a share of the distance moved and,
+  /// for the heading, of the angle turned (they go into the back end's odometry constraints).
+  double translation_sigma = 0.02;            ///< m
+  double translation_sigma_per_metre = 0.01;  ///< m per m moved
+  double rotation_sigma = 0.002;              ///< rad
+  double rotation_sigma_per_metre = 0.002;    ///< rad per m moved
+  double rotation_sigma_per_radian = 0.01;    ///< rad per rad turned
+  double wheel_sigma_scale = 5.0;  ///< a step from wheel odometry alone is this many times less certain
+  /// Without wheel odometry: seed each scan's ICP with the last measured velocity, and move on
+  /// by it when ICP fails (a featureless stretch), instead of standing still until the robot is
+  /// too far from the keyframe for any match (false: no motion model).
+  bool predict_motion = true;
+  double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
+  /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
+  /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
+  /// (stamps out of step with their scans) is not predicted from.
+  double max_speed = 50.0;       ///< m/s
+  double max_turn_rate = 10.0;   ///< rad/s
+  /// Scans closer in time than this do not update the velocity (their stamps say too little:
+  /// a log's scans can come 0.5 ms apart and out of order).
+  double min_velocity_interval = 0.01;  ///< s
+  /// A scan older than the newest keyframe by more than this starts a new odometry chain (a bag
+  /// played in a loop, a clock reset), placed by its first loop closure; by less it is skipped
+  /// as out of order.
+  double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
+  IcpOptions icp{};                ///< ICP of consecutive keyframes
+  std::string validate() const;
+};
+
+/// The motion from one keyframe to the next and how it was measured.
+struct OdometryStep {
+  Pose2 motion;                    ///< the new keyframe in the frame of the previous one
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of motion's x, y, theta
+  bool matched = false;            ///< ICP was used; else the guess (wheel odometry)
+  double overlap_share = 0.0;      ///< after ICP
+  double seconds = 0.0;
+  std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
+  /// Squared Mahalanobis distance of ICP's result from the wheel guess under the modelled wheel
+  /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
+  double wheel_disagreement = -1.0;
+  bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
+};
+
+/// How much noisier than modelled the robot's wheels are: the median disagreement of recent
+/// ICP steps with the wheels over the median of a chi-square of 3 DoF (2.366), at least 1
+/// (the model is a floor). Until min_samples steps were seen it is infinite: no step is judged
+/// against wheels whose noise is not known yet.
+class WheelNoiseScale {
+ public:
+  static constexpr std::size_t min_samples = 20;
+  explicit WheelNoiseScale(std::size_t window = 100) : window_(window) {}
+  void add(double disagreement);
+  double scale() const;
+
+ private:
+  std::size_t window_;
+  std::vector<double> recent_;  ///< a ring of the last window_ values
+  std::size_t next_ = 0;
+};
+
+class ScanOdometry {
+ public:
+  /// Throws std::invalid_argument when options.validate() finds a problem.
+  explicit ScanOdometry(const ScanOdometryOptions& options = {});
+  const ScanOdometryOptions& options() const { return options_; }
+
+  /// Has a motion this large (from the last keyframe) earned a new keyframe?
+  bool movedEnough(const Pose2& motion) const;
+  /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
+  /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
+  /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
+  /// max_wheel_disagreement and for a disputed step.
+  OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+                     bool guess_from_wheels, double wheel_noise_scale = 1.0) const;
+  /// The covariance the noise model gives a step of this motion.
+  Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
+
+ private:
+  ScanOdometryOptions options_;
+};
+
+}  // namespace llc

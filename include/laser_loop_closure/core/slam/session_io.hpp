@@ -1,0 +1,44 @@
+// A SLAM session on disk: every keyframe (scan, stamp, wheel odometry), its feature vector,
+// the optimised poses, every constraint of the ESDF (odometry and loops, with information)
+// and every loop the back end met. Binary, versioned, checksummed, written to a temporary
+// file and renamed so a crash during a save leaves the previous file whole.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/io/g2o_io.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+
+namespace llc {
+
+constexpr std::uint32_t kSessionVersion = 1;
+
+struct SlamSession {
+  std::vector<Keyframe> keyframes;
+  std::vector<std::vector<double>> features;  ///< one vector per keyframe (the front end's)
+  std::vector<Pose2> poses;                   ///< optimised, one per keyframe
+  std::vector<PoseEdge> constraints;          ///< the ESDF's, in the order applied
+  std::vector<LoopRecord> loops;              ///< every loop that reached the back end
+  /// Empty, or why the pieces do not fit together (counts, indices, non-finite values).
+  std::string validate() const;
+};
+
+/// Why a session file was refused; what() names the file and the problem.
+class SessionError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Throws SessionError when the session is inconsistent or the file cannot be written.
+void saveSession(const SlamSession& session, const std::string& path);
+/// Refuses (SessionError) a missing file, another format or version, a truncated or
+/// corrupted file (checksum), and a session that does not validate().
+SlamSession loadSession(const std::string& path);
+
+/// The session of a running back end plus the front end's features of its keyframes.
+SlamSession sessionOf(const SlamBackEnd& back, const std::vector<std::vector<double>>& features);
+
+}  // namespace llc

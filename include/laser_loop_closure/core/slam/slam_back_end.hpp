@@ -1,0 +1,101 @@
+// The back end of ../shared/ARCHITECTURE.md: keyframes with their odometry constraints and the
+// loop closures a front end found go into the ESDF (chi-square gate on each loop); it knows
+// the optimised keyframe poses and map -> odom. The esdf_backend nodelet runs it alone;
+// SlamPipeline joins it to the front end directly.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/backend/esdf.hpp"
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/geometry/scan.hpp"
+
+namespace llc {
+
+/// A keyframe as the map and the session keep it.
+struct Keyframe {
+  std::size_t scan_index = 0;  ///< the caller's index of the scan it was made from
+  double stamp = 0.0;          ///< s
+  Scan scan;                   ///< in the base frame
+  Pose2 wheel_odometry;        ///< in the odometry frame (when has_wheel_odometry)
+  bool has_wheel_odometry = false;
+};
+
+/// One loop as the back end met it.
+struct LoopRecord {
+  LoopClosure loop;
+  bool applied = false;          ///< accepted by alignment and by the back end's gate
+  double innovation_chi2 = 0.0;  ///< when it reached the back end
+  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
+};
+
+struct BackEndCounters {
+  std::size_t keyframes = 0;
+  std::size_t loosely_linked_keyframes = 0;  ///< kept, but their odometry was unusable (see addKeyframe)
+  std::size_t loops_accepted = 0;     ///< applied
+  std::size_t refused_by_gate = 0;    ///< the chi-square test said no
+  std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
+  double seconds = 0.0;
+};
+
+struct SlamSession;
+
+/// Covariance of a link that says next to nothing: anywhere within ~100 m, any heading, so
+/// that the first loop closure places the keyframe. Not looser, so that the information matrix
+/// stays well conditioned next to the first pose's prior. Used for a new chain after a
+/// restored session and for a keyframe whose odometry is unusable.
+Eigen::Matrix3d looseLinkCovariance();
+
+class SlamBackEnd {
+ public:
+  /// Throws std::invalid_argument on bad options.
+  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true);
+
+  /// Appends keyframe number keyframes().size() with its motion from the previous keyframe
+  /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Always
+  /// appends: the keyframe's index must stay the front end's, and its scan is data. Returns ""
+  /// or what was unusable and what was done instead: a motion that is not finite, or a
+  /// covariance not positive definite or beyond EsdfOptions::max_information, is replaced by a
+  /// loose link (the motion when finite, else none, with looseLinkCovariance());
+  /// non-finite wheel odometry is dropped (has_wheel_odometry false).
+  std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
+  /// A loop between two stored keyframes (from older than to), through the gate when
+  /// gate_loops. The record says whether it was applied and why not; never throws on data.
+  LoopRecord addLoop(const LoopClosure& loop);
+
+  const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  /// Optimised keyframe poses in the map frame.
+  const std::vector<Pose2>& poses() const;
+  /// Every loop that reached the back end, in order.
+  const std::vector<LoopRecord>& loops() const { return loops_; }
+  const BackEndCounters& counters() const { return counters_; }
+  /// map -> odom (REP-105) implied by the newest keyframe; identity without wheel odometry.
+  Pose2 mapToOdom() const;
+  /// Esdf::placeChi2 of two stored keyframes (counted in the back end's seconds); throws
+  /// std::out_of_range for a keyframe it does not have.
+  double placeChi2(std::size_t from, std::size_t to, double radius);
+  /// Marginal covariance of the newest keyframe's pose (zero when there is none).
+  Eigen::Matrix3d latestCovariance();
+  bool gateLoops() const { return gate_loops_; }
+  Esdf* esdf() { return esdf_.get(); }
+  const Esdf* esdf() const { return esdf_.get(); }
+
+  /// Replaces everything by a saved session: the ESDF is rebuilt from its constraints in
+  /// their order (augmentations, then loop updates without the gate: they passed it once) and
+  /// solved from the saved poses. Returns "" or why not; then nothing changed.
+  std::string restore(const SlamSession& session);
+
+ private:
+  EsdfOptions options_;
+  bool gate_loops_;
+  std::unique_ptr<Esdf> esdf_;
+  std::vector<Keyframe> keyframes_;
+  std::vector<LoopRecord> loops_;
+  BackEndCounters counters_;
+};
+
+}  // namespace llc

@@ -1,0 +1,118 @@
+// The front end of ../shared/ARCHITECTURE.md: scans in; keyframes with scan-matching odometry
+// and loop closures (classifier with no pose prior, then CRF-match/ICP/shape validation) out.
+// The loop_closure nodelet runs it alone; SlamPipeline joins it to the back end directly.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include <vector>
+
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/scan_odometry.hpp"
+
+namespace llc {
+
+/// Counts of the front end's decisions since the start.
+struct FrontEndCounters {
+  std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
+  std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
+  std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
+  std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
+  std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
+  std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
+  std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
+  std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment
+  std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
+  double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0;
+};
+
+/// What one scan did in the front end.
+struct FrontEndStep {
+  bool keyframe = false;
+  std::size_t keyframe_index = 0;
+  OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
+  std::string skip_reason;    ///< non-empty: the scan was not used (and why)
+  /// Non-empty: the wheel odometry jumped farther than max_speed allows since the scan before
+  /// (what it did); that jump was left out of the motion.
+  std::string wheel_jump;
+  /// Non-empty: the scan was older than the newest keyframe by more than
+  /// restart_after_jump_back, and starts a new odometry chain (what happened).
+  std::string time_jump;
+};
+
+class SlamFrontEnd {
+ public:
+  /// Throws std::invalid_argument on bad options or a model the extractor cannot serve.
+  SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
+               const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops);
+
+  /// Feeds one scan (base frame) with the wheel-odometry pose at its stamp when there is one.
+  /// A scan older than the last keyframe, with a non-finite stamp or odometry, or with ranges
+  /// and bearings of different lengths, is skipped (skip_reason says why); never throws on data.
+  /// A new keyframe is only stored: detectLoops looks for its loops.
+  FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
+  /// Loop detection for a stored keyframe (LoopDetector::detect), counted. Two calls apart so
+  /// that a back end can take the keyframe first and then answer `check`.
+  LoopDetectionResult detectLoops(std::size_t keyframe_index, const CandidateCheck& check = {});
+
+  /// Replaces the keyframes by a saved session's: stored features are used when they are what
+  /// this model's extractor makes (checked on the first keyframe), else recomputed from the
+  /// scans. With continue_odometry the next scan is matched to the newest restored keyframe,
+  /// seeded by wheel odometry (the robot and its odom frame went on); else it starts a new
+  /// chain whose first keyframe is linked to the newest restored one by a motion of almost no
+  /// information (restartCovariance), so that its first loop closure places it. Returns ""
+  /// or why not (keyframes and features of different counts); then nothing changed.
+  std::string restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
+                      bool continue_odometry, bool* features_recomputed = nullptr);
+  /// Covariance of the link between a restored session and a new chain (m^2, rad^2).
+  static Eigen::Matrix3d restartCovariance();
+
+  std::size_t keyframeCount() const { return detector_.size(); }
+  const FrontEndCounters& counters() const { return counters_; }
+  LoopDetector& detector() { return detector_; }
+  const LoopDetector& detector() const { return detector_; }
+
+ private:
+  ScanOdometry odometry_;
+  WheelNoiseScale wheel_noise_;
+  LoopDetector detector_;
+  ClassifierModel model_;
+  ScanAlignerOptions aligner_options_;
+  LoopDetectorOptions loop_options_;
+  FrontEndCounters counters_;
+  bool has_keyframe_ = false;
+  bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
+  std::string restart_reason_;    ///< why it does (the step's reject_reason)
+  double last_keyframe_stamp_ = 0.0;
+  bool last_keyframe_has_wheels_ = false;
+  Pose2 last_keyframe_wheels_;   ///< the wheel reading the newest keyframe's motion is measured from
+  Pose2 last_wheels_;            ///< the scan before's wheel reading, to see jumps
+  double last_wheels_stamp_ = 0.0;
+  bool has_last_wheels_ = false;
+  /// The last jump, to tell a spike (the wheels come back) from a step: the reference and the
+  /// reading before it (cleared when a keyframe takes a new reference).
+  Pose2 before_jump_reference_, before_jump_wheels_;
+  double before_jump_stamp_ = 0.0;
+  bool has_jump_ = false;
+  Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
+  // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
+  // the robot's frame; zero after a restore) and the stamp of the last scan used.
+  Pose2 velocity_;
+  double last_scan_stamp_ = 0.0;
+  // The threshold calibration's view of the drive: each keyframe's pose by this front end's
+  // own odometry and the length driven to it. Keyframes before chain_start_ (a restored
+  // session) have no place in this chain.
+  std::vector<Pose2> chain_;
+  std::vector<double> path_;
+  std::size_t chain_start_ = 0;
+  Random calibration_random_{1};
+  /// Older keyframes of this chain that the odometry puts surely elsewhere than `index` (at
+  /// most calibration.pairs_per_keyframe, drawn at random when there are more).
+  std::vector<std::size_t> surelyElsewhere(std::size_t index);
+};
+
+}  // namespace llc

@@ -1,0 +1,152 @@
+// Every parameter of the SLAM pipeline under one name, listed once: the nodelets read them
+// from the ROS parameter server and `llc slam --config` from a YAML file through this list,
+// so a name means the same everywhere. Names are the options' field names, nested by stage
+// ("odometry/keyframe_distance", "aligner/icp/max_iterations"), as rosparam nests YAML maps.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/map/occupancy_grid.hpp"
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
+
+namespace llc {
+
+/// The options of everything `llc slam` and the nodelets run.
+struct SystemOptions {
+  SlamOptions slam{};
+  OccupancyGridOptions map{};
+  std::string validate() const;
+};
+
+template <class Visit>
+void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit) {
+  visit(prefix + "max_iterations", o.max_iterations);
+  visit(prefix + "max_correspondence_distance", o.max_correspondence_distance);
+  visit(prefix + "trim_fraction", o.trim_fraction);
+  visit(prefix + "huber_delta", o.huber_delta);
+  visit(prefix + "translation_tolerance", o.translation_tolerance);
+  visit(prefix + "rotation_tolerance", o.rotation_tolerance);
+  visit(prefix + "min_correspondences", o.min_correspondences);
+  visit(prefix + "degeneracy_ratio", o.degeneracy_ratio);
+  visit(prefix + "max_source_points", o.max_source_points);
+  visit(prefix + "max_normal_angle", o.max_normal_angle);
+  visit(prefix + "fixed_pairs_after", o.fixed_pairs_after);
+}
+
+/// Calls visit(name, field) for every parameter; field is a double, int, bool or std::size_t.
+template <class Visit>
+void visitParameters(SystemOptions& options, Visit&& visit) {
+  ScanOdometryOptions& odometry = options.slam.odometry;
+  visit("odometry/keyframe_distance", odometry.keyframe_distance);
+  visit("odometry/keyframe_angle", odometry.keyframe_angle);
+  visit("odometry/scan_matching", odometry.scan_matching);
+  visit("odometry/max_correction_translation", odometry.max_correction_translation);
+  visit("odometry/max_correction_rotation", odometry.max_correction_rotation);
+  visit("odometry/max_wheel_disagreement", odometry.max_wheel_disagreement);
+  visit("odometry/wheel_noise_window", odometry.wheel_noise_window);
+  visit("odometry/min_overlap_share", odometry.min_overlap_share);
+  visit("odometry/overlap_distance", odometry.overlap_distance);
+  visit("odometry/translation_sigma", odometry.translation_sigma);
+  visit("odometry/translation_sigma_per_metre", odometry.translation_sigma_per_metre);
+  visit("odometry/rotation_sigma", odometry.rotation_sigma);
+  visit("odometry/rotation_sigma_per_metre", odometry.rotation_sigma_per_metre);
+  visit("odometry/rotation_sigma_per_radian", odometry.rotation_sigma_per_radian);
+  visit("odometry/wheel_sigma_scale", odometry.wheel_sigma_scale);
+  visit("odometry/predict_motion", odometry.predict_motion);
+  visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
+  visit("odometry/max_speed", odometry.max_speed);
+  visit("odometry/max_turn_rate", odometry.max_turn_rate);
+  visit("odometry/min_velocity_interval", odometry.min_velocity_interval);
+  visit("odometry/restart_after_jump_back", odometry.restart_after_jump_back);
+  visitIcpParameters("odometry/icp/", odometry.icp, visit);
+
+  LoopDetectorOptions& loops = options.slam.loops;
+  visit("loops/min_keyframe_gap", loops.min_keyframe_gap);
+  visit("loops/max_candidates", loops.max_candidates);
+  visit("loops/checked_candidates", loops.checked_candidates);
+  visit("loops/score_threshold", loops.score_threshold);
+  visit("loops/stop_at_first_accepted", loops.stop_at_first_accepted);
+  visit("loops/threads", loops.threads);
+  visit("loops/translation_sigma", loops.translation_sigma);
+  visit("loops/rotation_sigma", loops.rotation_sigma);
+  visit("loops/calibration/enabled", loops.calibration.enabled);
+  visit("loops/calibration/target_false_alarm", loops.calibration.target_false_alarm);
+  visit("loops/calibration/min_distance", loops.calibration.min_distance);
+  visit("loops/calibration/drift_per_metre", loops.calibration.drift_per_metre);
+  visit("loops/calibration/max_path", loops.calibration.max_path);
+  visit("loops/calibration/min_pairs", loops.calibration.min_pairs);
+  visit("loops/calibration/max_pairs", loops.calibration.max_pairs);
+  visit("loops/calibration/pairs_per_keyframe", loops.calibration.pairs_per_keyframe);
+
+  ScanAlignerOptions& aligner = options.slam.aligner;
+  visit("aligner/max_range", aligner.max_range);
+  visit("aligner/selection_distance", aligner.selection_distance);
+  visit("aligner/reverse_below", aligner.reverse_below);
+  visit("aligner/parallel", aligner.parallel);
+  visit("aligner/global_search_below", aligner.global_search_below);
+  visit("aligner/min_relative_overlap", aligner.min_relative_overlap);
+  visit("aligner/weak_direction_shift", aligner.weak_direction_shift);
+  visit("aligner/weak_direction_restarts", aligner.weak_direction_restarts);
+  visit("aligner/weak_direction_above", aligner.weak_direction_above);
+  visit("aligner/global/sample_spacing", aligner.global.sample_spacing);
+  visit("aligner/global/angle_bin", aligner.global.angle_bin);
+  visit("aligner/global/rotations", aligner.global.rotations);
+  visit("aligner/global/cell", aligner.global.cell);
+  visit("aligner/global/max_translation", aligner.global.max_translation);
+  visit("aligner/global/max_normal_angle", aligner.global.max_normal_angle);
+  visit("aligner/global/hypotheses", aligner.global.hypotheses);
+  visit("aligner/global/distinct_distance", aligner.global.distinct_distance);
+  visit("aligner/crf/node_spacing", aligner.crf.node_spacing);
+  visit("aligner/crf/max_nodes", aligner.crf.max_nodes);
+  visit("aligner/crf/break_distance", aligner.crf.break_distance);
+  visit("aligner/crf/candidates", aligner.crf.candidates);
+  visit("aligner/crf/temperature", aligner.crf.temperature);
+  visit("aligner/crf/min_confidence", aligner.crf.min_confidence);
+  visitIcpParameters("aligner/icp/", aligner.icp, visit);
+  visit("aligner/validation/max_distance", aligner.validation.max_distance);
+  visit("aligner/validation/min_inlier_share", aligner.validation.min_inlier_share);
+  visit("aligner/validation/only_in_view", aligner.validation.only_in_view);
+  visit("aligner/validation/max_seen_through_share", aligner.validation.max_seen_through_share);
+  visit("aligner/validation/free_space_margin", aligner.validation.free_space_margin);
+  visit("aligner/validation/max_position_std", aligner.validation.max_position_std);
+
+  EsdfOptions& esdf = options.slam.esdf;
+  visit("esdf/relinearize_translation", esdf.relinearize_translation);
+  visit("esdf/relinearize_rotation", esdf.relinearize_rotation);
+  visit("esdf/relinearize_chi2", esdf.relinearize_chi2);
+  visit("esdf/max_edges_relinearized_in_place", esdf.max_edges_relinearized_in_place);
+  visit("esdf/max_relinearizations", esdf.max_relinearizations);
+  visit("esdf/reorder_fill_ratio", esdf.reorder_fill_ratio);
+  visit("esdf/loop_chi2_threshold", esdf.loop_chi2_threshold);
+  visit("esdf/prior_information", esdf.prior_information);
+  visit("esdf/max_information", esdf.max_information);
+  visit("esdf/robust_loop_chi2", esdf.robust_loop_chi2);
+  visit("esdf/gate_loops", options.slam.gate_loops);
+
+  PlaceGateOptions& place_gate = options.slam.place_gate;
+  visit("place_gate/enabled", place_gate.enabled);
+  visit("place_gate/radius", place_gate.radius);
+  visit("place_gate/chi2_threshold", place_gate.chi2_threshold);
+
+  OccupancyGridOptions& map = options.map;
+  visit("map/resolution", map.resolution);
+  visit("map/max_range", map.max_range);
+  visit("map/no_return_free_range", map.no_return_free_range);
+  visit("map/hit_log_odds", map.hit_log_odds);
+  visit("map/miss_log_odds", map.miss_log_odds);
+  visit("map/clamp_log_odds", map.clamp_log_odds);
+  visit("map/occupied_threshold", map.occupied_threshold);
+  visit("map/free_threshold", map.free_threshold);
+  visit("map/margin", map.margin);
+}
+
+/// Every parameter name, in the order above.
+std::vector<std::string> systemParameterNames();
+
+/// Reads a YAML file of nested maps (odometry: {keyframe_distance: 1.0}, ...) onto `options`:
+/// names it does not give keep their value. Throws std::runtime_error naming the file and the
+/// key for an unknown key, a value of the wrong type, or options that do not validate.
+void loadSystemOptionsYaml(const std::string& path, SystemOptions* options);
+
+}  // namespace llc

@@ -1,0 +1,106 @@
+// The whole data path of ../shared/ARCHITECTURE.md for one robot: the front end (keyframes with
+// scan-matching odometry, loop detection with no pose prior) joined directly to the ESDF back
+// end. `llc slam` drives it; the nodelets run the two halves apart, joined by messages.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/slam/slam_front_end.hpp"
+
+namespace llc {
+
+/// Before a candidate is aligned, the back end's prediction of where its two keyframes are
+/// (means and joint covariance) is asked whether they can be at one place (Esdf::placeChi2).
+/// The classifier still sees every stored keyframe with no pose prior; this only spares the
+/// alignment of candidates that the chi-square gate would refuse anyway.
+struct PlaceGateOptions {
+  bool enabled = true;            ///< false: align every candidate, as the paper does
+  double radius = 3.0;            ///< m: how far apart two keyframes of one place lie (1 sigma per axis)
+  double chi2_threshold = 13.82;  ///< 2 DoF (99.9%); a larger statistic: not aligned
+  std::string validate() const;
+};
+
+/// The place gate's verdict on a statistic: "" (align it) or why it is kept from alignment.
+/// One rule for `llc slam` and the nodelets.
+std::string placeGateVerdict(const PlaceGateOptions& options, double chi2);
+
+struct SlamOptions {
+  ScanOdometryOptions odometry{};
+  ScanAlignerOptions aligner{};
+  LoopDetectorOptions loops{};
+  EsdfOptions esdf{};
+  bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
+  PlaceGateOptions place_gate{};
+  std::string validate() const;  ///< names the stage whose option is wrong
+};
+
+/// Counts of every decision since the start.
+struct SlamCounters {
+  std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
+  std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
+  std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
+  std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
+  std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
+  std::size_t loops_accepted = 0;        ///< applied to the back end
+  std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
+  std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
+  std::size_t not_aligned = 0;           ///< candidates the place gate kept from alignment
+  std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
+  double classifier_threshold = 0.0;     ///< the K candidates must reach now (calibrated or not)
+  double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0, seconds_backend = 0.0;
+};
+
+/// What one scan did.
+struct SlamStepResult {
+  bool keyframe = false;
+  std::size_t keyframe_index = 0;
+  OdometryStep odometry;        ///< when keyframe (and not the first one)
+  LoopDetectionResult loops;    ///< when keyframe: candidates aligned and not
+  std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them
+  std::string back_end_note;    ///< when keyframe: non-empty if the back end could not use its odometry as given (SlamBackEnd::addKeyframe)
+  std::string skip_reason;      ///< non-empty: the scan was not used (and why)
+  std::string wheel_jump;       ///< non-empty: its wheel odometry jumped and was left out (FrontEndStep)
+  std::string time_jump;        ///< non-empty: its stamp jumped back and it starts a new chain (FrontEndStep)
+};
+
+class SlamPipeline {
+ public:
+  /// Throws std::invalid_argument on bad options or a model the extractor cannot serve.
+  SlamPipeline(const ClassifierModel& model, const SlamOptions& options = {});
+
+  /// Feeds one scan (base frame) with the wheel-odometry pose at its stamp when there is one.
+  /// A scan older than the last keyframe's, or with a non-finite stamp or odometry, is skipped
+  /// (skip_reason says why); never throws on bad data.
+  SlamStepResult addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry);
+
+  const SlamOptions& options() const { return options_; }
+  const std::vector<Keyframe>& keyframes() const { return back_.keyframes(); }
+  /// Optimised keyframe poses in the map frame (the first keyframe sits at its wheel-odometry pose).
+  const std::vector<Pose2>& poses() const { return back_.poses(); }
+  /// Every aligned candidate: refused by alignment, refused by the gate, or applied.
+  const std::vector<LoopRecord>& loops() const { return loops_; }
+  SlamCounters counters() const;
+  /// The map -> odom transform (REP-105) implied by the newest keyframe; identity without odometry.
+  Pose2 mapToOdom() const { return back_.mapToOdom(); }
+  SlamBackEnd& backEnd() { return back_; }
+  /// The state to save: keyframes, their features, the graph and the loops.
+  SlamSession session() const;
+  /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
+  /// Returns "" or why not; then nothing changed.
+  std::string restore(const SlamSession& session, bool continue_odometry);
+  LoopDetector& detector() { return front_.detector(); }
+
+ private:
+  SlamOptions options_;
+  SlamFrontEnd front_;
+  SlamBackEnd back_;
+  std::vector<LoopRecord> loops_;
+};
+
+}  // namespace llc

@@ -1,0 +1,65 @@
+// Recorded drives as rosbags: the reader that lets every llc subcommand take a .bag, and the
+// writer of the simulator's sim.bag. ROS types stay in here; callers see core types.
+#pragma once
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+#include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/sim/sim_drive.hpp"
+
+namespace llc_ros {
+
+/// Topics of a drive in a bag (the names sim.bag uses are the defaults).
+struct BagTopics {
+  std::string front = "/scan_front";    ///< sensor_msgs/LaserScan of the front scanner
+  std::string back = "/scan_back";      ///< sensor_msgs/LaserScan of the back one (may be absent)
+  std::string odom = "/odom";           ///< nav_msgs/Odometry, wheel odometry
+  std::string truth = "/ground_truth";  ///< nav_msgs/Odometry, true poses (for labelling pairs)
+};
+
+struct BagReadOptions {
+  BagTopics topics;
+  /// Frame the scans are merged in; empty: the child_frame_id of the first odometry message,
+  /// else "base_link".
+  std::string base_frame;
+  double max_merge_gap = 0.05;  ///< s; a back scan further in time from the front one is unused
+  /// Where a scanner sits whose frame /tf_static does not mount on the base frame (a bag
+  /// recorded without tf): identity, as the nodelets' mount_x/y/yaw default.
+  llc::Pose2 fallback_mount;
+};
+
+/// What the reader met besides the scans it returns.
+struct BagReadReport {
+  std::size_t front_messages = 0, back_messages = 0, odom_messages = 0, truth_messages = 0;
+  std::size_t skipped_scans = 0;  ///< front scans that could not be used (reason in first_problem)
+  std::string first_problem;
+  bool truth_from_odometry = false;  ///< no truth topic: poses for labelling came from odometry
+  std::vector<std::string> fallback_frames;  ///< scanner frames /tf_static did not mount: on fallback_mount
+};
+
+/// A bag that cannot be read as a drive; what() names the file and the problem.
+class BagError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One scan per usable front LaserScan, in bag order (index = position among them), merged
+/// with the back scan nearest in time within max_merge_gap into a 360-degree scan in the base
+/// frame. Scanner mountings come from /tf_static (level or upside-down mounts; a tilted one is
+/// an error). Truth and odometry poses are interpolated at each scan's stamp. Front scans
+/// that are malformed (see toScan) or older than the scan before them are skipped and counted.
+llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions& options = {},
+                                  BagReadReport* report = nullptr);
+
+/// Seconds added to the simulator's clock in sim.bag (ROS time 0 means "no time" to tf).
+constexpr double kSimBagEpoch = 1600000000.0;
+
+/// Writes a simulated drive as a bag: LaserScan on /scan_front and /scan_back (frames
+/// laser_front, laser_back; +inf where nothing returned), nav_msgs/Odometry on /odom (odom ->
+/// base_link) and /ground_truth (world -> base_link), /tf odom -> base_link per frame, and the
+/// mountings on /tf_static (latched). Throws BagError when the file cannot be written.
+void writeSimBag(const llc::SimDrive& drive, const std::string& path);
+
+}  // namespace llc_ros

@@ -1,0 +1,36 @@
+// What the back end publishes, built from core results: free functions, no state.
+#pragma once
+
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Header.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <vector>
+
+#include "laser_loop_closure/core/map/occupancy_grid.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+
+namespace llc_ros {
+
+nav_msgs::OccupancyGrid toOccupancyGridMsg(const llc::OccupancyGrid& grid, const std_msgs::Header& header);
+
+/// One pose per keyframe, stamped with the keyframe's stamp.
+nav_msgs::Path toPathMsg(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
+                         const std_msgs::Header& header);
+
+/// Every keyframe's returns (finite ranges below max_range) at its pose, thinned by PCL's
+/// VoxelGrid to one point per voxel_size cube (0: every point).
+sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, const std::vector<llc::Pose2>& poses,
+                                    double max_range, double voxel_size, const std_msgs::Header& header);
+
+/// The graph: keyframes (dots), odometry chain (blue), applied loops (green), loops refused by
+/// the chi-square gate (red), candidates refused by alignment (grey), and a 2 m disc at the newer
+/// pose of each loop so that loops show at the scale of a whole map. Namespaces: keyframes,
+/// odometry, loops_applied, loops_refused_by_gate, loops_refused_by_alignment,
+/// loop_places_applied, loop_places_refused_by_gate.
+visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses,
+                                             const std::vector<llc::LoopRecord>& loops, const std_msgs::Header& header);
+
+}  // namespace llc_ros

@@ -1,0 +1,60 @@
+// tf2 lookups the nodelets need: scanner mountings (cached per frame_id, since they do not
+// move) and the wheel-odometry pose of the base at a scan's stamp.
+#pragma once
+
+#include <ros/time.h>
+#include <tf2/buffer_core.h>
+#include <tf2_ros/buffer.h>
+
+#include <map>
+#include <string>
+
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
+
+namespace llc_ros {
+
+/// A frame id as tf2 names it: without the leading slashes of tf1 ("/laser" is "laser").
+std::string tfFrame(const std::string& frame_id);
+
+/// The mount a scanner frame gets when tf never tells one: after `after_failures` lookups of
+/// that frame found no transform (0: never).
+struct FallbackMount {
+  llc::Pose2 pose;  ///< in the base frame (m, rad)
+  int after_failures = 0;
+};
+
+/// Mountings of scanner frames on the base frame, looked up once per frame_id and kept. Frame
+/// ids are compared as tfFrame gives them. The buffer is a live node's tf2_ros::Buffer or a
+/// bag reader's tf2::BufferCore filled from /tf_static: one cache for both.
+class MountCache {
+ public:
+  MountCache(const tf2::BufferCore& buffer, const std::string& base_frame, FallbackMount fallback = {})
+      : buffer_(buffer), base_(tfFrame(base_frame)), fallback_(fallback) {}
+  /// False with a reason when tf has no transform yet (try again later) or the mount is
+  /// tilted out of the base plane (refused; the reason says so and it is not cached). After
+  /// fallback.after_failures lookups without a transform the fallback mount is kept for the
+  /// frame and *fell_back (when given) is set, once, so the caller can say so.
+  /// *waiting (when given) is set when tf simply has no mount for the frame yet. count_failure
+  /// false: a retry of a scan already counted (the fallback comes after that many scans).
+  bool lookup(const std::string& frame, ScannerMount* mount, std::string* error, bool* fell_back = nullptr,
+              bool* waiting = nullptr, bool count_failure = true);
+  const std::string& baseFrame() const { return base_; }
+  /// Scanner frames on the fallback mount.
+  std::size_t fallbacks() const { return fallbacks_; }
+
+ private:
+  const tf2::BufferCore& buffer_;
+  std::string base_;
+  FallbackMount fallback_;
+  std::map<std::string, ScannerMount> cache_;
+  std::map<std::string, int> failures_;
+  std::size_t fallbacks_ = 0;
+};
+
+/// The planar pose of `child` in `parent` at `stamp`, from what the buffer holds now: it never
+/// waits (a wait on the ROS clock never ends once a bag stops). False with tf's reason when it
+/// is not there; a caller that must wait for tf uses a tf2_ros::MessageFilter first.
+bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const std::string& child,
+                 const ros::Time& stamp, llc::Pose2* pose, std::string* error);
+
+}  // namespace llc_ros

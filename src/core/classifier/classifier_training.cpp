@@ -1,0 +1,111 @@
+#include "laser_loop_closure/core/classifier/classifier_training.hpp"
+
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/classifier/evaluation.hpp"
+
+namespace llc {
+
+std::string ClassifierTrainingOptions::validate() const {
+  if (rounds < 1) return "rounds must be at least 1";
+  if (folds < 2) return "folds must be at least 2";
+  if (repeats < 1) return "repeats must be at least 1";
+  if (!(target_false_alarm >= 0.0 && target_false_alarm < 1.0)) return "target_false_alarm must lie in [0, 1)";
+  return "";
+}
+
+ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const FeatureOptions& features,
+                                              const ClassifierTrainingOptions& options) {
+  const std::string invalid = options.validate();
+  if (!invalid.empty()) throw std::invalid_argument("classifier training: " + invalid);
+  if (set.dimension != pairFeatureCount(features.feature_set))
+    throw std::invalid_argument("classifier training: pair rows have " + std::to_string(set.dimension) +
+                                " values, the feature set makes " +
+                                std::to_string(pairFeatureCount(features.feature_set)));
+  ClassifierTrainingResult result;
+  result.pairs = set.size();
+  for (int label : set.labels) result.positives += label == 1;
+
+  AdaBoostOptions boost;
+  boost.rounds = options.rounds;
+  const AdaBoostResult trained = AdaBoostTrainer(boost).train(set);
+  if (trained.rounds.empty())
+    throw std::invalid_argument("classifier training failed: " + trained.stopped_early);
+  result.note = trained.stopped_early;
+  result.model.features = features;
+  result.model.classifier = trained.classifier;
+
+  // K from scores of classifiers that never saw the pair (crossValidate checks the classes).
+  CrossValidationOptions cv;
+  cv.folds = options.folds;
+  cv.repeats = options.repeats;
+  cv.seed = options.seed;
+  cv.adaboost = boost;
+  std::vector<double> scores;
+  std::vector<int> labels;
+  for (const CrossValidationRun& run : crossValidate(set, cv)) {
+    scores.insert(scores.end(), run.scores.begin(), run.scores.end());
+    labels.insert(labels.end(), set.labels.begin(), set.labels.end());
+  }
+  double k = 0.5;
+  result.detection = detectionAtFalseAlarm(scores, labels, options.target_false_alarm, &k);
+  result.auc = areaUnderCurve(scores, labels);
+  result.model.classifier.setThresholdK(k);
+
+  std::ostringstream why;
+  why << "cross-validated (" << options.folds << " folds x " << options.repeats << ") for false alarm <= "
+      << options.target_false_alarm << ": detection " << std::setprecision(4) << result.detection << ", AUC "
+      << result.auc;
+  result.model.provenance["threshold_k"] = why.str();
+  result.model.provenance["pairs"] = std::to_string(set.size());
+  return result;
+}
+
+ModelRates rateModel(const StrongClassifier& classifier, const TrainingSet& set, double target_false_alarm) {
+  std::vector<double> scores;
+  scores.reserve(set.size());
+  for (std::size_t i = 0; i < set.size(); ++i) scores.push_back(classifier.score(set.row(i)));
+  ModelRates rates;
+  rates.detection = detectionAtFalseAlarm(scores, set.labels, target_false_alarm);
+  rates.auc = areaUnderCurve(scores, set.labels);
+  return rates;
+}
+
+TrainingSet pairTrainingSet(const std::vector<std::vector<double>>& scan_features,
+                            const std::vector<LabeledPair>& pairs, FeatureSet feature_set) {
+  TrainingSet set;
+  set.dimension = pairFeatureCount(feature_set);
+  std::vector<double> row(set.dimension);
+  for (const LabeledPair& p : pairs) {
+    if (p.a >= scan_features.size() || p.b >= scan_features.size())
+      throw std::out_of_range("pair (" + std::to_string(p.a) + ", " + std::to_string(p.b) + ") names a scan beyond " +
+                              std::to_string(scan_features.size()));
+    pairFeatures(feature_set, scan_features[p.a].data(), scan_features[p.b].data(), row.data());
+    set.add(row.data(), p.label);
+  }
+  return set;
+}
+
+TrainingSet keyframeTrainingSet(const std::vector<std::vector<double>>& keyframe_features,
+                                const std::vector<Pose2>& poses, FeatureSet feature_set,
+                                const PairLabelingOptions& labeling, std::vector<LabeledPair>* pairs) {
+  if (keyframe_features.size() != poses.size())
+    throw std::invalid_argument("keyframe training set: " + std::to_string(keyframe_features.size()) +
+                                " feature vectors but " + std::to_string(poses.size()) + " poses");
+  const PairLabelingResult labelled = labelPairs(poses, labeling);
+  if (pairs) *pairs = labelled.pairs;
+  return pairTrainingSet(keyframe_features, labelled.pairs, feature_set);
+}
+
+TrainingSet selfLabelledTrainingSet(const std::vector<std::vector<double>>& keyframe_features,
+                                    const std::vector<Pose2>& optimised_poses, FeatureSet feature_set,
+                                    bool full_circle, std::size_t min_keyframe_gap, std::vector<LabeledPair>* pairs) {
+  PairLabelingOptions labeling;
+  labeling.full_circle = full_circle;
+  labeling.min_index_gap = min_keyframe_gap;
+  return keyframeTrainingSet(keyframe_features, optimised_poses, feature_set, labeling, pairs);
+}
+
+}  // namespace llc

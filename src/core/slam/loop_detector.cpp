@@ -1,0 +1,154 @@
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
+
+#include "laser_loop_closure/core/common/file_util.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+namespace llc {
+namespace {
+
+StrongClassifier withThreshold(const StrongClassifier& classifier, double threshold) {
+  StrongClassifier copy = classifier;
+  if (threshold > 0.0) copy.setThresholdK(threshold);
+  return copy;
+}
+
+}  // namespace
+
+std::string LoopDetectorOptions::validate() const {
+  if (max_candidates == 0) return "max_candidates must be >= 1";
+  if (checked_candidates != 0 && checked_candidates < max_candidates)
+    return "checked_candidates must be 0 or >= max_candidates";
+  if (!(score_threshold >= 0.0 && score_threshold <= 1.0)) return "score_threshold must be in [0, 1] (0: the model's K)";
+  if (threads == 0) return "threads must be >= 1";
+  if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
+  return calibration.validate();
+}
+
+Eigen::Matrix3d poseParameterCovariance(const Pose2& pose, const Eigen::Matrix3d& target_frame_covariance) {
+  // exp(d) * pose to first order: (x - d_theta y + d_x, y + d_theta x + d_y, theta + d_theta).
+  Eigen::Matrix3d jacobian;
+  jacobian << 1.0, 0.0, -pose.y, 0.0, 1.0, pose.x, 0.0, 0.0, 1.0;
+  return jacobian * target_frame_covariance * jacobian.transpose();
+}
+
+Eigen::Matrix3d loopCovariance(const Pose2& pose, const Eigen::Matrix3d& icp_covariance, const LoopDetectorOptions& options) {
+  const Eigen::Vector3d floor(options.translation_sigma * options.translation_sigma,
+                              options.translation_sigma * options.translation_sigma,
+                              options.rotation_sigma * options.rotation_sigma);
+  return poseParameterCovariance(pose, icp_covariance) + Eigen::Matrix3d(floor.asDiagonal());
+}
+
+LoopDetector::LoopDetector(const ClassifierModel& model, const ScanAlignerOptions& aligner,
+                           const LoopDetectorOptions& options)
+    : model_(model),
+      classifier_(withThreshold(model.classifier, options.score_threshold)),
+      options_(options),
+      aligner_(aligner),
+      extractor_(model.features),
+      store_(model.features.feature_set),
+      calibrator_(options.calibration.validate().empty() ? options.calibration : ThresholdCalibrationOptions{}) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("loop detector options: " + error);
+}
+
+void LoopDetector::setModel(const ClassifierModel& model) {
+  if (!(model.features == model_.features))
+    throw std::invalid_argument("the new model was made with other feature parameters than the stored keyframes");
+  model_ = model;
+  classifier_ = withThreshold(model.classifier, options_.score_threshold);
+  calibrator_.clear();
+}
+
+double LoopDetector::pairScore(std::size_t stored, std::size_t query) const {
+  if (stored >= store_.size() || query >= store_.size()) throw std::out_of_range("pairScore: no such keyframe");
+  const std::vector<double> fq = store_.features(query), fs = store_.features(stored);
+  std::vector<double> row(pairFeatureCount(store_.featureSet()));
+  pairFeatures(store_.featureSet(), fq.data(), fs.data(), row.data());  // as KeyframeStore::query pairs them
+  return classifier_.score(row.data());
+}
+
+std::size_t LoopDetector::calibrate(std::size_t index, const std::vector<std::size_t>& surely_elsewhere) {
+  if (!options_.calibration.enabled) return 0;
+  std::size_t scored = 0;
+  for (std::size_t other : surely_elsewhere) {
+    calibrator_.add(pairScore(other, index));
+    ++scored;
+  }
+  if (options_.score_threshold == 0.0) classifier_.setThresholdK(calibrator_.threshold(model_.classifier.thresholdK()));
+  return scored;
+}
+
+std::size_t LoopDetector::add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared) {
+  if (!prepared) prepared = aligner_.prepare(scan);
+  return addWithFeatures(extractor_.extract(scan), std::move(prepared));
+}
+
+std::size_t LoopDetector::addWithFeatures(const std::vector<double>& features,
+                                          std::shared_ptr<const PreparedScan> prepared) {
+  if (features.size() != store_.featureCount())
+    throw std::invalid_argument("keyframe features: expected " + std::to_string(store_.featureCount()) + " values, got " +
+                                std::to_string(features.size()));
+  if (!prepared) throw std::invalid_argument("keyframe without a prepared scan");
+  store_.add(features.data());
+  prepared_.push_back(std::move(prepared));
+  return prepared_.size() - 1;
+}
+
+LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score) const {
+  const ScanAlignmentResult alignment = aligner_.align(*prepared_.at(from), *prepared_.at(to));
+  LoopClosure loop;
+  loop.from = from;
+  loop.to = to;
+  loop.score = score;
+  loop.pose = alignment.pose;
+  loop.inlier_share = alignment.validation.inlier_share;
+  loop.accepted = alignment.accepted;
+  loop.reject_reason = alignment.reject_reason;
+  loop.seconds = alignment.seconds;
+  loop.covariance = loopCovariance(alignment.pose, alignment.covariance, options_);
+  return loop;
+}
+
+LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check) const {
+  const auto start = std::chrono::steady_clock::now();
+  if (index >= prepared_.size()) throw std::out_of_range("detect: no keyframe " + std::to_string(index));
+  LoopDetectionResult result;
+  result.keyframe = index;
+  result.compared = index > options_.min_keyframe_gap ? index - options_.min_keyframe_gap : 0;
+  if (result.compared > 0) {
+    const std::vector<double> query = store_.features(index);
+    // Without a check, only max_candidates can ever be aligned: no need to rank more.
+    const std::size_t wanted = check ? std::max(options_.checked_candidates, options_.max_candidates) : options_.max_candidates;
+    const std::vector<LoopCandidate> candidates =
+        store_.query(classifier_, query.data(), result.compared, wanted, options_.threads);
+    result.candidates = candidates.size();
+    result.classify_seconds = secondsSince(start);
+    for (const LoopCandidate& candidate : candidates) {
+      if (result.aligned.size() == options_.max_candidates) break;
+      std::string refused;
+      if (check) {
+        const auto check_start = std::chrono::steady_clock::now();
+        refused = check(candidate.keyframe, index);
+        result.check_seconds += secondsSince(check_start);
+      }
+      if (!refused.empty()) {
+        LoopClosure skipped;
+        skipped.from = candidate.keyframe;
+        skipped.to = index;
+        skipped.score = candidate.score;
+        skipped.reject_reason = std::move(refused);
+        result.not_aligned.push_back(std::move(skipped));
+        continue;
+      }
+      result.aligned.push_back(verify(candidate.keyframe, index, candidate.score));
+      if (result.aligned.back().accepted && options_.stop_at_first_accepted) break;
+    }
+  }
+  result.seconds = secondsSince(start);
+  return result;
+}
+
+}  // namespace llc

@@ -1,0 +1,95 @@
+#include "laser_loop_closure/core/slam/odometry_offset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <stdexcept>
+
+namespace llc {
+
+std::string OdometryOffsetOptions::validate() const {
+  if (max_offset < 0 || max_offset > 50) return "max_offset must be in [0, 50]";
+  if (max_pairs == 0) return "max_pairs must be > 0";
+  if (!(min_motion >= 0.0)) return "min_motion must be >= 0";
+  return "";
+}
+
+namespace {
+
+double mean(const std::vector<double>& values) {
+  double sum = 0.0;
+  for (const double v : values) sum += v;
+  return values.empty() ? 0.0 : sum / double(values.size());
+}
+
+}  // namespace
+
+OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const ScanOdometry& odometry,
+                                            const ScanAligner& aligner, const OdometryOffsetOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("odometry offset options: " + error);
+  OdometryOffsetResult result;
+  if (!sequence.has_odometry) {
+    result.reason = "the drive has no odometry";
+    return result;
+  }
+  const long count = long(sequence.scans.size());
+  const long reach = options.max_offset;
+  // Pairs (i, i+1) far enough from both ends for every offset, where the odometry moved.
+  std::vector<long> moving;
+  for (long i = reach; i + 1 + reach < count; ++i) {
+    const Pose2 motion = between(sequence.scans[std::size_t(i)].odometry, sequence.scans[std::size_t(i + 1)].odometry);
+    if (std::hypot(motion.x, motion.y) >= options.min_motion || std::abs(motion.theta) >= options.min_motion)
+      moving.push_back(i);
+  }
+  if (moving.size() < 10) {
+    result.reason = "fewer than 10 consecutive scan pairs with odometry motion";
+    return result;
+  }
+  std::vector<long> pairs;
+  const std::size_t wanted = std::min(options.max_pairs, moving.size());
+  for (std::size_t k = 0; k < wanted; ++k) pairs.push_back(moving[k * moving.size() / wanted]);
+
+  std::map<long, std::shared_ptr<const PreparedScan>> prepared;
+  auto scan = [&](long i) -> const PreparedScan& {
+    auto& slot = prepared[i];
+    if (!slot) slot = aligner.prepare(sequence.scans[std::size_t(i)].scan);
+    return *slot;
+  };
+  for (int offset = -options.max_offset; offset <= options.max_offset; ++offset) {
+    OdometryOffsetScore score;
+    score.offset = offset;
+    std::vector<double> metres, radians;
+    for (const long i : pairs) {
+      const Pose2 guess = between(sequence.scans[std::size_t(i + offset)].odometry,
+                                  sequence.scans[std::size_t(i + 1 + offset)].odometry);
+      const OdometryStep step = odometry.match(scan(i), scan(i + 1), guess, true);
+      ++score.pairs;
+      if (!step.matched) continue;
+      ++score.matched;
+      const Pose2 correction = between(guess, step.motion);
+      metres.push_back(std::hypot(correction.x, correction.y));
+      radians.push_back(std::abs(correction.theta));
+    }
+    score.mean_correction_m = mean(metres);
+    score.mean_correction_rad = mean(radians);
+    result.scores.push_back(score);
+  }
+  const OdometryOffsetScore* best = nullptr;
+  for (const OdometryOffsetScore& s : result.scores) {
+    if (s.matched < s.pairs / 4) continue;  // a mean of a few lucky pairs says nothing
+    if (!best || s.mean_correction_rad < best->mean_correction_rad ||
+        (s.mean_correction_rad == best->mean_correction_rad && std::abs(s.offset) < std::abs(best->offset)))
+      best = &s;
+  }
+  if (!best) {
+    result.reason = "scan matching failed on most pairs at every offset";
+    return result;
+  }
+  result.ok = true;
+  result.best_offset = best->offset;
+  return result;
+}
+
+}  // namespace llc

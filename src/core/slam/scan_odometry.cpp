@@ -1,0 +1,122 @@
+#include "laser_loop_closure/core/slam/scan_odometry.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <cmath>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/alignment/shape_validation.hpp"
+
+namespace llc {
+
+std::string ScanOdometryOptions::validate() const {
+  if (!(keyframe_distance > 0.0)) return "keyframe_distance must be > 0";
+  if (!(keyframe_angle > 0.0)) return "keyframe_angle must be > 0";
+  if (!(max_correction_translation > 0.0)) return "max_correction_translation must be > 0";
+  if (!(max_correction_rotation > 0.0)) return "max_correction_rotation must be > 0";
+  if (!(max_wheel_disagreement >= 0.0)) return "max_wheel_disagreement must be >= 0 (0: off)";
+  if (wheel_noise_window < WheelNoiseScale::min_samples)
+    return "wheel_noise_window must be >= " + std::to_string(WheelNoiseScale::min_samples);
+  if (!(min_overlap_share >= 0.0 && min_overlap_share <= 1.0)) return "min_overlap_share must be in [0, 1]";
+  if (!(overlap_distance > 0.0)) return "overlap_distance must be > 0";
+  if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
+  if (!(translation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_radian >= 0.0))
+    return "the per-metre and per-radian sigmas must be >= 0";
+  if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
+  if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
+  if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
+  if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
+    return "min_velocity_interval must be finite and >= 0";
+  if (!(restart_after_jump_back > 0.0)) return "restart_after_jump_back must be > 0";
+  const std::string error = icp.validate();
+  return error.empty() ? "" : "icp: " + error;
+}
+
+ScanOdometry::ScanOdometry(const ScanOdometryOptions& options) : options_(options) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("odometry options: " + error);
+}
+
+bool ScanOdometry::movedEnough(const Pose2& motion) const {
+  return std::hypot(motion.x, motion.y) >= options_.keyframe_distance ||
+         std::abs(motion.theta) >= options_.keyframe_angle;
+}
+
+Eigen::Matrix3d ScanOdometry::stepCovariance(const Pose2& motion, bool matched) const {
+  const double distance = std::hypot(motion.x, motion.y);
+  const double scale = matched ? 1.0 : options_.wheel_sigma_scale;
+  const double translation = scale * (options_.translation_sigma + options_.translation_sigma_per_metre * distance);
+  const double rotation = scale * (options_.rotation_sigma + options_.rotation_sigma_per_metre * distance +
+                                    options_.rotation_sigma_per_radian * std::abs(motion.theta));
+  return Eigen::Vector3d(translation * translation, translation * translation, rotation * rotation).asDiagonal();
+}
+
+void WheelNoiseScale::add(double disagreement) {
+  if (!(disagreement >= 0.0) || !std::isfinite(disagreement)) return;
+  if (recent_.size() < window_) {
+    recent_.push_back(disagreement);
+  } else {
+    recent_[next_] = disagreement;
+    next_ = (next_ + 1) % window_;
+  }
+}
+
+double WheelNoiseScale::scale() const {
+  if (recent_.size() < min_samples) return std::numeric_limits<double>::infinity();
+  std::vector<double> sorted = recent_;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  return std::max(1.0, sorted[sorted.size() / 2] / 2.366);
+}
+
+OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+                                 bool guess_from_wheels, double wheel_noise_scale) const {
+  const auto start = std::chrono::steady_clock::now();
+  OdometryStep step;
+  step.motion = guess;
+  // Wheels noisier than modelled get the covariance they earn (infinite scale: not known yet).
+  const double wheel_scale = std::isfinite(wheel_noise_scale) ? std::max(1.0, wheel_noise_scale) : 1.0;
+  auto finish = [&](std::string reason) {
+    step.reject_reason = std::move(reason);
+    step.covariance = stepCovariance(step.motion, step.matched) * (step.matched ? 1.0 : wheel_scale);
+    step.seconds = secondsSince(start);
+    return step;
+  };
+  if (!options_.scan_matching) return finish("");
+  const IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
+  if (!icp.converged) return finish("icp: " + icp.reject_reason);
+  const Pose2 correction = between(guess, icp.pose);
+  if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
+                            std::abs(correction.theta) > options_.max_correction_rotation))
+    return finish("icp moved too far from wheel odometry");
+  Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
+  bool disputed = false;
+  if (guess_from_wheels) {
+    // In the step's parameters (x, y, theta), as its covariance is.
+    disagreement = Eigen::Vector3d(icp.pose.x - guess.x, icp.pose.y - guess.y, normalizeAngle(icp.pose.theta - guess.theta));
+    step.wheel_disagreement = disagreement.dot(stepCovariance(guess, false).ldlt().solve(disagreement));
+    disputed = options_.max_wheel_disagreement > 0.0 &&
+               step.wheel_disagreement > options_.max_wheel_disagreement * wheel_noise_scale;
+  }
+  ShapeValidationOptions overlap;
+  overlap.max_distance = options_.overlap_distance;
+  overlap.min_inlier_share = options_.min_overlap_share;
+  const ShapeValidationResult check = validateShape(current.points, previous.icp_target.tree, icp.pose, overlap, &previous.view);
+  step.overlap_share = check.inlier_share;
+  if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share");
+  step.motion = icp.pose;
+  step.matched = true;
+  finish("");
+  if (disputed) {
+    // Which one is wrong is not known: on the drifted logs ICP's minimum, on the raw Intel log
+    // the wheels (either as the mean measured the same). ICP's step is kept with a covariance
+    // that holds the wheels' within one standard deviation too, so loops can mend either.
+    step.disputed = true;
+    step.covariance = stepCovariance(guess, false) * wheel_scale + disagreement * disagreement.transpose();
+  }
+  return step;
+}
+
+}  // namespace llc

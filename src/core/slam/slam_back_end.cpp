@@ -1,0 +1,153 @@
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+
+#include <Eigen/Cholesky>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
+
+namespace llc {
+namespace {
+
+
+/// Finite, symmetric within rounding and positive definite.
+bool usableCovariance(const Eigen::Matrix3d& c) {
+  if (!c.allFinite() || !c.isApprox(c.transpose(), 1e-9)) return false;
+  Eigen::LLT<Eigen::Matrix3d> llt(c);
+  return llt.info() == Eigen::Success;
+}
+
+const EsdfOptions& checked(const EsdfOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("esdf options: " + error);
+  return options;
+}
+
+}  // namespace
+
+SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops)
+    : options_(checked(options)), gate_loops_(gate_loops) {}
+
+const std::vector<Pose2>& SlamBackEnd::poses() const {
+  static const std::vector<Pose2> none;
+  return esdf_ ? esdf_->mean() : none;
+}
+
+Pose2 SlamBackEnd::mapToOdom() const {
+  if (keyframes_.empty() || !keyframes_.back().has_wheel_odometry) return Pose2{};
+  return compose(esdf_->mean().back(), inverse(keyframes_.back().wheel_odometry));
+}
+
+Eigen::Matrix3d SlamBackEnd::latestCovariance() {
+  if (!esdf_) return Eigen::Matrix3d::Zero();
+  return esdf_->marginalCovariance(esdf_->size() - 1);
+}
+
+double SlamBackEnd::placeChi2(std::size_t from, std::size_t to, double radius) {
+  if (!esdf_) throw std::out_of_range("placeChi2: no keyframe yet");
+  const auto start = std::chrono::steady_clock::now();
+  const double chi2 = esdf_->placeChi2(from, to, radius);
+  counters_.seconds += secondsSince(start);
+  return chi2;
+}
+
+Eigen::Matrix3d looseLinkCovariance() { return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal(); }
+
+std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance) {
+  std::string note;
+  if (keyframe.has_wheel_odometry && !isFinite(keyframe.wheel_odometry)) {
+    keyframe.has_wheel_odometry = false;
+    note = "wheel odometry not finite: dropped";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  if (!esdf_) {
+    esdf_ = std::make_unique<Esdf>(keyframe.has_wheel_odometry ? keyframe.wheel_odometry : Pose2{}, options_);
+  } else {
+    std::string unusable;
+    if (!isFinite(motion) || !usableCovariance(covariance)) {
+      unusable = "odometry motion not finite, or its covariance not positive definite";
+    } else {
+      try {
+        esdf_->augment(motion, covariance);
+      } catch (const std::invalid_argument& e) {  // the filter's own limits (an information it cannot hold)
+        unusable = e.what();
+      }
+    }
+    if (!unusable.empty()) {
+      esdf_->augment(isFinite(motion) ? motion : Pose2{}, looseLinkCovariance());
+      ++counters_.loosely_linked_keyframes;
+      note += (note.empty() ? "" : "; ") + unusable + ": loosely linked instead (the first loop closure places it)";
+    }
+  }
+  keyframes_.push_back(std::move(keyframe));
+  ++counters_.keyframes;
+  counters_.seconds += secondsSince(start);
+  return note;
+}
+
+LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
+  LoopRecord record;
+  record.loop = loop;
+  auto refuse = [&](const std::string& why) {
+    ++counters_.refused_loops;
+    record.reject_reason = "backend: " + why;
+    loops_.push_back(record);
+    return record;
+  };
+  if (loop.from >= keyframes_.size() || loop.to >= keyframes_.size())
+    return refuse("keyframe " + std::to_string(std::max(loop.from, loop.to)) + " is unknown");
+  if (loop.from == loop.to) return refuse("a loop from a keyframe to itself");
+  if (!isFinite(loop.pose) || !usableCovariance(loop.covariance))
+    return refuse("pose not finite, or covariance not positive definite");
+  const auto start = std::chrono::steady_clock::now();
+  const EsdfUpdateResult update = esdf_->update(loop.from, loop.to, loop.pose, loop.covariance, gate_loops_);
+  record.innovation_chi2 = update.innovation_chi2;
+  record.applied = update.applied;
+  if (update.applied) {
+    ++counters_.loops_accepted;
+  } else {
+    record.reject_reason = "backend: " + update.reject_reason;
+    ++counters_.refused_by_gate;
+  }
+  counters_.seconds += secondsSince(start);
+  loops_.push_back(record);
+  return record;
+}
+
+std::string SlamBackEnd::restore(const SlamSession& session) {
+  const std::string invalid = session.validate();
+  if (!invalid.empty()) return invalid;
+  std::unique_ptr<Esdf> esdf;
+  if (!session.keyframes.empty()) {
+    const Keyframe& first = session.keyframes.front();
+    try {
+      esdf = std::make_unique<Esdf>(first.has_wheel_odometry ? first.wheel_odometry : Pose2{}, options_);
+      for (const PoseEdge& edge : session.constraints) {
+        if (edge.to == esdf->size()) {
+          esdf->augmentWithInformation(edge);
+        } else {
+          const EsdfUpdateResult update = esdf->updateWithInformation(edge, false, false);
+          if (!update.applied) return "constraint " + std::to_string(edge.from) + " -> " + std::to_string(edge.to) + ": " + update.reject_reason;
+        }
+      }
+      esdf->solveFrom(session.poses);
+    } catch (const std::exception& e) {
+      return std::string("the graph cannot be rebuilt: ") + e.what();
+    }
+  }
+  esdf_ = std::move(esdf);
+  keyframes_ = session.keyframes;
+  loops_ = session.loops;
+  counters_ = BackEndCounters{};
+  counters_.keyframes = keyframes_.size();
+  for (const LoopRecord& record : loops_) {
+    if (record.applied) ++counters_.loops_accepted;
+    else if (record.innovation_chi2 > 0.0) ++counters_.refused_by_gate;
+    else ++counters_.refused_loops;
+  }
+  return "";
+}
+
+}  // namespace llc

@@ -1,0 +1,196 @@
+#include "laser_loop_closure/core/slam/slam_front_end.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "laser_loop_closure/core/common/file_util.hpp"
+
+namespace llc {
+
+SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
+                           const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
+    : odometry_(odometry), wheel_noise_(odometry.wheel_noise_window), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
+
+Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
+
+std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
+                                  bool continue_odometry, bool* features_recomputed) {
+  if (keyframes.size() != features.size())
+    return std::to_string(keyframes.size()) + " keyframes but " + std::to_string(features.size()) + " feature vectors";
+  LoopDetector detector(detector_.model(), aligner_options_, loop_options_);
+  bool recompute = false;
+  if (!keyframes.empty()) {
+    // Stored single-precision values, so compare with float rounding.
+    const std::vector<double> fresh = detector.describe(keyframes.front().scan);
+    recompute = fresh.size() != features.front().size();
+    for (std::size_t i = 0; !recompute && i < fresh.size(); ++i)
+      recompute = std::abs(fresh[i] - features.front()[i]) > 1e-5 * (1.0 + std::abs(fresh[i]));
+  }
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    auto prepared = detector.aligner().prepare(keyframes[k].scan);
+    if (recompute) detector.add(keyframes[k].scan, prepared);
+    else detector.addWithFeatures(features[k], prepared);
+  }
+  if (features_recomputed) *features_recomputed = recompute;
+  detector_ = std::move(detector);
+  chain_.assign(keyframes.size(), Pose2{});
+  path_.assign(keyframes.size(), 0.0);
+  chain_start_ = keyframes.size();
+  counters_ = FrontEndCounters{};
+  counters_.keyframes = keyframes.size();
+  tracked_motion_ = Pose2{};
+  velocity_ = Pose2{};
+  has_keyframe_ = continue_odometry && !keyframes.empty();
+  restart_pending_ = !continue_odometry && !keyframes.empty();
+  restart_reason_ = "a new chain after a restored session";
+  if (has_keyframe_) {
+    last_keyframe_stamp_ = last_scan_stamp_ = keyframes.back().stamp;
+    last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
+    last_keyframe_wheels_ = keyframes.back().wheel_odometry;
+  }
+  has_last_wheels_ = has_jump_ = false;  // a jump is judged between scans of this run only
+  return "";
+}
+
+FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry) {
+  FrontEndStep step;
+  ++counters_.scans;
+  auto skip = [&](std::string reason) {
+    ++counters_.skipped_scans;
+    step.skip_reason = std::move(reason);
+    return step;
+  };
+  if (!std::isfinite(scan.stamp)) return skip("stamp is not finite");
+  if (scan.ranges.size() != scan.bearings.size()) return skip("ranges and bearings differ in count");
+  if (wheel_odometry && !isFinite(*wheel_odometry)) return skip("wheel odometry is not finite");
+  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) {
+    if (last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back) return skip("time went backwards");
+    // A looped bag or a reset clock: a new chain from this scan on, as after a restored session.
+    step.time_jump = "time jumped back " + std::to_string(last_keyframe_stamp_ - scan.stamp) +
+                     " s: a new odometry chain, placed by its first loop closure";
+    ++counters_.time_jumps;
+    has_keyframe_ = false;
+    restart_pending_ = true;
+    restart_reason_ = "a new chain after time jumped back";
+    tracked_motion_ = velocity_ = Pose2{};
+    has_last_wheels_ = has_jump_ = false;
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  std::shared_ptr<const PreparedScan> prepared;
+  if (has_keyframe_) {
+    const std::size_t last = detector_.size() - 1;
+    if (wheel_odometry && last_keyframe_has_wheels_) {
+      if (has_last_wheels_) {
+        const ScanOdometryOptions& o = odometry_.options();
+        const Pose2 moved = between(last_wheels_, *wheel_odometry);
+        // At least 1 s: logs hold scans whose stamps stand still while the robot moves (the
+        // corrected csail log turns 1.15 rad in 0 s). A heading is never judged: any turn
+        // fits in a second at max_turn_rate, and a log's stamps say too little to do better.
+        const double dt = std::max(scan.stamp - last_wheels_stamp_, 1.0);
+        if (std::hypot(moved.x, moved.y) > o.max_speed * dt) {
+          const Pose2 since = between(before_jump_wheels_, *wheel_odometry);
+          if (has_jump_ && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - before_jump_stamp_, 1.0)) {
+            // Back where they were going: the jump was a spike, and the old reference holds.
+            last_keyframe_wheels_ = before_jump_reference_;
+            has_jump_ = false;
+          } else {
+            // No robot moves so: measure from a reference that leaves the jump out (as if the
+            // robot stood still meanwhile); ICP at the next keyframe finds what it really did.
+            before_jump_reference_ = last_keyframe_wheels_, before_jump_wheels_ = last_wheels_;
+            before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
+            last_keyframe_wheels_ = compose(*wheel_odometry, inverse(between(last_keyframe_wheels_, last_wheels_)));
+          }
+          ++counters_.wheel_jumps;
+          step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
+                            std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
+                            " s (beyond max_speed): left out";
+        }
+      }
+      last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
+      const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
+      if (!odometry_.movedEnough(guess)) return step;  // not a keyframe: nothing more to do
+      prepared = detector_.aligner().prepare(scan);
+      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale());
+      wheel_noise_.add(step.odometry.wheel_disagreement);
+    } else {
+      // No wheels: every scan is matched to the newest keyframe to know when it moved enough,
+      // from where the last velocity says it is now.
+      prepared = detector_.aligner().prepare(scan);
+      const double dt = scan.stamp - last_scan_stamp_;  // a keyframe was made, so a scan came before
+      const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
+      const Pose2 guess = predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt})
+                                  : tracked_motion_;
+      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, false);
+      if (predict && step.odometry.matched && dt >= odometry_.options().min_velocity_interval) {
+        const Pose2 moved = between(tracked_motion_, step.odometry.motion);
+        const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};
+        // A velocity no robot has says the stamps are out of step with the scans: not kept.
+        if (std::hypot(velocity.x, velocity.y) <= odometry_.options().max_speed &&
+            std::abs(velocity.theta) <= odometry_.options().max_turn_rate)
+          velocity_ = velocity;
+      }
+      last_scan_stamp_ = scan.stamp;
+      tracked_motion_ = step.odometry.motion;
+      if (!odometry_.movedEnough(tracked_motion_)) {
+        counters_.seconds_odometry += secondsSince(start);
+        return step;
+      }
+    }
+    ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
+    counters_.disputed_steps += step.odometry.disputed;
+  } else if (restart_pending_) {
+    step.odometry.covariance = restartCovariance();
+    step.odometry.reject_reason = restart_reason_;
+    chain_start_ = detector_.size();  // this keyframe starts the chain the calibration walks
+    restart_pending_ = false;
+  }
+  counters_.seconds_odometry += secondsSince(start);
+
+  has_keyframe_ = true;
+  last_keyframe_stamp_ = scan.stamp;
+  last_scan_stamp_ = scan.stamp;
+  last_keyframe_has_wheels_ = wheel_odometry != nullptr;
+  if (wheel_odometry) last_keyframe_wheels_ = *wheel_odometry;
+  has_jump_ = false;  // a new reference: a jump before it is history
+  tracked_motion_ = Pose2{};
+  step.keyframe = true;
+  step.keyframe_index = detector_.add(scan, prepared);
+  const bool chained = step.keyframe_index > chain_start_ && isFinite(step.odometry.motion);
+  if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain
+  chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
+  path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
+  ++counters_.keyframes;
+  return step;
+}
+
+std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
+  const ThresholdCalibrationOptions& options = loop_options_.calibration;
+  std::vector<std::size_t> found;
+  if (!options.enabled || index >= chain_.size() || index < chain_start_) return found;
+  for (std::size_t j = index; j-- > chain_start_ && path_[index] - path_[j] <= options.max_path;)
+    if (surelyDifferentPlaces(chain_[j], chain_[index], path_[index] - path_[j], options)) found.push_back(j);
+  if (found.size() > options.pairs_per_keyframe) {
+    calibration_random_.shuffle(found);
+    found.resize(options.pairs_per_keyframe);
+  }
+  return found;
+}
+
+LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check) {
+  const auto start = std::chrono::steady_clock::now();
+  counters_.calibration_pairs += detector_.calibrate(keyframe_index, surelyElsewhere(keyframe_index));
+  counters_.seconds_classify += secondsSince(start);
+  LoopDetectionResult loops = detector_.detect(keyframe_index, check);
+  counters_.pairs_classified += loops.compared;
+  counters_.candidates += loops.candidates;
+  counters_.aligned += loops.aligned.size();
+  counters_.not_aligned += loops.not_aligned.size();
+  counters_.seconds_classify += loops.classify_seconds;
+  counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;
+  for (const LoopClosure& loop : loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
+  return loops;
+}
+
+}  // namespace llc

@@ -1,0 +1,73 @@
+#include "laser_loop_closure/core/slam/slam_parameters.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <stdexcept>
+#include <type_traits>
+
+namespace llc {
+namespace {
+
+/// Flattens nested maps into "a/b/c" keys with their scalar nodes.
+void flatten(const YAML::Node& node, const std::string& prefix, std::vector<std::pair<std::string, YAML::Node>>* out,
+             const std::string& path) {
+  if (!node.IsMap()) throw std::runtime_error(path + ": " + (prefix.empty() ? "the file" : prefix) + " must be a map");
+  for (const auto& item : node) {
+    const std::string key = prefix + item.first.as<std::string>();
+    if (item.second.IsMap()) flatten(item.second, key + "/", out, path);
+    else out->emplace_back(key, item.second);
+  }
+}
+
+}  // namespace
+
+std::string SystemOptions::validate() const {
+  std::string error = slam.validate();
+  if (!error.empty()) return error;
+  error = map.validate();
+  return error.empty() ? "" : "map: " + error;
+}
+
+std::vector<std::string> systemParameterNames() {
+  std::vector<std::string> names;
+  SystemOptions options;
+  visitParameters(options, [&](const std::string& name, auto&) { names.push_back(name); });
+  return names;
+}
+
+void loadSystemOptionsYaml(const std::string& path, SystemOptions* options) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": cannot read as YAML (" + e.what() + ")");
+  }
+  std::vector<std::pair<std::string, YAML::Node>> entries;
+  if (!root.IsNull()) flatten(root, "", &entries, path);
+  std::set<std::string> known;
+  for (const std::string& name : systemParameterNames()) known.insert(name);
+  for (const auto& entry : entries)
+    if (!known.count(entry.first)) throw std::runtime_error(path + ": unknown parameter '" + entry.first + "'");
+  visitParameters(*options, [&](const std::string& name, auto& field) {
+    using Field = std::decay_t<decltype(field)>;
+    for (const auto& entry : entries) {
+      if (entry.first != name) continue;
+      try {
+        if constexpr (std::is_same_v<Field, std::size_t>) {
+          const long value = entry.second.as<long>();
+          if (value < 0) throw std::runtime_error("must be >= 0");
+          field = std::size_t(value);
+        } else {
+          field = entry.second.as<Field>();
+        }
+      } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": parameter '" + name + "': bad value (" + e.what() + ")");
+      }
+    }
+  });
+  const std::string error = options->validate();
+  if (!error.empty()) throw std::runtime_error(path + ": " + error);
+}
+
+}  // namespace llc

@@ -1,0 +1,126 @@
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace llc {
+namespace {
+
+const SlamOptions& checked(const SlamOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("slam options: " + error);
+  return options;
+}
+
+}  // namespace
+
+std::string PlaceGateOptions::validate() const {
+  if (!(radius > 0.0) || !std::isfinite(radius)) return "radius must be > 0 m";
+  if (!(chi2_threshold > 0.0)) return "chi2_threshold must be > 0";
+  return "";
+}
+
+std::string placeGateVerdict(const PlaceGateOptions& options, double chi2) {
+  if (chi2 <= options.chi2_threshold) return "";
+  char why[96];
+  std::snprintf(why, sizeof why, "place gate: too far apart for one place (statistic %.1f)", chi2);
+  return why;
+}
+
+std::string SlamOptions::validate() const {
+  std::string error = place_gate.validate();
+  if (!error.empty()) return "place_gate: " + error;
+  error = odometry.validate();
+  if (!error.empty()) return "odometry: " + error;
+  error = aligner.validate();
+  if (!error.empty()) return "aligner: " + error;
+  error = loops.validate();
+  if (!error.empty()) return "loops: " + error;
+  error = esdf.validate();
+  if (!error.empty()) return "esdf: " + error;
+  return "";
+}
+
+SlamPipeline::SlamPipeline(const ClassifierModel& model, const SlamOptions& options)
+    : options_(checked(options)),
+      front_(model, options.odometry, options.aligner, options.loops),
+      back_(options.esdf, options.gate_loops) {}
+
+SlamCounters SlamPipeline::counters() const {
+  const FrontEndCounters& f = front_.counters();
+  const BackEndCounters& b = back_.counters();
+  SlamCounters c;
+  c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
+  c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
+  c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
+  c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
+  c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
+  c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
+  c.calibration_pairs = f.calibration_pairs, c.classifier_threshold = front_.detector().threshold();
+  c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
+  c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
+  return c;
+}
+
+SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
+  FrontEndStep front = front_.addScan(scan, wheel_odometry);
+  SlamStepResult step;
+  step.skip_reason = std::move(front.skip_reason);
+  step.wheel_jump = std::move(front.wheel_jump);
+  step.time_jump = std::move(front.time_jump);
+  if (!front.keyframe) return step;
+  step.keyframe = true;
+  step.keyframe_index = front.keyframe_index;
+  step.odometry = front.odometry;
+
+  Keyframe keyframe;
+  keyframe.scan_index = scan_index;
+  keyframe.stamp = scan.stamp;
+  keyframe.scan = scan;
+  keyframe.has_wheel_odometry = wheel_odometry != nullptr;
+  if (wheel_odometry) keyframe.wheel_odometry = *wheel_odometry;
+  // The back end keeps every keyframe, so the indices stay the front end's.
+  step.back_end_note = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
+
+  CandidateCheck place_gate;
+  if (options_.place_gate.enabled) {
+    place_gate = [this](std::size_t from, std::size_t to) {
+      return placeGateVerdict(options_.place_gate, back_.placeChi2(from, to, options_.place_gate.radius));
+    };
+  }
+  step.loops = front_.detectLoops(step.keyframe_index, place_gate);
+
+  for (const LoopClosure& loop : step.loops.aligned) {
+    LoopRecord record;
+    if (loop.accepted) {
+      record = back_.addLoop(loop);
+    } else {
+      record.loop = loop;
+      record.reject_reason = loop.reject_reason;
+    }
+    step.records.push_back(record);
+    loops_.push_back(std::move(record));
+  }
+  return step;
+}
+
+SlamSession SlamPipeline::session() const {
+  std::vector<std::vector<double>> features;
+  for (std::size_t k = 0; k < front_.keyframeCount(); ++k) features.push_back(front_.detector().features(k));
+  return sessionOf(back_, features);
+}
+
+std::string SlamPipeline::restore(const SlamSession& session, bool continue_odometry) {
+  const std::string invalid = session.validate();
+  if (!invalid.empty()) return invalid;
+  // The back end first: it is the one that can still refuse (a graph that cannot be rebuilt).
+  std::string error = back_.restore(session);
+  if (!error.empty()) return error;
+  error = front_.restore(session.keyframes, session.features, continue_odometry);
+  if (!error.empty()) return error;
+  loops_ = session.loops;
+  return "";
+}
+
+}  // namespace llc

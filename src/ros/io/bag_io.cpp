@@ -1,0 +1,253 @@
+#include "laser_loop_closure/ros/io/bag_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/message_traits.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
+#include "laser_loop_closure/ros/io/tf_bridge.hpp"
+
+namespace llc_ros {
+namespace {
+
+/// Poses at times, for interpolation at a scan's stamp.
+struct PoseTrack {
+  std::vector<std::pair<double, llc::Pose2>> samples;  ///< (stamp, pose), stamps increasing
+
+  void add(double stamp, const llc::Pose2& pose) {
+    if (samples.empty() || stamp > samples.back().first) samples.emplace_back(stamp, pose);
+  }
+  /// Linear in position, shortest arc in heading; held at the ends.
+  llc::Pose2 at(double stamp) const {
+    auto after = std::lower_bound(samples.begin(), samples.end(), stamp,
+                                  [](const std::pair<double, llc::Pose2>& s, double t) { return s.first < t; });
+    if (after == samples.begin()) return samples.front().second;
+    if (after == samples.end()) return samples.back().second;
+    const auto& [t1, b] = *after;
+    const auto& [t0, a] = *(after - 1);
+    const double f = (stamp - t0) / (t1 - t0);
+    return {a.x + f * (b.x - a.x), a.y + f * (b.y - a.y),
+            llc::normalizeAngle(a.theta + f * llc::normalizeAngle(b.theta - a.theta))};
+  }
+};
+
+/// The static transforms of the bag (/tf_static), for MountCache.
+void loadStaticTransforms(rosbag::Bag& bag, tf2::BufferCore* buffer) {
+  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf_static"}));
+  for (const rosbag::MessageInstance& m : view) {
+    const tf2_msgs::TFMessage::ConstPtr tf = m.instantiate<tf2_msgs::TFMessage>();
+    if (!tf) continue;
+    for (geometry_msgs::TransformStamped t : tf->transforms) {
+      // tf1's leading slashes, as tf2 names the frames (tf2 refuses them otherwise).
+      t.header.frame_id = tfFrame(t.header.frame_id), t.child_frame_id = tfFrame(t.child_frame_id);
+      buffer->setTransform(t, "bag", true);
+    }
+  }
+}
+
+}  // namespace
+
+llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions& options, BagReadReport* report) {
+  BagReadReport local;
+  BagReadReport& r = report ? *report : local;
+  r = BagReadReport{};
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    throw BagError(path + ": not a readable bag (" + e.what() + ")");
+  }
+  try {
+    tf2::BufferCore static_transforms;
+    loadStaticTransforms(bag, &static_transforms);
+    const BagTopics& topics = options.topics;
+    std::vector<sensor_msgs::LaserScan::ConstPtr> fronts, backs;
+    PoseTrack odometry, truth;
+    std::string base = options.base_frame;
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{topics.front, topics.back, topics.odom, topics.truth}));
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == topics.front || topic == topics.back) {
+        const sensor_msgs::LaserScan::ConstPtr scan = m.instantiate<sensor_msgs::LaserScan>();
+        if (!scan) throw BagError(path + ": " + topic + " does not hold sensor_msgs/LaserScan but " + m.getDataType());
+        (topic == topics.front ? fronts : backs).push_back(scan);
+      } else {
+        const nav_msgs::Odometry::ConstPtr odom = m.instantiate<nav_msgs::Odometry>();
+        if (!odom) throw BagError(path + ": " + topic + " does not hold nav_msgs/Odometry but " + m.getDataType());
+        if (topic == topics.odom) {
+          if (base.empty() && !odom->child_frame_id.empty()) base = odom->child_frame_id;
+          odometry.add(odom->header.stamp.toSec(), toPose2(odom->pose.pose));
+          ++r.odom_messages;
+        } else {
+          truth.add(odom->header.stamp.toSec(), toPose2(odom->pose.pose));
+          ++r.truth_messages;
+        }
+      }
+    }
+    if (base.empty()) base = "base_link";
+    // Every static transform is loaded: a frame not mounted now never will be (one lookup).
+    MountCache mountings(static_transforms, base, FallbackMount{options.fallback_mount, 1});
+    auto mountOf = [&](const sensor_msgs::LaserScan& scan) {
+      ScannerMount mount;
+      std::string error;
+      bool fell_back = false;
+      if (!mountings.lookup(scan.header.frame_id, &mount, &error, &fell_back)) throw BagError(path + ": " + error);
+      if (fell_back) r.fallback_frames.push_back(tfFrame(scan.header.frame_id));
+      return mount;
+    };
+    r.front_messages = fronts.size();
+    r.back_messages = backs.size();
+    if (fronts.empty()) throw BagError(path + ": no sensor_msgs/LaserScan on the front topic " + topics.front);
+    std::sort(backs.begin(), backs.end(), [](const auto& a, const auto& b) { return a->header.stamp < b->header.stamp; });
+    r.truth_from_odometry = truth.samples.empty();
+
+    llc::ScanSequence sequence;
+    sequence.has_odometry = !odometry.samples.empty();
+    sequence.source = path;
+    double last_stamp = -std::numeric_limits<double>::infinity();
+    auto skip = [&](const std::string& why) {
+      ++r.skipped_scans;
+      if (r.first_problem.empty()) r.first_problem = why;
+    };
+    for (const auto& front : fronts) {
+      const double stamp = front->header.stamp.toSec();
+      if (!(stamp > last_stamp)) {
+        skip("a front scan at " + std::to_string(stamp) + " s is not newer than the one before it");
+        continue;
+      }
+      llc::LoggedScan logged;
+      std::string error;
+      if (!toBaseScan(*front, mountOf(*front), &logged.scan, &error)) {
+        skip("front scan at " + std::to_string(stamp) + " s: " + error);
+        continue;
+      }
+      last_stamp = stamp;
+      logged.stamp = stamp;
+      // The back scan nearest in time, if near enough.
+      auto after = std::lower_bound(backs.begin(), backs.end(), front->header.stamp,
+                                    [](const auto& b, const ros::Time& t) { return b->header.stamp < t; });
+      const sensor_msgs::LaserScan* best = nullptr;
+      for (auto it : {after, after == backs.begin() ? backs.end() : after - 1}) {
+        if (it == backs.end()) continue;
+        const double gap = std::abs((*it)->header.stamp.toSec() - stamp);
+        if (gap <= options.max_merge_gap && (!best || gap < std::abs(best->header.stamp.toSec() - stamp))) best = it->get();
+      }
+      llc::Scan back;
+      if (best && toBaseScan(*best, mountOf(*best), &back, &error)) {
+        logged.scan = llc::mergeScans(logged.scan, back);
+        ++sequence.merged_count;
+      }
+      logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
+      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : odometry.at(stamp);
+      logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
+      sequence.scans.push_back(std::move(logged));
+    }
+    return sequence;
+  } catch (const rosbag::BagException& e) {
+    throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");
+  }
+}
+
+namespace {
+
+/// A connection header that marks a topic latched, as `rosbag record` stores /tf_static.
+template <typename T>
+boost::shared_ptr<ros::M_string> latchedConnection() {
+  auto header = boost::make_shared<ros::M_string>();
+  (*header)["type"] = ros::message_traits::datatype<T>();
+  (*header)["md5sum"] = ros::message_traits::md5sum<T>();
+  (*header)["message_definition"] = ros::message_traits::definition<T>();
+  (*header)["callerid"] = "/llc_simulate";
+  (*header)["latching"] = "1";
+  return header;
+}
+
+sensor_msgs::LaserScan scanMessage(const llc::SimScannerOptions& scanner, const std::vector<double>& ranges,
+                                   const std::string& frame, const ros::Time& stamp, double rate_hz) {
+  sensor_msgs::LaserScan msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = frame;
+  msg.angle_min = float(llc::simBeamAngle(scanner, 0));
+  msg.angle_increment = float(llc::simBeamAngle(scanner, 1) - llc::simBeamAngle(scanner, 0));
+  msg.angle_max = float(llc::simBeamAngle(scanner, scanner.beams - 1));
+  msg.time_increment = 0.0f;  // the simulator takes every beam at the same instant
+  msg.scan_time = float(1.0 / rate_hz);
+  msg.range_min = 0.05f;
+  msg.range_max = float(scanner.max_range);
+  msg.ranges.assign(ranges.begin(), ranges.end());  // +inf stays +inf: no return (REP-117)
+  return msg;
+}
+
+nav_msgs::Odometry odometryMessage(const llc::Pose2& pose, const llc::Pose2& previous, double dt, const std::string& frame,
+                                   const ros::Time& stamp) {
+  nav_msgs::Odometry msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = frame;
+  msg.child_frame_id = "base_link";
+  msg.pose.pose = toPoseMsg(pose);
+  if (dt > 0.0) {  // velocities in base_link from the step since the previous frame
+    const llc::Pose2 step = llc::between(previous, pose);
+    msg.twist.twist.linear.x = step.x / dt;
+    msg.twist.twist.linear.y = step.y / dt;
+    msg.twist.twist.angular.z = step.theta / dt;
+  }
+  return msg;
+}
+
+}  // namespace
+
+void writeSimBag(const llc::SimDrive& drive, const std::string& path) {
+  try {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    const ros::Time start(kSimBagEpoch + (drive.frames.empty() ? 0.0 : drive.frames.front().stamp));
+    tf2_msgs::TFMessage mounts;
+    std::vector<std::pair<const llc::SimScannerOptions*, std::string>> scanners{{&drive.front, "laser_front"}};
+    if (drive.options.back_scanner) scanners.emplace_back(&drive.back, "laser_back");
+    for (const auto& [scanner, frame] : scanners) {
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = start;
+      t.header.frame_id = "base_link";
+      t.child_frame_id = frame;
+      t.transform = toTransformMsg(scanner->mount);
+      mounts.transforms.push_back(t);
+    }
+    bag.write("/tf_static", start, mounts, latchedConnection<tf2_msgs::TFMessage>());
+    for (std::size_t k = 0; k < drive.frames.size(); ++k) {
+      const llc::SimFrame& frame = drive.frames[k];
+      const llc::SimFrame& previous = drive.frames[k > 0 ? k - 1 : 0];
+      const ros::Time stamp(kSimBagEpoch + frame.stamp);
+      const double dt = frame.stamp - previous.stamp;
+      const nav_msgs::Odometry odom = odometryMessage(frame.odometry, previous.odometry, dt, "odom", stamp);
+      bag.write("/odom", stamp, odom);
+      tf2_msgs::TFMessage tf;
+      geometry_msgs::TransformStamped t;
+      t.header = odom.header;
+      t.child_frame_id = odom.child_frame_id;
+      t.transform = toTransformMsg(frame.odometry);
+      tf.transforms.push_back(t);
+      bag.write("/tf", stamp, tf);
+      bag.write("/ground_truth", stamp, odometryMessage(frame.truth, previous.truth, dt, "world", stamp));
+      bag.write("/scan_front", stamp, scanMessage(drive.front, frame.front, "laser_front", stamp, drive.options.rate_hz));
+      if (drive.options.back_scanner)
+        bag.write("/scan_back", stamp, scanMessage(drive.back, frame.back, "laser_back", stamp, drive.options.rate_hz));
+    }
+    bag.close();
+  } catch (const rosbag::BagException& e) {
+    throw BagError(path + ": cannot write the bag (" + e.what() + ")");
+  }
+}
+
+}  // namespace llc_ros

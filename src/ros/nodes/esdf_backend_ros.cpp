@@ -1,0 +1,450 @@
+#include "laser_loop_closure/ros/nodes/esdf_backend_ros.hpp"
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include "laser_loop_closure/Session.h"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/ros/io/map_publishing.hpp"
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
+#include "laser_loop_closure/ros/io/parameters.hpp"
+#include "laser_loop_closure/ros/io/tf_bridge.hpp"
+
+namespace llc_ros {
+
+std::string EsdfBackendNodeOptions::validate() const {
+  if (map_frame.empty() || odom_frame.empty()) return "map_frame and odom_frame must not be empty";
+  if (map_frame == odom_frame) return "map_frame and odom_frame must differ";
+  if (!(transform_tolerance >= 0.0)) return "transform_tolerance must not be negative";
+  if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
+  if (!(map_cpu_share > 0.0 && map_cpu_share <= 1.0)) return "map_cpu_share must be in (0, 1]";
+  if (session_part_keyframes < 1) return "session_part_keyframes must be at least 1";
+  if (!(cloud_voxel_size >= 0.0)) return "cloud_voxel_size must not be negative";
+  if (max_pending_loops < 0 || queue_size < 1) return "max_pending_loops >= 0 and queue_size >= 1";
+  if (session_path.empty()) return "session_path must not be empty";
+  return "";
+}
+
+EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) : diagnostics_(nh, private_nh) {
+  loadNodeParameters(
+      private_nh, "esdf_backend", &options_,
+      [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &system_);
+  options_.map_frame = tfFrame(options_.map_frame);  // tf2 refuses tf1's leading slash
+  options_.odom_frame = tfFrame(options_.odom_frame);
+  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
+
+  path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
+  pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+  map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
+  marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
+  record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
+  keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
+  loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
+  // Not latched: a session comes in parts (a latch would keep only the last); the queue holds
+  // every part of a long one for a subscriber over TCP.
+  session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1000, false);
+  ros::NodeHandle service_nh(private_nh);
+  service_nh.setCallbackQueue(&service_queue_);
+  save_map_srv_ = service_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
+  save_session_srv_ = service_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
+  load_session_srv_ = service_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
+  ros::NodeHandle place_nh(private_nh);
+  place_nh.setCallbackQueue(&place_queue_);
+  place_check_srv_ = place_nh.advertiseService("place_check", &EsdfBackendRos::placeCheck, this);
+  place_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &place_queue_);
+  place_spinner_->start();
+  if (options_.publish_tf) {
+    ros::NodeHandle transform_nh(nh);
+    transform_nh.setCallbackQueue(&transform_queue_);
+    tf_timer_ = transform_nh.createTimer(ros::Duration(options_.tf_publish_period),
+                                         [this](const ros::TimerEvent&) { publishTransform(); });
+    transform_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &transform_queue_);
+    transform_spinner_->start();
+  }
+  // The map is rebuilt on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
+  // held every keyframe behind it, and the front end's place checks timed out meanwhile.
+  ros::NodeHandle map_nh(nh);
+  map_nh.setCallbackQueue(&map_queue_);
+  map_timer_ = map_nh.createWallTimer(ros::WallDuration(options_.map_publish_period), [this](const ros::WallTimerEvent&) { publishMap(); });
+  map_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &map_queue_);
+  map_spinner_->start();
+  diagnostics_.setHardwareID("none");
+  diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
+}
+
+EsdfBackendRos::~EsdfBackendRos() {
+  // The transform, service, place-check and map threads read members: stopped before any of them goes.
+  if (transform_spinner_) transform_spinner_->stop();
+  if (service_spinner_) service_spinner_->stop();
+  if (place_spinner_) place_spinner_->stop();
+  if (map_spinner_) map_spinner_->stop();
+  tf_timer_.stop();
+  map_timer_.stop();
+  diagnostics_timer_.stop();
+}
+
+std_msgs::Header EsdfBackendRos::mapHeader() const {
+  std_msgs::Header header;
+  header.frame_id = options_.map_frame;
+  header.stamp = back_->keyframes().empty() ? ros::Time::now() : ros::Time().fromSec(back_->keyframes().back().stamp);
+  return header;
+}
+
+void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
+  std::lock_guard<std::mutex> lock(mutex_);
+  held_keyframes_.push_back(msg);
+  takeHeldKeyframes();
+}
+
+void EsdfBackendRos::takeHeldKeyframes() {
+  // Keyframes and loops come on two topics, whose order ROS does not keep; llc slam applies
+  // the loops of keyframe k before it adds keyframe k + 1, and so does this.
+  while (!held_keyframes_.empty()) {
+    const laser_loop_closure::Keyframe::ConstPtr next = held_keyframes_.front();
+    if (next->loops_before > loops_taken_) {
+      if (held_keyframes_.size() <= kMostHeldKeyframes) break;
+      ++loop_order_resyncs_;
+      ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe %u waited for %llu loop messages that did not come: taken anyway",
+                        next->index, static_cast<unsigned long long>(next->loops_before - loops_taken_));
+      loops_taken_ = next->loops_before;
+    }
+    held_keyframes_.pop_front();
+    takeKeyframe(*next);
+  }
+  state_changed_.notify_all();
+}
+
+void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
+  const std::size_t expected = back_->keyframes().size();
+  std::string error;
+  llc::Keyframe keyframe;
+  llc::Pose2 motion;
+  Eigen::Matrix3d covariance;
+  if (msg.index != expected) {
+    error = "keyframe " + std::to_string(msg.index) + " arrived, " + std::to_string(expected) + " expected";
+  } else if (fromKeyframeMsg(msg, &keyframe, &motion, &covariance, &error)) {
+    // Kept whatever its odometry: a note says what was unusable and replaced.
+    const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
+    if (!note.empty()) {
+      last_problem_ = "keyframe " + std::to_string(msg.index) + ": " + note;
+      ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
+    }
+    features_.push_back(msg.features);
+    map_scans_.push_back(std::make_shared<const llc::Scan>(back_->keyframes().back().scan));
+  }
+  if (!error.empty()) {
+    ++refused_keyframes_;
+    ++refused_in_a_row_;
+    last_problem_ = error;
+    ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe refused: %s", error.c_str());
+    return;
+  }
+  refused_in_a_row_ = 0;
+  // Loops that waited for this keyframe.
+  const std::size_t size = back_->keyframes().size();
+  for (auto it = pending_loops_.begin(); it != pending_loops_.end();) {
+    if (it->from_keyframe < size && it->to_keyframe < size) {
+      applyLoop(*it);
+      it = pending_loops_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  map_dirty_ = true;
+  publishPoses();
+}
+
+void EsdfBackendRos::onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
+  const auto timed = callback_timing_.measure();
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++loops_taken_;
+  takeLoop(msg);
+  takeHeldKeyframes();  // one may have waited for this loop
+}
+
+void EsdfBackendRos::takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg) {
+  if (!msg->accepted) {
+    llc::LoopRecord record;
+    record.loop = fromLoopClosureMsg(*msg);
+    record.reject_reason = msg->reject_reason;
+    refused_by_alignment_.push_back(record);
+    return;
+  }
+  const std::size_t size = back_->keyframes().size();
+  if (msg->from_keyframe < size && msg->to_keyframe < size) {
+    applyLoop(*msg);
+    publishPoses();
+    return;
+  }
+  if (pending_loops_.size() >= std::size_t(options_.max_pending_loops)) {
+    ++dropped_loops_;
+    last_problem_ = "a loop waited for keyframes that never came";
+    ROS_WARN_THROTTLE(5.0, "esdf_backend: too many loops wait for their keyframes; the oldest is dropped");
+    pending_loops_.pop_front();
+  }
+  pending_loops_.push_back(*msg);
+}
+
+bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request,
+                                laser_loop_closure::PlaceCheck::Response& response) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  ++place_checks_;
+  // Wall time: the front end waits on this answer, and the clock may stand still.
+  const bool reached = state_changed_.wait_for(lock, std::chrono::seconds(2), [&] {
+    return back_->keyframes().size() >= request.keyframes && loops_taken_ >= request.loops;
+  });
+  if (!reached) {
+    ++place_checks_unanswered_;
+    response.message = "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
+                       std::to_string(loops_taken_) + " loop messages, not " + std::to_string(request.keyframes) +
+                       " and " + std::to_string(request.loops) + ", after 2 s";
+    return true;
+  }
+  try {
+    response.chi2 = back_->placeChi2(request.from_keyframe, request.to_keyframe, request.radius);
+    response.answered = true;
+  } catch (const std::exception& e) {
+    ++place_checks_unanswered_;
+    response.message = e.what();
+  }
+  return true;
+}
+
+void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
+  const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg));
+  if (!record.applied) ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
+  record_pub_.publish(toLoopClosureMsg(record, msg.header));
+  map_dirty_ = true;
+}
+
+void EsdfBackendRos::publishPoses() {
+  {
+    std::lock_guard<std::mutex> lock(transform_mutex_);
+    has_map_to_odom_ = !back_->keyframes().empty() && back_->keyframes().back().has_wheel_odometry;
+    if (has_map_to_odom_) map_to_odom_ = back_->mapToOdom();
+  }
+  if (back_->keyframes().empty()) return;
+  const std_msgs::Header header = mapHeader();
+  path_pub_.publish(toPathMsg(back_->keyframes(), back_->poses(), header));
+  geometry_msgs::PoseWithCovarianceStamped pose;
+  pose.header = header;
+  pose.pose.pose = toPoseMsg(back_->poses().back());
+  const Eigen::Matrix3d c = back_->latestCovariance();
+  const int index[3] = {0, 1, 5};  // x, y, yaw in the 6x6 (x, y, z, roll, pitch, yaw)
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col) pose.pose.covariance[std::size_t(6 * index[r] + index[col])] = c(r, col);
+  pose_pub_.publish(pose);
+}
+
+void EsdfBackendRos::publishMap() {
+  // A snapshot under the lock (poses, loops and shared scans: cheap), the rebuild outside it:
+  // keyframes, loops and place checks go on meanwhile (a 10 km map takes seconds).
+  std::lock_guard<std::mutex> building(map_building_);
+  // Throttled by its own cost (map_cpu_share): a large map is rebuilt less often; it stays dirty.
+  if (std::chrono::steady_clock::now() < next_map_allowed_) return;
+  std::vector<llc::Pose2> poses;
+  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<llc::LoopRecord> loops;
+  std_msgs::Header header;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!map_dirty_ || back_->keyframes().empty()) return;
+    map_dirty_ = false;
+    header = mapHeader();
+    poses = back_->poses();
+    scans_held = map_scans_;
+    loops = refused_by_alignment_;
+    loops.insert(loops.end(), back_->loops().begin(), back_->loops().end());
+  }
+  const auto start = std::chrono::steady_clock::now();
+  marker_pub_.publish(graphMarkers(poses, loops, header));
+  std::vector<const llc::Scan*> scans;
+  for (const auto& scan : scans_held) scans.push_back(scan.get());
+  std::string problem;
+  try {
+    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, poses, system_.map), header));
+  } catch (const std::exception& e) {
+    problem = std::string("map: ") + e.what();
+    ROS_WARN_THROTTLE(30.0, "esdf_backend: map not rebuilt: %s", e.what());
+  }
+  // The cloud of every return costs as much as the grid: built only for someone listening.
+  if (cloud_pub_.getNumSubscribers() > 0)
+    cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
+  const double took = llc::secondsSince(start);
+  next_map_allowed_ = std::chrono::steady_clock::now() +
+                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(took / options_.map_cpu_share - took));
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_map_seconds_ = took;
+  if (!problem.empty()) last_problem_ = problem;
+}
+
+void EsdfBackendRos::publishTransform() {
+  llc::Pose2 map_to_odom;
+  {
+    std::lock_guard<std::mutex> lock(transform_mutex_);
+    if (!has_map_to_odom_) return;
+    map_to_odom = map_to_odom_;
+  }
+  const ros::Time now = ros::Time::now();
+  // Simulated time has not started, or has not moved since the last broadcast (tf would
+  // warn about a repeated stamp).
+  if (now.isZero() || now == last_tf_time_) return;
+  last_tf_time_ = now;
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = options_.map_frame;
+  t.child_frame_id = options_.odom_frame;
+  t.header.stamp = now + ros::Duration(options_.transform_tolerance);
+  t.transform = toTransformMsg(map_to_odom);
+  tf_broadcaster_.sendTransform(t);
+}
+
+bool EsdfBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
+  const std::string stem = request.path.empty() ? options_.map_path : request.path;
+  std::vector<llc::Pose2> poses;
+  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);  // a snapshot; the map is built outside the lock
+    poses = back_->poses();
+    scans_held = map_scans_;
+  }
+  if (scans_held.empty()) {
+    response.success = false;
+    response.message = "no keyframe yet: nothing to save";
+    return true;
+  }
+  std::vector<const llc::Scan*> scans;
+  for (const auto& scan : scans_held) scans.push_back(scan.get());
+  try {
+    llc::saveMapFiles(llc::buildOccupancyGrid(scans, poses, system_.map), stem, system_.map);
+    response.success = true;
+    response.message = "wrote " + stem + ".pgm and " + stem + ".yaml";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  ROS_INFO("esdf_backend: save_map: %s", response.message.c_str());
+  return true;
+}
+
+bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& request,
+                                 laser_loop_closure::SaveSession::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string path = request.path.empty() ? options_.session_path : request.path;
+  try {
+    llc::saveSession(llc::sessionOf(*back_, features_), path);
+    response.success = true;
+    response.keyframes = std::uint32_t(back_->keyframes().size());
+    response.loops = std::uint32_t(back_->loops().size());
+    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes, " +
+                       std::to_string(response.loops) + " loops)";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  ROS_INFO("esdf_backend: save_session: %s", response.message.c_str());
+  return true;
+}
+
+bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& request,
+                                 laser_loop_closure::LoadSession::Response& response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string path = request.path.empty() ? options_.session_path : request.path;
+  llc::SlamSession session;
+  try {
+    session = llc::loadSession(path);
+  } catch (const llc::SessionError& e) {
+    response.message = e.what();
+  }
+  if (response.message.empty()) {
+    const std::string error = back_->restore(session);
+    if (!error.empty()) response.message = path + ": not restored: " + error;
+  }
+  if (!response.message.empty()) {
+    response.success = false;
+    ROS_WARN("esdf_backend: load_session: %s", response.message.c_str());
+    return true;
+  }
+  features_ = session.features;
+  map_scans_.clear();
+  for (const llc::Keyframe& k : back_->keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
+  pending_loops_.clear();
+  refused_by_alignment_.clear();
+  refused_keyframes_ = 0;
+  refused_in_a_row_ = 0;
+  map_dirty_ = true;
+  // The front end restores its keyframes from these parts, in order (one message of a long
+  // session would be tens of MB).
+  ++session_loads_;
+  const std::size_t n = session.keyframes.size(), per_part = std::size_t(options_.session_part_keyframes);
+  const std::size_t parts = std::max<std::size_t>(1, (n + per_part - 1) / per_part);
+  for (std::size_t part = 0; part < parts; ++part) {
+    laser_loop_closure::Session msg;
+    msg.header.stamp = ros::Time::now();
+    msg.load = session_loads_;
+    msg.part = std::uint32_t(part);
+    msg.parts = std::uint32_t(parts);
+    msg.first_keyframe = std::uint32_t(part * per_part);
+    msg.total_keyframes = std::uint32_t(n);
+    msg.path = path;
+    msg.continue_odometry = request.continue_odometry;
+    for (std::size_t k = part * per_part; k < std::min(n, (part + 1) * per_part); ++k) {
+      msg.keyframes.push_back(toKeyframeMsg(session.keyframes[k], k, llc::OdometryStep{}, ""));
+      msg.keyframes.back().features = session.features[k];
+    }
+    session_pub_.publish(msg);
+  }
+  publishPoses();
+  response.success = true;
+  response.keyframes = std::uint32_t(session.keyframes.size());
+  response.loops = std::uint32_t(session.loops.size());
+  response.message = "restored " + std::to_string(response.keyframes) + " keyframes and " +
+                     std::to_string(response.loops) + " loops from " + path;
+  ROS_INFO("esdf_backend: load_session: %s", response.message.c_str());
+  return true;
+}
+
+void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const llc::BackEndCounters& c = back_->counters();
+  if (c.keyframes == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet");
+  else if (refused_in_a_row_ > 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "keyframes refused, the graph stopped: " + last_problem_);
+  else if (refused_keyframes_ > 0)  // e.g. while the front end took in a loaded session: mapping went on
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   std::to_string(refused_keyframes_) + " keyframes refused, mapping goes on; the last: " + last_problem_);
+  else
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "mapping");
+  status.add("keyframes", c.keyframes);
+  status.add("refused keyframes", refused_keyframes_);
+  status.add("keyframes refused since the last one taken", refused_in_a_row_);
+  status.add("keyframes loosely linked (odometry unusable)", c.loosely_linked_keyframes);
+  status.add("loops applied", c.loops_accepted);
+  status.add("loops refused by the gate", c.refused_by_gate);
+  status.add("malformed loops", c.refused_loops);
+  status.add("candidates refused by alignment", refused_by_alignment_.size());
+  status.add("place checks answered for the front end", place_checks_ - place_checks_unanswered_);
+  status.add("place checks unanswered", place_checks_unanswered_);
+  status.add("keyframes held for their loops", held_keyframes_.size());
+  status.add("keyframes taken without all their loops (loop messages lost)", loop_order_resyncs_);
+  status.add("loops waiting for keyframes", pending_loops_.size());
+  status.add("loops dropped", dropped_loops_);
+  status.add("seconds in the filter", c.seconds);
+  status.add("seconds of the last map rebuild", last_map_seconds_);
+  status.add("sessions restored (~load_session)", session_loads_);
+  callback_timing_.addTo(status, "keyframe and loop callbacks");
+  status.add("last problem", last_problem_);
+}
+
+}  // namespace llc_ros

@@ -1,0 +1,382 @@
+// Scan-matching odometry without wheels through the front end: the motion model carries it
+// through a stretch that scan matching cannot measure.
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "laser_loop_closure/core/slam/odometry_prior_gate.hpp"
+#include "laser_loop_closure/core/slam/slam_front_end.hpp"
+#include "../test_util.hpp"
+
+namespace {
+
+struct Wall {
+  double ax, ay, bx, by;
+};
+
+/// Range along the ray from (x, y) at `angle` to the nearest wall within 30 m, else +inf.
+double castRay(const std::vector<Wall>& walls, double x, double y, double angle) {
+  const double dx = std::cos(angle), dy = std::sin(angle);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const Wall& w : walls) {
+    const double ex = w.bx - w.ax, ey = w.by - w.ay;
+    const double denominator = dx * ey - dy * ex;
+    if (std::abs(denominator) < 1e-12) continue;
+    const double t = ((w.ax - x) * ey - (w.ay - y) * ex) / denominator;  // along the ray
+    const double s = ((w.ax - x) * dy - (w.ay - y) * dx) / denominator;  // along the wall
+    if (t > 0.0 && s >= 0.0 && s <= 1.0) nearest = std::min(nearest, t);
+  }
+  return nearest <= 30.0 ? nearest : std::numeric_limits<double>::infinity();
+}
+
+/// A corridor 6 m wide along x: niches every 3 m in its first 20 m, then bare walls for 200 m.
+std::vector<Wall> corridor() {
+  std::vector<Wall> walls = {{-10, -3, 220, -3}, {-10, 3, 220, 3}, {-10, -3, -10, 3}};
+  for (double x = 0.0; x <= 20.0; x += 3.0) {
+    walls.push_back({x, 3, x, 2.2});
+    walls.push_back({x + 0.7, -3, x + 0.7, -2.4});
+  }
+  return walls;
+}
+
+struct DriveResult {
+  std::size_t keyframes = 0;
+  double travelled = 0.0;  ///< x of the newest keyframe by the composed keyframe motions
+};
+
+/// The scan 360 beams see at x along the corridor (y wavers by 0.1 m).
+llc::Scan corridorScan(const std::vector<Wall>& walls, int k) {
+  const double x = 0.7 * k, y = 0.1 * std::sin(0.05 * k);
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, y, scan.bearings[i]);
+  return scan;
+}
+
+/// Drives along the corridor at 7 m/s, scanning 360 beams at 10 Hz, with no wheel odometry.
+DriveResult drive(bool predict_motion, double seconds) {
+  llc::ScanOdometryOptions odometry;
+  odometry.predict_motion = predict_motion;
+  llc::SlamFrontEnd front(llc_test::defaultModel(), odometry, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+  const std::vector<Wall> walls = corridor();
+  DriveResult run;
+  llc::Pose2 newest;
+  for (int k = 0; 0.1 * k <= seconds; ++k) {
+    llc::Scan scan = corridorScan(walls, k);
+    scan.stamp = 100.0 + 0.1 * k;
+    const llc::FrontEndStep step = front.addScan(scan, nullptr);
+    EXPECT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    if (!step.keyframe) continue;
+    if (run.keyframes++ > 0) newest = llc::compose(newest, step.odometry.motion);
+  }
+  run.travelled = newest.x;
+  return run;
+}
+
+TEST(ScanOdometry, WithoutWheelsTheMotionModelCarriesKeyframesThroughABareCorridor) {
+  // 20 s: 140 m, of which 120 m between bare walls, where only the velocity measured in the
+  // first 20 m tells how far the robot went.
+  const DriveResult predicted = drive(true, 20.0);
+  EXPECT_GE(predicted.keyframes, 90u) << "a keyframe every 1.4 m (two scans)";
+  EXPECT_NEAR(predicted.travelled, 140.0, 7.0);  // 134.9 m when written
+  // Without a motion model the odometry stands still where matching loses the corridor's
+  // length, and then no scan is ever far enough from the keyframe to make a new one.
+  const DriveResult standing = drive(false, 20.0);
+  // test_core --gtest_output=xml:F.xml writes these.
+  RecordProperty("keyframes_with_model", int(predicted.keyframes));
+  RecordProperty("travelled_with_model_m", std::to_string(predicted.travelled));
+  RecordProperty("keyframes_without_model", int(standing.keyframes));
+  RecordProperty("travelled_without_model_m", std::to_string(standing.travelled));
+  EXPECT_LT(standing.keyframes, 40u);
+  EXPECT_LT(standing.travelled, 60.0);  // 17 keyframes, 22.4 m when written
+}
+
+TEST(ScanOdometry, OddStampsAreNotPredictedFromAndNothingBreaks) {
+  // Among the niches (ICP well posed): a repeated stamp, a scan earlier than the one before
+  // (but after the newest keyframe), and a 5 s gap (beyond max_prediction_gap). None is used
+  // to extrapolate; every motion stays finite and keyframes go on.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+  const std::vector<Wall> walls = corridor();
+  const std::vector<double> stamps = {0.0, 0.1, 0.2, 0.3, 0.3, 0.35, 0.34, 5.34, 5.44, 5.54, 5.64, 5.74};
+  std::size_t keyframes = 0;
+  for (std::size_t k = 0; k < stamps.size(); ++k) {
+    llc::Scan scan = corridorScan(walls, int(k));
+    scan.stamp = 100.0 + stamps[k];
+    const llc::FrontEndStep step = front.addScan(scan, nullptr);
+    if (!step.skip_reason.empty()) {
+      EXPECT_EQ(step.skip_reason, "time went backwards") << "scan " << k;
+      continue;
+    }
+    const llc::Pose2& m = step.odometry.motion;
+    EXPECT_TRUE(std::isfinite(m.x) && std::isfinite(m.y) && std::isfinite(m.theta)) << "scan " << k;
+    keyframes += step.keyframe;
+  }
+  EXPECT_GE(keyframes, 5u) << "0.7 m a scan: a keyframe every second scan";
+}
+
+TEST(ScanOdometry, PredictionOptionsAreValidated) {
+  llc::ScanOdometryOptions options;
+  for (const double bad : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    options.max_prediction_gap = bad;
+    EXPECT_NE(options.validate().find("max_prediction_gap"), std::string::npos) << bad;
+  }
+  options.max_prediction_gap = 0.0;  // allowed: never predict
+  EXPECT_EQ(options.validate(), "");
+}
+
+}  // namespace
+
+namespace {
+
+TEST(ScanOdometry, TheFrontEndFeedsTheCalibrationPairsItsOwnOdometryPutsSurelyApart) {
+  // 140 m of straight corridor, a keyframe every 1.4 m: keyframes 15+ m apart and at most 50 m
+  // driven apart are surely two places by the front end's own odometry.
+  for (const bool enabled : {true, false}) {
+    llc::LoopDetectorOptions loops;
+    loops.calibration.enabled = enabled;
+    loops.calibration.min_pairs = 200;
+    llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, loops);
+    const std::vector<Wall> walls = corridor();
+    for (int k = 0; k <= 200; ++k) {
+      llc::Scan scan = corridorScan(walls, k);
+      scan.stamp = 100.0 + 0.1 * k;
+      const llc::FrontEndStep step = front.addScan(scan, nullptr);
+      if (step.keyframe) front.detectLoops(step.keyframe_index);
+    }
+    const std::size_t pairs = front.counters().calibration_pairs;
+    if (!enabled) {
+      EXPECT_EQ(pairs, 0u);
+      EXPECT_DOUBLE_EQ(front.detector().threshold(), llc_test::defaultModel().classifier.thresholdK());
+      continue;
+    }
+    EXPECT_GT(pairs, 200u);
+    EXPECT_LE(pairs, loops.calibration.pairs_per_keyframe * front.keyframeCount());
+    EXPECT_EQ(front.detector().calibrator().seen(), pairs);
+    EXPECT_TRUE(front.detector().calibrator().calibrated());
+  }
+}
+
+/// A 12 x 8 m room with a pillar and two niches, as 360 beams see it from `pose`.
+llc::Scan roomScan(const llc::Pose2& pose) {
+  const std::vector<Wall> walls = {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},   {-6, 4, -6, -4},
+                                   {1, 1, 2, 1},    {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1},
+                                   {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i)
+    scan.ranges[i] = castRay(walls, pose.x, pose.y, pose.theta + scan.bearings[i]);
+  return scan;
+}
+
+TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
+  const llc::Pose2 truth{1.0, 0.2, 0.1};
+  const llc::ScanAligner aligner;
+  const auto first = aligner.prepare(roomScan({}));
+  const auto second = aligner.prepare(roomScan(truth));
+  const llc::ScanOdometry odometry;  // max_wheel_disagreement 9 under the wheel covariance
+  // chi2 of a guess off the truth (where ICP lands) under the wheel covariance of that guess:
+  // sigma 5 x (0.02 + 0.01 x distance) m, so about 3.3 for 0.3 m and 13 for 0.6 m.
+  const auto chi2 = [&](const llc::Pose2& guess) {
+    const Eigen::Vector3d d(truth.x - guess.x, truth.y - guess.y, truth.theta - guess.theta);
+    return d.dot(odometry.stepCovariance(guess, false).inverse() * d);
+  };
+  const llc::Pose2 near_guess = llc::compose(truth, {0.3, 0.0, 0.0});
+  const llc::OdometryStep near = odometry.match(*first, *second, near_guess, true);
+  ASSERT_TRUE(near.matched) << near.reject_reason;
+  EXPECT_FALSE(near.disputed);
+  EXPECT_NEAR(near.wheel_disagreement, chi2(near_guess), 0.1 * chi2(near_guess));
+  EXPECT_TRUE(near.covariance.isApprox(odometry.stepCovariance(near.motion, true)));
+
+  const llc::Pose2 far_guess = llc::compose(truth, {0.6, 0.0, 0.0});
+  ASSERT_GT(chi2(far_guess), 10.0);
+  const llc::OdometryStep far = odometry.match(*first, *second, far_guess, true);
+  ASSERT_TRUE(far.matched) << far.reject_reason;
+  EXPECT_TRUE(far.disputed);
+  EXPECT_NEAR(far.wheel_disagreement, chi2(far_guess), 0.1 * chi2(far_guess));
+  EXPECT_NEAR(far.motion.x, truth.x, 0.01);  // ICP's motion is kept ...
+  EXPECT_NEAR(far.motion.y, truth.y, 0.01);
+  const Eigen::Vector3d d(far_guess.x - far.motion.x, far_guess.y - far.motion.y, far_guess.theta - far.motion.theta);
+  EXPECT_LE(d.dot(far.covariance.inverse() * d), 1.0 + 1e-9);  // ... and the wheels' lies within one sigma
+
+  // Wheels known to be four times noisier than modelled: 0.6 m is no dispute.
+  EXPECT_FALSE(odometry.match(*first, *second, far_guess, true, 4.0).disputed);
+  llc::ScanOdometryOptions off;
+  off.max_wheel_disagreement = 0.0;
+  const llc::OdometryStep unchecked = llc::ScanOdometry(off).match(*first, *second, far_guess, true);
+  EXPECT_FALSE(unchecked.disputed);
+  EXPECT_TRUE(unchecked.covariance.isApprox(odometry.stepCovariance(unchecked.motion, true)));
+  // Without wheels there is nothing to disagree with.
+  EXPECT_LT(odometry.match(*first, *second, far_guess, false).wheel_disagreement, 0.0);
+}
+
+TEST(WheelNoiseScale, IsUnknownUntilTwentyStepsThenTheMedianOverTheChiSquareMedianAtLeastOne) {
+  llc::WheelNoiseScale scale(100);
+  for (int i = 0; i < 19; ++i) scale.add(2.366 * 3.0);
+  EXPECT_TRUE(std::isinf(scale.scale()));
+  scale.add(2.366 * 3.0);
+  EXPECT_NEAR(scale.scale(), 3.0, 1e-9);
+  scale.add(-1.0);  // no comparison: ignored
+  scale.add(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_NEAR(scale.scale(), 3.0, 1e-9);
+
+  llc::WheelNoiseScale quiet(100);
+  for (int i = 0; i < 50; ++i) quiet.add(0.1);
+  EXPECT_DOUBLE_EQ(quiet.scale(), 1.0);  // quieter than modelled: the model stays
+  // Only the last 100 count: 100 large values push out the 50 small ones.
+  for (int i = 0; i < 100; ++i) quiet.add(2.366 * 10.0);
+  EXPECT_NEAR(quiet.scale(), 10.0, 1e-9);
+}
+
+TEST(ScanOdometry, WheelDisagreementOptionsAreValidated) {
+  llc::ScanOdometryOptions options;
+  options.max_wheel_disagreement = -1.0;
+  EXPECT_NE(options.validate().find("max_wheel_disagreement"), std::string::npos);
+  options = {};
+  options.wheel_noise_window = 5;
+  EXPECT_NE(options.validate().find("wheel_noise_window"), std::string::npos);
+  EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
+}
+
+TEST(OdometryPriorGate, TestsALoopAgainstTheChainAsTheBackEndWould) {
+  // Keyframes at scans 0, 10, 20, 1 m apart along x; each step sigma 0.1 m, heading all but exact.
+  std::vector<llc::Pose2> odometry;
+  for (int i = 0; i <= 20; ++i) odometry.push_back({0.1 * i, 0.0, 0.0});
+  llc::OdometryStep step;
+  step.motion = {1.0, 0.0, 0.0};
+  step.covariance = Eigen::Vector3d(0.01, 0.01, 1e-10).asDiagonal();
+  const std::vector<llc::OdometryStep> steps(3, step);
+  llc::OdometryPriorGate gate(odometry, {0, 10, 20}, steps);
+  EXPECT_EQ(gate.keyframes(), 3u);
+  const Eigen::Matrix3d loop_covariance = Eigen::Vector3d(0.01, 0.01, 1e-10).asDiagonal();
+  // The chain predicts 2 m from scan 0 to scan 20: a loop saying so has no innovation ...
+  EXPECT_NEAR(gate.chi2(0, 20, {2.0, 0.0, 0.0}, loop_covariance), 0.0, 1e-6);
+  // ... 0.3 m more: 0.09 / (0.01 + 0.01 + 0.01) = 3 (two steps and the loop).
+  EXPECT_NEAR(gate.chi2(0, 20, {2.3, 0.0, 0.0}, loop_covariance), 3.0, 1e-3);
+  EXPECT_FALSE(gate.refuses(0, 20, {2.3, 0.0, 0.0}, loop_covariance));
+  EXPECT_TRUE(gate.refuses(0, 20, {3.0, 0.0, 0.0}, loop_covariance));  // 1 / 0.03 = 33 > 16.27
+  // Scan 5 lies 0.5 m past keyframe 0 by the wheels: 1.5 m on from it is the same prediction.
+  EXPECT_NEAR(gate.chi2(5, 20, {1.5, 0.0, 0.0}, loop_covariance), 0.0, 1e-6);
+  // Within one keyframe only the loop is uncertain: 0.2 m off is 0.04 / 0.01 = 4.
+  EXPECT_NEAR(gate.chi2(2, 7, {0.7, 0.0, 0.0}, loop_covariance), 4.0, 1e-6);
+  EXPECT_THROW(gate.chi2(20, 0, {}, loop_covariance), std::invalid_argument);
+  EXPECT_THROW(gate.chi2(0, 21, {}, loop_covariance), std::out_of_range);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10}, steps), std::invalid_argument);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10, 10}, steps), std::invalid_argument);
+  EXPECT_THROW(llc::OdometryPriorGate(odometry, {0, 10, 30}, steps), std::invalid_argument);
+}
+
+TEST(OdometryPriorGate, BuiltByTheFrontEndItPassesTheTrueLoopAndRefusesAShiftedOne) {
+  // A room driven along x at 0.25 m per scan, the wheels exact: ICP keyframe steps.
+  std::vector<llc::Scan> scans;
+  std::vector<llc::Pose2> odometry;
+  for (int i = 0; i <= 16; ++i) {
+    odometry.push_back({-2.0 + 0.25 * i, 0.5, 0.0});
+    scans.push_back(roomScan(odometry.back()));
+    scans.back().stamp = 0.1 * i;
+  }
+  llc::OdometryPriorGate gate = llc::OdometryPriorGate::fromFrontEnd(
+      scans, odometry, llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{}, llc_test::defaultModel().features);
+  EXPECT_EQ(gate.keyframes(), 5u);  // every 1 m: scans 0, 4, 8, 12, 16
+  const Eigen::Matrix3d loop_covariance = Eigen::Vector3d(0.0025, 0.0025, 1e-4).asDiagonal();
+  EXPECT_FALSE(gate.refuses(0, 16, {4.0, 0.0, 0.0}, loop_covariance));
+  EXPECT_TRUE(gate.refuses(0, 16, {7.0, 0.0, 0.0}, loop_covariance));
+}
+
+TEST(ScanOdometry, WheelOdometryThatJumpsFasterThanAnyRobotIsLeftOut) {
+  // Across the room at 1 m/s, a scan every 0.1 s; the wheels are exact but for a one-scan spike
+  // of 1e9 m at scan 20 and, from scan 50 on, a jump of 1e9 m with the heading flipped.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  llc::Pose2 chain, truth_last_keyframe;
+  std::size_t keyframes = 0, jumps_said = 0;
+  for (int i = 0; i <= 80; ++i) {
+    const llc::Pose2 truth{-4.0 + 0.1 * i, 0.5, 0.0};
+    llc::Scan scan = roomScan(truth);
+    scan.stamp = 0.1 * i;
+    llc::Pose2 wheels = truth;
+    if (i == 20) wheels.x += 1e9;
+    if (i >= 50) wheels = llc::compose({1e9, -3.0, M_PI}, truth);
+    const llc::FrontEndStep step = front.addScan(scan, &wheels);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    jumps_said += !step.wheel_jump.empty();
+    if (!step.keyframe) continue;
+    if (keyframes++ > 0) chain = llc::compose(chain, step.odometry.motion);
+    ASSERT_TRUE(llc::isFinite(step.odometry.motion));
+    truth_last_keyframe = truth;
+  }
+  EXPECT_EQ(front.counters().wheel_jumps, 3u);  // the spike up, back down, and the step
+  EXPECT_EQ(jumps_said, 3u);
+  EXPECT_GE(keyframes, 7u);
+  // The chain from the first keyframe (at x = -4) ends where the robot did.
+  EXPECT_NEAR(chain.x, truth_last_keyframe.x + 4.0, 0.1);
+  EXPECT_NEAR(chain.y, 0.0, 0.1);
+  EXPECT_NEAR(chain.theta, 0.0, 0.02);
+}
+
+TEST(ScanOdometry, StampsMilliSecondsApartDoNotMakeAVelocity) {
+  // Without wheels, scans of a log can be 0.5 ms apart: a velocity from them would be 200x the
+  // robot's and throw the next prediction far off. Every other scan comes 0.5 ms after the one
+  // before (and the motion still shows between them, as the scans were not taken then).
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  llc::Pose2 chain, truth_last_keyframe;
+  std::size_t keyframes = 0;
+  double stamp = 0.0;
+  for (int i = 0; i <= 60; ++i) {
+    const llc::Pose2 truth{-3.0 + 0.1 * i, 0.5, 0.0};
+    llc::Scan scan = roomScan(truth);
+    stamp += (i % 2) ? 0.0005 : 0.2;
+    scan.stamp = stamp;
+    const llc::FrontEndStep step = front.addScan(scan, nullptr);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    if (!step.keyframe) continue;
+    if (keyframes++ > 0) chain = llc::compose(chain, step.odometry.motion);
+    truth_last_keyframe = truth;
+  }
+  EXPECT_GE(keyframes, 5u);
+  EXPECT_NEAR(chain.x, truth_last_keyframe.x + 3.0, 0.2);
+  EXPECT_NEAR(chain.y, 0.0, 0.2);
+}
+
+TEST(ScanOdometry, SpeedLimitsAreValidated) {
+  llc::ScanOdometryOptions options;
+  options.max_speed = 0.0;
+  EXPECT_NE(options.validate().find("max_speed"), std::string::npos);
+  options = {};
+  options.min_velocity_interval = -1.0;
+  EXPECT_NE(options.validate().find("min_velocity_interval"), std::string::npos);
+}
+
+TEST(ScanOdometry, StampsThatJumpBackStartANewChainAndSlightlyOlderOnesAreSkipped) {
+  // Across the room twice, as a bag played in a loop: the second pass has the first's stamps
+  // and wheel odometry again.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  std::size_t keyframes_second_pass = 0, time_jumps_said = 0;
+  llc::FrontEndStep first_of_second_pass;
+  for (int pass = 0; pass < 2; ++pass)
+    for (int i = 0; i <= 60; ++i) {
+      const llc::Pose2 truth{-3.0 + 0.1 * i, 0.5, 0.0};
+      llc::Scan scan = roomScan(truth);
+      scan.stamp = 100.0 + 0.1 * i;
+      const llc::FrontEndStep step = front.addScan(scan, &truth);
+      ASSERT_TRUE(step.skip_reason.empty()) << "pass " << pass << " scan " << i << ": " << step.skip_reason;
+      time_jumps_said += !step.time_jump.empty();
+      if (pass == 1 && step.keyframe && keyframes_second_pass++ == 0) first_of_second_pass = step;
+    }
+  EXPECT_EQ(front.counters().time_jumps, 1u);
+  EXPECT_EQ(time_jumps_said, 1u);
+  EXPECT_GE(keyframes_second_pass, 6u);  // mapping goes on (before: every scan skipped)
+  EXPECT_NE(first_of_second_pass.odometry.reject_reason.find("time jumped back"), std::string::npos);
+  EXPECT_TRUE(first_of_second_pass.odometry.covariance.isApprox(llc::SlamFrontEnd::restartCovariance()));
+
+  // 0.5 s older than the newest keyframe: out of order, skipped; no new chain.
+  llc::Scan late = roomScan({3.0, 0.5, 0.0});
+  late.stamp = 100.0 + 6.0 - 0.5;
+  const llc::Pose2 wheels{3.0, 0.5, 0.0};
+  EXPECT_EQ(front.addScan(late, &wheels).skip_reason, "time went backwards");
+  EXPECT_EQ(front.counters().time_jumps, 1u);
+}
+
+}  // namespace

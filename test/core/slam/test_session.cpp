@@ -1,0 +1,219 @@
+// Sessions: the file round-trips every field and refuses what is not whole; a drive saved
+// halfway and continued gives the map of the drive run at once; a restored map places a new
+// chain (a second run, its own odometry frame) at its first loop closure.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+
+#include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/sim/sim_world.hpp"
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
+#include "../test_util.hpp"
+
+namespace {
+
+llc::SlamSession handSession() {
+  llc::SlamSession s;
+  for (int k = 0; k < 3; ++k) {
+    llc::Keyframe key;
+    key.scan_index = std::size_t(10 * k + 1);
+    key.stamp = 100.0 + k;
+    key.scan = llc_test::ringScan({1.0, 2.0, std::numeric_limits<double>::infinity(), std::nan(""), -1.0});
+    key.scan.stamp = key.stamp;
+    key.has_wheel_odometry = k != 1;
+    key.wheel_odometry = llc::Pose2{0.5 * k, -0.25 * k, 0.1 * k};
+    s.keyframes.push_back(key);
+    s.features.push_back({double(k), 1.5, -2.0});
+    s.poses.push_back(llc::Pose2{1.0 * k, 0.0, 0.01 * k});
+  }
+  llc::PoseEdge odometry;
+  odometry.from = 0, odometry.to = 1, odometry.measurement = llc::Pose2{1.0, 0.0, 0.01};
+  odometry.information << 100, 1, 0, 1, 100, 0, 0, 0, 1000;
+  s.constraints.push_back(odometry);
+  odometry.from = 1, odometry.to = 2;
+  s.constraints.push_back(odometry);
+  llc::PoseEdge loop = odometry;
+  loop.from = 0, loop.to = 2, loop.measurement = llc::Pose2{2.0, 0.01, 0.02};
+  s.constraints.push_back(loop);
+  llc::LoopRecord record;
+  record.loop.from = 0, record.loop.to = 2, record.loop.score = 0.9, record.loop.pose = loop.measurement;
+  record.loop.covariance = Eigen::Matrix3d::Identity() * 0.01;
+  record.loop.inlier_share = 0.97, record.loop.accepted = true, record.loop.seconds = 0.003;
+  record.applied = true, record.innovation_chi2 = 1.25;
+  s.loops.push_back(record);
+  record.applied = false, record.reject_reason = "backend: innovation chi2 99 > 16.27";
+  s.loops.push_back(record);
+  return s;
+}
+
+bool samePose(const llc::Pose2& a, const llc::Pose2& b) { return a.x == b.x && a.y == b.y && a.theta == b.theta; }
+
+TEST(SessionFile, RoundTripsEveryField) {
+  llc_test::TempDir dir;
+  const llc::SlamSession saved = handSession();
+  llc::saveSession(saved, dir.file("s.llcsession"));
+  const llc::SlamSession loaded = llc::loadSession(dir.file("s.llcsession"));
+  ASSERT_EQ(loaded.keyframes.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const llc::Keyframe &a = saved.keyframes[k], &b = loaded.keyframes[k];
+    EXPECT_EQ(a.scan_index, b.scan_index);
+    EXPECT_EQ(a.stamp, b.stamp);
+    EXPECT_EQ(a.has_wheel_odometry, b.has_wheel_odometry);
+    EXPECT_TRUE(samePose(a.wheel_odometry, b.wheel_odometry));
+    EXPECT_EQ(a.scan.full_circle, b.scan.full_circle);
+    EXPECT_EQ(a.scan.bearings, b.scan.bearings);
+    ASSERT_EQ(b.scan.ranges.size(), 5u);
+    EXPECT_TRUE(std::isinf(b.scan.ranges[2]) && std::isnan(b.scan.ranges[3]) && b.scan.ranges[4] == -1.0);
+    EXPECT_EQ(saved.features[k], loaded.features[k]);
+    EXPECT_TRUE(samePose(saved.poses[k], loaded.poses[k]));
+  }
+  ASSERT_EQ(loaded.constraints.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(loaded.constraints[i].from, saved.constraints[i].from);
+    EXPECT_EQ(loaded.constraints[i].to, saved.constraints[i].to);
+    EXPECT_TRUE(samePose(loaded.constraints[i].measurement, saved.constraints[i].measurement));
+    EXPECT_EQ(loaded.constraints[i].information, saved.constraints[i].information);
+  }
+  ASSERT_EQ(loaded.loops.size(), 2u);
+  EXPECT_EQ(loaded.loops[1].reject_reason, saved.loops[1].reject_reason);
+  EXPECT_EQ(loaded.loops[0].loop.covariance, saved.loops[0].loop.covariance);
+  EXPECT_EQ(loaded.loops[0].innovation_chi2, 1.25);
+  EXPECT_TRUE(loaded.loops[0].applied && !loaded.loops[1].applied);
+  EXPECT_FALSE(std::ifstream(dir.file("s.llcsession.tmp")).good()) << "the temporary file stays behind";
+}
+
+TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {
+  llc_test::TempDir dir;
+  const std::string good = dir.file("good.llcsession");
+  llc::saveSession(handSession(), good);
+  const std::string bytes = llc_test::readText(good);
+  auto refused = [&](const std::string& content, const std::string& expected) {
+    const std::string path = dir.file("bad.llcsession");
+    std::ofstream(path, std::ios::binary) << content;
+    try {
+      llc::loadSession(path);
+    } catch (const llc::SessionError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << "the message names the file";
+      return;
+    }
+    ADD_FAILURE() << "accepted: " << expected;
+  };
+  EXPECT_THROW(llc::loadSession(dir.file("missing")), llc::SessionError);
+  refused("", "not a laser_loop_closure session");
+  refused("VERTEX_SE2 0 0 0 0\n", "not a laser_loop_closure session");
+  std::string other_version = bytes;
+  other_version[12] = char(7);
+  refused(other_version, "version 7");
+  for (std::size_t cut : {std::size_t(14), bytes.size() / 2, bytes.size() - 1}) refused(bytes.substr(0, cut), "truncated");
+  refused(bytes + "x", "truncated");
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x40;
+  refused(flipped, "checksum");
+
+  llc::SlamSession inconsistent = handSession();
+  inconsistent.poses.pop_back();
+  EXPECT_THROW(llc::saveSession(inconsistent, dir.file("x")), llc::SessionError);
+  inconsistent = handSession();
+  inconsistent.constraints[2].to = 7;
+  EXPECT_NE(inconsistent.validate(), "");
+  inconsistent = handSession();
+  inconsistent.constraints.resize(1);  // pose 2 never linked
+  EXPECT_NE(inconsistent.validate(), "");
+  inconsistent = handSession();
+  inconsistent.poses[1].x = std::nan("");
+  EXPECT_NE(inconsistent.validate(), "");
+}
+
+TEST(SessionFile, AFailedSaveLeavesThePreviousFileWhole) {
+  llc_test::TempDir dir;
+  const std::string path = dir.file("s.llcsession");
+  llc::saveSession(handSession(), path);
+  ASSERT_EQ(mkdir((path + ".tmp").c_str(), 0755), 0);  // the temporary file cannot be written
+  llc::SlamSession bigger = handSession();
+  bigger.loops.clear();
+  EXPECT_THROW(llc::saveSession(bigger, path), llc::SessionError);
+  EXPECT_EQ(llc::loadSession(path).loops.size(), 2u);
+}
+
+struct Drive {
+  llc::SimDriveOptions options;
+  std::unique_ptr<llc::SimWorld> world;
+  llc::SimDrive drive;
+  Drive() {
+    options.length_m = 500.0;
+    world = std::make_unique<llc::SimWorld>(llc::simWorldOptions(options));
+    drive = llc::simulateDrive(*world, options);
+  }
+  void run(llc::SlamPipeline* slam, std::size_t begin, std::size_t end) const {
+    for (std::size_t i = begin; i < end; ++i)
+      slam->addScan(llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+  }
+};
+
+TEST(SlamSession, SavedHalfwayAndContinuedGivesTheMapOfOneRun) {
+  llc_test::TempDir dir;
+  const Drive d;
+  const std::size_t n = d.drive.frames.size(), half = n / 2;
+  llc::SlamPipeline whole(llc_test::defaultModel());
+  d.run(&whole, 0, n);
+  ASSERT_GT(whole.counters().loops_accepted, 3u) << "the drive must close loops";
+
+  llc::SlamPipeline first(llc_test::defaultModel());
+  d.run(&first, 0, half);
+  llc::saveSession(first.session(), dir.file("half.llcsession"));
+  llc::SlamPipeline second(llc_test::defaultModel());
+  ASSERT_EQ(second.restore(llc::loadSession(dir.file("half.llcsession")), true), "");
+  ASSERT_EQ(second.keyframes().size(), first.keyframes().size());
+  for (std::size_t k = 0; k < first.poses().size(); ++k) {
+    EXPECT_NEAR(second.poses()[k].x, first.poses()[k].x, 1e-6);
+    EXPECT_NEAR(second.poses()[k].y, first.poses()[k].y, 1e-6);
+  }
+  d.run(&second, half, n);
+  ASSERT_EQ(second.keyframes().size(), whole.keyframes().size());
+  EXPECT_EQ(second.backEnd().counters().loops_accepted, whole.backEnd().counters().loops_accepted);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < whole.poses().size(); ++k)
+    worst = std::max(worst, std::hypot(second.poses()[k].x - whole.poses()[k].x, second.poses()[k].y - whole.poses()[k].y));
+  EXPECT_LT(worst, 1e-3) << "m between the continued run and the run at once";
+}
+
+TEST(SlamSession, ARestoredMapPlacesANewChainAtItsFirstLoopClosure) {
+  const Drive d;
+  const std::size_t n = d.drive.frames.size();
+  llc::SlamPipeline mapped(llc_test::defaultModel());
+  d.run(&mapped, 0, n);
+  llc::SlamPipeline second(llc_test::defaultModel());
+  ASSERT_EQ(second.restore(mapped.session(), false), "");
+  const std::size_t restored = second.keyframes().size();
+  // A second run over the first 100 m, its odometry frame turned and moved (a new start).
+  const llc::Pose2 new_odom_frame{-30.0, 12.0, 1.3};
+  std::size_t applied_to_old = 0;
+  for (std::size_t i = 0; i < n / 3; ++i) {
+    const llc::Pose2 odometry = llc::compose(new_odom_frame, d.drive.frames[i].odometry);
+    llc::Scan scan = llc_test::frameScan(d.drive, d.drive.frames[i]);
+    const llc::SlamStepResult step = second.addScan(scan, i, &odometry);
+    ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+    for (const llc::LoopRecord& r : step.records) applied_to_old += r.applied && r.loop.from < restored;
+  }
+  ASSERT_GT(applied_to_old, 0u) << "no loop joined the new chain to the restored map";
+  // Every new keyframe lies where the old one of the same scan lies.
+  std::map<std::size_t, llc::Pose2> old_pose;
+  for (std::size_t k = 0; k < restored; ++k) old_pose[mapped.keyframes()[k].scan_index] = mapped.poses()[k];
+  std::size_t compared = 0;
+  double worst = 0.0;
+  for (std::size_t k = restored; k < second.keyframes().size(); ++k) {
+    const auto it = old_pose.find(second.keyframes()[k].scan_index);
+    if (it == old_pose.end()) continue;
+    ++compared;
+    worst = std::max(worst, std::hypot(second.poses()[k].x - it->second.x, second.poses()[k].y - it->second.y));
+  }
+  EXPECT_GT(compared, 10u);
+  EXPECT_LT(worst, 0.3) << "m between the new chain and the restored map";
+}
+
+}  // namespace
