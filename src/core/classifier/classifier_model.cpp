@@ -84,7 +84,7 @@ void saveClassifierModel(const ClassifierModel& model, const std::string& path) 
   out << YAML::EndMap;
 
   std::ostringstream text;
-  text << "# laser_loop_closure classifier model; see README 'Model file'.\n" << out.c_str() << "\n";
+  text << "# laser_loop_closure classifier model; see docs/file_formats.md, 'Model file'.\n" << out.c_str() << "\n";
   try {
     writeFileAtomically(path, text.str());
   } catch (const std::runtime_error& e) {

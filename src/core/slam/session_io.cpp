@@ -6,6 +6,7 @@
 #include <iterator>
 
 #include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
 
 namespace llc {
 namespace {

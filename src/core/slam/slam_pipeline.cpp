@@ -74,14 +74,8 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   step.keyframe_index = front.keyframe_index;
   step.odometry = front.odometry;
 
-  Keyframe keyframe;
-  keyframe.scan_index = scan_index;
-  keyframe.stamp = scan.stamp;
-  keyframe.scan = scan;
-  keyframe.has_wheel_odometry = wheel_odometry != nullptr;
-  if (wheel_odometry) keyframe.wheel_odometry = *wheel_odometry;
   // The back end keeps every keyframe, so the indices stay the front end's.
-  step.back_end_note = back_.addKeyframe(std::move(keyframe), step.odometry.motion, step.odometry.covariance);
+  step.back_end_note = back_.addKeyframe(makeKeyframe(scan, scan_index, wheel_odometry), step.odometry.motion, step.odometry.covariance);
 
   CandidateCheck place_gate;
   if (options_.place_gate.enabled) {

@@ -235,15 +235,14 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   std::lock_guard<std::mutex> lock(mutex_);
   const laser_loop_closure::Scan360& msg = *pending.msg;
   std::string error;
-  llc::Keyframe keyframe;
-  if (!fromScan360(msg, &keyframe.scan, &error)) {
+  llc::Scan scan;
+  if (!fromScan360(msg, &scan, &error)) {
     ++malformed_;
     last_problem_ = error;
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", error.c_str());
     return;
   }
-  keyframe.has_wheel_odometry = pending.has_wheel_odometry;
-  keyframe.wheel_odometry = pending.wheel_odometry;
+  llc::Keyframe keyframe = llc::makeKeyframe(std::move(scan), pending.index, pending.has_wheel_odometry ? &pending.wheel_odometry : nullptr);
   const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);
   if (!step.skip_reason.empty()) {
     last_problem_ = step.skip_reason;
@@ -255,8 +254,6 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   if (options_.publish_odometry_tf || without_wheels_) publishOdometry(step, msg.header, &keyframe);
   if (!step.keyframe) return;
   keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
-  keyframe.scan_index = pending.index;
-  keyframe.stamp = keyframe.scan.stamp;
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);

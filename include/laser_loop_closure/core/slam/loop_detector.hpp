@@ -14,6 +14,7 @@
 #include "laser_loop_closure/core/classifier/keyframe_store.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/classifier/threshold_calibration.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
 
@@ -35,18 +36,6 @@ struct LoopDetectorOptions {
   /// score_threshold is 0, i.e. the model's K would be used).
   ThresholdCalibrationOptions calibration{};
   std::string validate() const;
-};
-
-/// One aligned candidate pair and its verdict.
-struct LoopClosure {
-  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
-  double score = 0.0;            ///< classifier, normalised
-  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
-  double inlier_share = 0.0;     ///< shape validation
-  bool accepted = false;         ///< aligned and shape-validated
-  std::string reject_reason;     ///< "crf: ...", "icp: ..." or "validation: ..." (empty when accepted)
-  double seconds = 0.0;
 };
 
 struct LoopDetectionResult {

@@ -10,6 +10,7 @@
 #include "laser_loop_closure/core/alignment/icp.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
 
@@ -56,20 +57,6 @@ struct ScanOdometryOptions {
   double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
   IcpOptions icp{};                ///< ICP of consecutive keyframes
   std::string validate() const;
-};
-
-/// The motion from one keyframe to the next and how it was measured.
-struct OdometryStep {
-  Pose2 motion;                    ///< the new keyframe in the frame of the previous one
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of motion's x, y, theta
-  bool matched = false;            ///< ICP was used; else the guess (wheel odometry)
-  double overlap_share = 0.0;      ///< after ICP
-  double seconds = 0.0;
-  std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
-  /// Squared Mahalanobis distance of ICP's result from the wheel guess under the modelled wheel
-  /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
-  double wheel_disagreement = -1.0;
-  bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
 };
 
 /// How much noisier than modelled the robot's wheels are: the median disagreement of recent

@@ -9,22 +9,13 @@
 #include <string>
 #include <vector>
 
-#include "laser_loop_closure/core/io/g2o_io.hpp"
-#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
 
-constexpr std::uint32_t kSessionVersion = 1;
+class SlamBackEnd;
 
-struct SlamSession {
-  std::vector<Keyframe> keyframes;
-  std::vector<std::vector<double>> features;  ///< one vector per keyframe (the front end's)
-  std::vector<Pose2> poses;                   ///< optimised, one per keyframe
-  std::vector<PoseEdge> constraints;          ///< the ESDF's, in the order applied
-  std::vector<LoopRecord> loops;              ///< every loop that reached the back end
-  /// Empty, or why the pieces do not fit together (counts, indices, non-finite values).
-  std::string validate() const;
-};
+constexpr std::uint32_t kSessionVersion = 1;
 
 /// Why a session file was refused; what() names the file and the problem.
 class SessionError : public std::runtime_error {

@@ -11,27 +11,10 @@
 #include <vector>
 
 #include "laser_loop_closure/core/backend/esdf.hpp"
-#include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 #include "laser_loop_closure/core/geometry/scan.hpp"
 
 namespace llc {
-
-/// A keyframe as the map and the session keep it.
-struct Keyframe {
-  std::size_t scan_index = 0;  ///< the caller's index of the scan it was made from
-  double stamp = 0.0;          ///< s
-  Scan scan;                   ///< in the base frame
-  Pose2 wheel_odometry;        ///< in the odometry frame (when has_wheel_odometry)
-  bool has_wheel_odometry = false;
-};
-
-/// One loop as the back end met it.
-struct LoopRecord {
-  LoopClosure loop;
-  bool applied = false;          ///< accepted by alignment and by the back end's gate
-  double innovation_chi2 = 0.0;  ///< when it reached the back end
-  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
-};
 
 struct BackEndCounters {
   std::size_t keyframes = 0;
@@ -41,8 +24,6 @@ struct BackEndCounters {
   std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
   double seconds = 0.0;
 };
-
-struct SlamSession;
 
 /// Covariance of a link that says next to nothing: anywhere within ~100 m, any heading, so
 /// that the first loop closure places the keyframe. Not looser, so that the information matrix

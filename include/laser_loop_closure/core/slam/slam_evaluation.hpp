@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
 

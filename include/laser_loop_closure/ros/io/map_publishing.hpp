@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
-#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc_ros {
 

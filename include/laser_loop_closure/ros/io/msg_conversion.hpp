@@ -11,8 +11,7 @@
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/Scan360.h"
-#include "laser_loop_closure/core/slam/slam_back_end.hpp"
-#include "laser_loop_closure/core/slam/scan_odometry.hpp"
+#include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc_ros {
 

@@ -1,0 +1,85 @@
+// The vocabulary the SLAM stages share: what a keyframe, an odometry step, a loop closure, a
+// loop as the back end met it, and a session are. The front end makes them, the back end and
+// the session files keep them, the ROS adapter converts them: each depends on this header,
+// not on the others' classes.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "laser_loop_closure/core/geometry/scan.hpp"
+#include "laser_loop_closure/core/geometry/se2.hpp"
+#include "laser_loop_closure/core/io/g2o_io.hpp"
+
+namespace llc {
+
+/// A keyframe as the map and the session keep it.
+struct Keyframe {
+  std::size_t scan_index = 0;  ///< the caller's index of the scan it was made from
+  double stamp = 0.0;          ///< s
+  Scan scan;                   ///< in the base frame
+  Pose2 wheel_odometry;        ///< in the odometry frame (when has_wheel_odometry)
+  bool has_wheel_odometry = false;
+};
+
+/// The one place a keyframe is assembled (llc slam's pipeline and the loop_closure nodelet):
+/// scan_index is the caller's count of scans, wheel_odometry null when there is none.
+inline Keyframe makeKeyframe(Scan scan, std::size_t scan_index, const Pose2* wheel_odometry) {
+  Keyframe keyframe;
+  keyframe.scan_index = scan_index;
+  keyframe.stamp = scan.stamp;
+  keyframe.scan = std::move(scan);
+  keyframe.has_wheel_odometry = wheel_odometry != nullptr;
+  if (wheel_odometry) keyframe.wheel_odometry = *wheel_odometry;
+  return keyframe;
+}
+
+/// The motion from one keyframe to the next and how it was measured.
+struct OdometryStep {
+  Pose2 motion;                    ///< the new keyframe in the frame of the previous one
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of motion's x, y, theta
+  bool matched = false;            ///< ICP was used; else the guess (wheel odometry)
+  double overlap_share = 0.0;      ///< after ICP
+  double seconds = 0.0;
+  std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
+  /// Squared Mahalanobis distance of ICP's result from the wheel guess under the modelled wheel
+  /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
+  double wheel_disagreement = -1.0;
+  bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
+};
+
+/// One aligned candidate pair and its verdict.
+struct LoopClosure {
+  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
+  double score = 0.0;            ///< classifier, normalised
+  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
+  double inlier_share = 0.0;     ///< shape validation
+  bool accepted = false;         ///< aligned and shape-validated
+  std::string reject_reason;     ///< "crf: ...", "icp: ..." or "validation: ..." (empty when accepted)
+  double seconds = 0.0;
+};
+
+/// One loop as the back end met it.
+struct LoopRecord {
+  LoopClosure loop;
+  bool applied = false;          ///< accepted by alignment and by the back end's gate
+  double innovation_chi2 = 0.0;  ///< when it reached the back end
+  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
+};
+
+/// Everything a mapping run holds, as a session file keeps it (session_io.hpp reads and writes it).
+struct SlamSession {
+  std::vector<Keyframe> keyframes;
+  std::vector<std::vector<double>> features;  ///< one vector per keyframe (the front end's)
+  std::vector<Pose2> poses;                   ///< optimised, one per keyframe
+  std::vector<PoseEdge> constraints;          ///< the ESDF's, in the order applied
+  std::vector<LoopRecord> loops;              ///< every loop that reached the back end
+  /// Empty, or why the pieces do not fit together (counts, indices, non-finite values).
+  std::string validate() const;
+};
+
+}  // namespace llc
