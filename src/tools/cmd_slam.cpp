@@ -240,7 +240,6 @@ int runSlam(const Args& args) {
     if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
   }
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
-  prepareOutputFolder("out", dir);
   llc::SystemOptions options;
   const std::string config = args.get("config", configFilePath("slam.yaml"));
   if (args.has("config") || std::ifstream(config)) {
@@ -250,6 +249,8 @@ int runSlam(const Args& args) {
       throw ToolError(e.what());
     }
   }
+  applyParameterFlags(args, &options);  // --SECTION/FIELD VALUE, after the file
+  prepareOutputFolder("out", dir);
   const std::string model_path = args.get("model", defaultModelPath());
   llc::ClassifierModel model;
   try {

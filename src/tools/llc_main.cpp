@@ -6,6 +6,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "laser_loop_closure/core/slam/slam_parameters.hpp"
 #include "tool_common.hpp"
 
 namespace {
@@ -89,9 +90,10 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed"},
-            kInputFlags),
+            with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
+       "      [--SECTION/FIELD VALUE ...]   (any pipeline parameter, named as in config/slam.yaml; after --config)\n"
        "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, loops.csv, map.pgm/.yaml/.png, report.txt)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
@@ -141,6 +143,7 @@ void commandHelp(const Command& c, std::ostream& out) {
     out << "feature options: [--features paper|extended] (extended) [--r-max 50] (m) [--g-max-dist 2.5] (m)\n"
            "  [--g-min-size 3] (points) [--open-ring] (default: closed ring for 360-degree scans)\n";
   if (takes(c, llc_tool::kInputFlags)) inputHelp(out);
+  if (takes(c, llc::systemParameterNames())) llc_tool::systemParametersHelp(out);
   out << "exit codes: 0 done, 1 a file or the data could not be read or written, 2 bad usage\n";
 }
 

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -26,6 +27,57 @@ llc_ros::BagReadOptions bagOptions(const Args& args) {
   options.topics.odom = args.get("odom-topic", options.topics.odom);
   options.topics.truth = args.get("truth-topic", options.topics.truth);
   return options;
+}
+
+void applyParameterFlags(const Args& args, llc::SystemOptions* options) {
+  std::vector<std::pair<std::string, std::string>> values;
+  for (const std::string& name : llc::systemParameterNames())
+    for (const std::string& value : args.all(name)) values.emplace_back(name, value);
+  if (values.empty()) return;
+  try {
+    llc::setSystemParameters(values, "the command line", options);
+  } catch (const std::exception& e) {
+    throw UsageError(e.what());
+  }
+}
+
+void systemParametersHelp(std::ostream& out) {
+  // The meaning of each parameter from the comment beside it in config/slam.yaml, keyed by its
+  // nested name (indentation gives the sections).
+  std::map<std::string, std::string> comments;
+  std::ifstream yaml(configFilePath("slam.yaml"));
+  std::vector<std::pair<std::size_t, std::string>> sections;
+  for (std::string line; std::getline(yaml, line);) {
+    const std::size_t indent = line.find_first_not_of(' ');
+    if (indent == std::string::npos || line[indent] == '#') continue;
+    const std::size_t colon = line.find(':', indent);
+    if (colon == std::string::npos) continue;
+    while (!sections.empty() && sections.back().first >= indent) sections.pop_back();
+    const std::string key = line.substr(indent, colon - indent);
+    const std::size_t hash = line.find('#', colon);
+    const std::string value = line.substr(colon + 1, hash == std::string::npos ? std::string::npos : hash - colon - 1);
+    std::string name;
+    for (const auto& section : sections) name += section.second + "/";
+    if (value.find_first_not_of(' ') == std::string::npos) {
+      sections.emplace_back(indent, key);
+      continue;
+    }
+    if (hash != std::string::npos) comments[name + key] = line.substr(line.find_first_not_of(' ', hash + 1));
+  }
+  out << "pipeline parameters (each also a key of config/slam.yaml and a ROS parameter of the nodelets; default, then meaning):\n";
+  for (const auto& parameter : llc::systemParameterDefaults()) {
+    out << "  --" << parameter.first << " " << parameter.second;
+    auto comment = comments.find(parameter.first);
+    if (comment == comments.end()) {  // a block the file documents once (aligner/icp: "as above")
+      const std::size_t cut = parameter.first.rfind('/', parameter.first.rfind('/') - 1);
+      const std::string tail = cut == std::string::npos ? parameter.first : parameter.first.substr(cut);
+      comment = std::find_if(comments.begin(), comments.end(), [&](const auto& c) {
+        return c.first.size() > tail.size() && c.first.compare(c.first.size() - tail.size(), tail.size(), tail) == 0;
+      });
+    }
+    if (comment != comments.end()) out << "   # " << comment->second;
+    out << "\n";
+  }
 }
 
 Args::Args(int argc, char** argv, const std::vector<std::string>& options,

@@ -5,10 +5,12 @@
 #include <map>
 #include <optional>
 #include <stdexcept>
+#include <ostream>
 #include <string>
 #include <vector>
 
 #include "laser_loop_closure/core/classifier/adaboost.hpp"
+#include "laser_loop_closure/core/slam/slam_parameters.hpp"
 #include "laser_loop_closure/core/features/features.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
 #include "laser_loop_closure/core/classifier/pair_labeling.hpp"
@@ -54,6 +56,14 @@ class Args {
  private:
   std::multimap<std::string, std::string> values_;
 };
+
+/// Pipeline parameters given on the command line as --SECTION/FIELD VALUE (the names of
+/// config/slam.yaml and the nodelets' parameters), set onto `options` after --config.
+/// Throws UsageError on a bad value or options that do not validate.
+void applyParameterFlags(const Args& args, llc::SystemOptions* options);
+/// Lists every pipeline parameter as a flag with its built-in default, and its unit and meaning
+/// from the comment beside it in config/slam.yaml (a test checks that file against the defaults).
+void systemParametersHelp(std::ostream& out);
 
 /// Feature options from --features, --r-max, --g-max-dist, --g-min-size, --open-ring.
 llc::FeatureOptions featureOptions(const Args& args);

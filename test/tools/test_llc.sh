@@ -63,6 +63,12 @@ check "slam: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- 
 head -c 5000 "$TMP/sim.llcsession" > "$TMP/truncated.llcsession"
 check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/truncated.llcsession"
 check "slam: both inputs" 2 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
+slam_keyframes="$(sed -n 's/^keyframes=//p' "$TMP/slam/report.txt")"
+check "slam: a pipeline parameter as a flag (--odometry/keyframe_distance 3: fewer keyframes)" 0 "^ok$" -- bash -c "'$LLC' slam --bag '$TMP/sim/sim.bag' --out '$TMP/slam_flag' --quiet --odometry/keyframe_distance 3 >/dev/null && awk -F= -v before='$slam_keyframes' '/^keyframes=/ {print (\$2 + 0 < before / 2 ? \"ok\" : \"not ok: \" \$2 \" of \" before)}' '$TMP/slam_flag/report.txt'"
+check "slam: a bad parameter flag is refused before the run" 2 "parameter 'odometry/keyframe_distance': bad value" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_badflag" --odometry/keyframe_distance far
+check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_badflag' && echo present || echo absent"
+check "slam: an unknown parameter flag" 2 "unknown option --odometry/keyframe_distanse" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --odometry/keyframe_distanse 1
+check "slam --help lists every pipeline parameter with its default and meaning" 0 "^  --aligner/icp/trim_fraction 0\.9   # share of the nearest pairs" -- "$LLC" slam --help
 printf 'odometry:\n  keyframe_distanse: 2\n' > "$TMP/bad_slam.yaml"
 check "slam: unknown parameter" 1 "unknown parameter 'odometry/keyframe_distanse'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_slam.yaml"
 check "slam: corrupt model" 1 "bad.yaml" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --model "$TMP/bad.yaml"

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdio>
 #include <set>
 #include <stdexcept>
 #include <type_traits>
@@ -36,6 +37,40 @@ std::vector<std::string> systemParameterNames() {
   return names;
 }
 
+namespace {
+
+/// Sets every named entry through the visitor (the same conversion for a file and the command
+/// line); refuses an unknown name or a bad value naming `source`, then validates once.
+void applyEntries(const std::vector<std::pair<std::string, YAML::Node>>& entries, const std::string& source,
+                  SystemOptions* options) {
+  std::set<std::string> known;
+  for (const std::string& name : systemParameterNames()) known.insert(name);
+  for (const auto& entry : entries)
+    if (!known.count(entry.first)) throw std::runtime_error(source + ": unknown parameter '" + entry.first + "'");
+  visitParameters(*options, [&](const std::string& name, auto& field) {
+    using Field = std::decay_t<decltype(field)>;
+    for (const auto& entry : entries) {
+      if (entry.first != name) continue;
+      try {
+        if (!entry.second.IsScalar()) throw std::runtime_error("not a single value");
+        if constexpr (std::is_same_v<Field, std::size_t>) {
+          const long value = entry.second.as<long>();
+          if (value < 0) throw std::runtime_error("must be >= 0");
+          field = std::size_t(value);
+        } else {
+          field = entry.second.as<Field>();
+        }
+      } catch (const std::exception& e) {
+        throw std::runtime_error(source + ": parameter '" + name + "': bad value (" + e.what() + ")");
+      }
+    }
+  });
+  const std::string error = options->validate();
+  if (!error.empty()) throw std::runtime_error(source + ": " + error);
+}
+
+}  // namespace
+
 void loadSystemOptionsYaml(const std::string& path, SystemOptions* options) {
   YAML::Node root;
   try {
@@ -45,29 +80,40 @@ void loadSystemOptionsYaml(const std::string& path, SystemOptions* options) {
   }
   std::vector<std::pair<std::string, YAML::Node>> entries;
   if (!root.IsNull()) flatten(root, "", &entries, path);
-  std::set<std::string> known;
-  for (const std::string& name : systemParameterNames()) known.insert(name);
-  for (const auto& entry : entries)
-    if (!known.count(entry.first)) throw std::runtime_error(path + ": unknown parameter '" + entry.first + "'");
-  visitParameters(*options, [&](const std::string& name, auto& field) {
+  applyEntries(entries, path, options);
+}
+
+void setSystemParameters(const std::vector<std::pair<std::string, std::string>>& values, const std::string& source,
+                         SystemOptions* options) {
+  std::vector<std::pair<std::string, YAML::Node>> entries;
+  for (const auto& value : values) {
+    YAML::Node node;
+    try {
+      node = YAML::Load(value.second);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(source + ": parameter '" + value.first + "': bad value (" + e.what() + ")");
+    }
+    entries.emplace_back(value.first, node);
+  }
+  applyEntries(entries, source, options);
+}
+
+std::vector<std::pair<std::string, std::string>> systemParameterDefaults() {
+  std::vector<std::pair<std::string, std::string>> out;
+  SystemOptions options;
+  visitParameters(options, [&](const std::string& name, auto& field) {
     using Field = std::decay_t<decltype(field)>;
-    for (const auto& entry : entries) {
-      if (entry.first != name) continue;
-      try {
-        if constexpr (std::is_same_v<Field, std::size_t>) {
-          const long value = entry.second.as<long>();
-          if (value < 0) throw std::runtime_error("must be >= 0");
-          field = std::size_t(value);
-        } else {
-          field = entry.second.as<Field>();
-        }
-      } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": parameter '" + name + "': bad value (" + e.what() + ")");
-      }
+    if constexpr (std::is_same_v<Field, bool>) {
+      out.emplace_back(name, field ? "true" : "false");
+    } else if constexpr (std::is_floating_point_v<Field>) {
+      char text[32];
+      std::snprintf(text, sizeof text, "%.15g", double(field));  // 0.35, not 0.34999999999999998
+      out.emplace_back(name, text);
+    } else {
+      out.emplace_back(name, std::to_string(field));
     }
   });
-  const std::string error = options->validate();
-  if (!error.empty()) throw std::runtime_error(path + ": " + error);
+  return out;
 }
 
 }  // namespace llc

@@ -228,6 +228,56 @@ TEST(SlamParameters, PartialFilesOverrideAndBadFilesAreRefused) {
   EXPECT_THROW(llc::loadSystemOptionsYaml(dir.file("none.yaml"), &options), std::runtime_error);
 }
 
+TEST(SlamParameters, CommandLineValuesSetTheSameFieldsAsAFileAndBadOnesAreRefused) {
+  llc::SystemOptions options;
+  llc::setSystemParameters({{"odometry/keyframe_distance", "2.5"}, {"loops/max_candidates", "7"},
+                            {"odometry/scan_matching", "false"}, {"aligner/icp/max_iterations", "12"}},
+                           "the command line", &options);
+  EXPECT_EQ(options.slam.odometry.keyframe_distance, 2.5);
+  EXPECT_EQ(options.slam.loops.max_candidates, 7u);
+  EXPECT_FALSE(options.slam.odometry.scan_matching);
+  EXPECT_EQ(options.slam.aligner.icp.max_iterations, 12);
+  EXPECT_EQ(options.slam.odometry.keyframe_angle, llc::ScanOdometryOptions{}.keyframe_angle);
+  auto refused = [](const std::string& name, const std::string& value, const std::string& needle) {
+    llc::SystemOptions o;
+    try {
+      llc::setSystemParameters({{name, value}}, "the command line", &o);
+      ADD_FAILURE() << "accepted: " << name << " " << value;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  refused("odometry/keyframe_distanse", "1", "unknown parameter 'odometry/keyframe_distanse'");
+  refused("odometry/keyframe_distance", "far", "parameter 'odometry/keyframe_distance': bad value");
+  refused("odometry/keyframe_distance", "[1, 2]", "parameter 'odometry/keyframe_distance': bad value");
+  refused("loops/max_candidates", "-3", "loops/max_candidates");
+  refused("odometry/keyframe_distance", "-1", "keyframe_distance must be > 0");
+}
+
+TEST(SlamParameters, DefaultsAsTextNameEveryParameterAndReadBackToTheDefaults) {
+  const std::vector<std::pair<std::string, std::string>> defaults = llc::systemParameterDefaults();
+  const std::vector<std::string> names = llc::systemParameterNames();
+  ASSERT_EQ(defaults.size(), names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(defaults[i].first, names[i]);
+  EXPECT_EQ(defaults[1], (std::pair<std::string, std::string>("odometry/keyframe_angle", "0.35")));
+  // Set back from their own text, every value is the built-in default again.
+  llc::SystemOptions from_text;
+  llc::setSystemParameters(defaults, "defaults", &from_text);
+  std::vector<std::string> a, b;
+  auto collect = [](std::vector<std::string>* out) {
+    return [out](const std::string& name, auto& field) {
+      std::ostringstream text;
+      text.precision(17);
+      text << name << "=" << field;
+      out->push_back(text.str());
+    };
+  };
+  llc::SystemOptions built_in;
+  llc::visitParameters(from_text, collect(&a));
+  llc::visitParameters(built_in, collect(&b));
+  EXPECT_EQ(a, b);
+}
+
 TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {
   llc::SlamPipeline slam(defaultModel());
   llc::Scan good = llc_test::ringScan(std::vector<double>(360, 4.0));

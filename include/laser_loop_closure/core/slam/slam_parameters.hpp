@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
@@ -148,5 +149,12 @@ std::vector<std::string> systemParameterNames();
 /// names it does not give keep their value. Throws std::runtime_error naming the file and the
 /// key for an unknown key, a value of the wrong type, or options that do not validate.
 void loadSystemOptionsYaml(const std::string& path, SystemOptions* options);
+/// Sets parameters given as text, e.g. {"odometry/keyframe_distance", "0.5"} from the command
+/// line's --odometry/keyframe_distance 0.5, with the same conversion and checks as a YAML file;
+/// throws std::runtime_error naming `source` on an unknown name, a bad value or invalid options.
+void setSystemParameters(const std::vector<std::pair<std::string, std::string>>& values, const std::string& source,
+                         SystemOptions* options);
+/// Every parameter's name and its built-in default as YAML text, in visiting order.
+std::vector<std::pair<std::string, std::string>> systemParameterDefaults();
 
 }  // namespace llc
