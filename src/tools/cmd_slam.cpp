@@ -2,6 +2,7 @@
 // a master; writes the trajectory, the loops, the map and a report.
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -293,6 +294,7 @@ int runSlam(const Args& args) {
   Progress progress(sequence.scans.size(), !args.has("quiet"));
   std::size_t first_skip_reported = 0, loosely_linked = 0, wheel_jumps = 0;
   std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
+  std::array<std::size_t, llc::kLoopRefusalKinds> refusals{};  // by llc::LoopRefusal
   std::vector<llc::OdometryStep> steps;  // per keyframe (the first one's is empty)
   std::vector<llc::LoopClosure> not_aligned;  // candidates the place gate skipped
   // Reasons without their numbers, so that alike ones are counted together.
@@ -313,7 +315,11 @@ int runSlam(const Args& args) {
       std::cerr << "warning: keyframe " << step.keyframe_index << ": " << step.back_end_note << " (later ones are only counted)\n";
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
     for (const llc::LoopRecord& record : step.records)
-      if (!record.applied) ++loop_reasons[general(record.reject_reason)];
+      if (!record.applied) {
+        ++loop_reasons[general(record.reject_reason)];
+        ++refusals[std::size_t(llc::loopRefusalOf(record.reject_reason))];
+      }
+    for (const llc::LoopClosure& skipped : step.loops.not_aligned) ++refusals[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
     not_aligned.insert(not_aligned.end(), step.loops.not_aligned.begin(), step.loops.not_aligned.end());
     progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
   }
@@ -354,8 +360,11 @@ int runSlam(const Args& args) {
          << "aligned=" << c.aligned << "\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
-         << "loops_refused_by_gate=" << c.refused_by_gate << "\n"
-         << "seconds_odometry=" << c.seconds_odometry << "\n"
+         << "loops_refused_by_gate=" << c.refused_by_gate << "\n";
+  // Every candidate not applied, by the stage that refused it (llc::LoopRefusal's names).
+  for (std::size_t kind = 1; kind < refusals.size(); ++kind)
+    report << "candidates_refused_" << llc::loopRefusalName(llc::LoopRefusal(kind)) << "=" << refusals[kind] << "\n";
+  report << "seconds_odometry=" << c.seconds_odometry << "\n"
          << "seconds_classify=" << c.seconds_classify << "\n"
          << "seconds_align=" << c.seconds_align << "\n"
          << "seconds_backend=" << c.seconds_backend << "\n"

@@ -47,6 +47,11 @@ check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" 
   END {ok = v["rms_error_m"] < 0.5 && v["rms_error_odometry_m"] > 2 && v["true_loop_keyframes"] > 20 &&
             v["true_loop_keyframes_closed"] >= 0.8 * v["true_loop_keyframes"]
        print (ok ? "ok" : "not ok: rms " v["rms_error_m"] " closed " v["true_loop_keyframes_closed"] "/" v["true_loop_keyframes"])}' "$TMP/slam/report.txt"
+check "slam: every refusal counted by its stage's name, and the counts add up" 0 "^ok$" -- awk -F'[= ]' '
+    {v[$1] = $2} END {stages = v["candidates_refused_crf_match"] + v["candidates_refused_icp"] + v["candidates_refused_validation"];
+                      back = v["candidates_refused_back_end_gate"] + v["candidates_refused_back_end_unsolvable"] + v["candidates_refused_back_end_malformed"];
+       print (("candidates_refused_other" in v) && v["candidates_refused_other"] == 0 && v["candidates_refused_place_gate"] == v["candidates_not_aligned"] &&
+              stages == v["loops_refused_by_alignment"] && back == v["loops_refused_by_gate"] ? "ok" : "not ok")}' "$TMP/slam/report.txt"
 check "slam: the place gate spared alignments but skipped no true revisit" 0 "^ok$" -- awk -F= '
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
 # Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.

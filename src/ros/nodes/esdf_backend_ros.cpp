@@ -222,7 +222,10 @@ bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request
 
 void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
   const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg));
-  if (!record.applied) ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
+  if (!record.applied) {
+    ++refusals_[std::size_t(llc::loopRefusalOf(record.reject_reason))];
+    ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
+  }
   record_pub_.publish(toLoopClosureMsg(record, msg.header));
   map_dirty_ = true;
 }
@@ -442,6 +445,10 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops dropped", dropped_loops_);
   status.add("seconds in the filter", c.seconds);
   status.add("seconds of the last map rebuild", last_map_seconds_);
+  // Loops the back end refused, by why (llc::LoopRefusal's names).
+  for (llc::LoopRefusal kind : {llc::LoopRefusal::kBackEndGate, llc::LoopRefusal::kBackEndUnsolvable,
+                                llc::LoopRefusal::kBackEndMalformed})
+    status.add(std::string("loops refused: ") + llc::loopRefusalName(kind), refusals_[std::size_t(kind)]);
   status.add("sessions restored (~load_session)", session_loads_);
   callback_timing_.addTo(status, "keyframe and loop callbacks");
   status.add("last problem", last_problem_);

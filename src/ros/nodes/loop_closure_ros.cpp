@@ -268,7 +268,9 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   for (const llc::LoopClosure& loop : loops.aligned) {
     loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
     ++loops_published_;
+    ++refusals_[std::size_t(llc::loopRefusalOf(loop.reject_reason))];
   }
+  for (const llc::LoopClosure& skipped : loops.not_aligned) ++refusals_[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
 }
 
 std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::size_t keyframe) {
@@ -461,6 +463,10 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("lag behind the newest scan (s)", backlog.lag);
   status.add("largest lag (s)", backlog.largest_lag);
   status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
+  // Candidates refused, by the stage that refused them (llc::LoopRefusal's names).
+  for (llc::LoopRefusal kind : {llc::LoopRefusal::kPlaceGate, llc::LoopRefusal::kCrfMatch, llc::LoopRefusal::kIcp,
+                                llc::LoopRefusal::kValidation, llc::LoopRefusal::kOther})
+    status.add(std::string("candidates refused: ") + llc::loopRefusalName(kind), refusals_[std::size_t(kind)]);
   status.add("keyframes of the last restored session", keyframes_restored_);
   callback_timing_.addTo(status, "scan callbacks");
   scan_latency_.addTo(status, "scan arrival to processed");

@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
 #include "laser_loop_closure/core/features/features.hpp"
 #include "laser_loop_closure/core/slam/loop_detector.hpp"
@@ -276,6 +277,49 @@ TEST(SlamParameters, DefaultsAsTextNameEveryParameterAndReadBackToTheDefaults) {
   llc::visitParameters(from_text, collect(&a));
   llc::visitParameters(built_in, collect(&b));
   EXPECT_EQ(a, b);
+}
+
+TEST(LoopRefusal, EveryStageThatRefusesIsNamedByItsOwnReason) {
+  using llc::LoopRefusal;
+  // The place gate's verdict, as the pipeline and the nodelet make it.
+  llc::PlaceGateOptions gate;
+  EXPECT_EQ(llc::loopRefusalOf(llc::placeGateVerdict(gate, gate.chi2_threshold * 10.0)), LoopRefusal::kPlaceGate);
+  EXPECT_EQ(llc::loopRefusalOf(llc::placeGateVerdict(gate, 0.0)), LoopRefusal::kNone);
+  // The aligner on two scans of three points: CRF-match and the global search find no start.
+  const llc::ScanAligner aligner;
+  const llc::Scan tiny = llc_test::ringScan({1.0, 1.0, 1.0});
+  const llc::ScanAlignmentResult none = aligner.align(*aligner.prepare(tiny), *aligner.prepare(tiny));
+  ASSERT_FALSE(none.reject_reason.empty());
+  EXPECT_EQ(llc::loopRefusalOf(none.reject_reason), LoopRefusal::kCrfMatch) << none.reject_reason;
+  // ICP's and validation's reasons as ScanAligner::align composes them.
+  EXPECT_EQ(llc::loopRefusalOf("icp: not converged from any start"), LoopRefusal::kIcp);
+  EXPECT_EQ(llc::loopRefusalOf("validation: inlier share 0.41 below 0.9"), LoopRefusal::kValidation);
+  // The back end: an unknown keyframe, then a loop that contradicts a certain odometry chain.
+  llc::SlamBackEnd back;
+  const Eigen::Matrix3d certain = Eigen::Matrix3d::Identity() * 1e-6;
+  for (int k = 0; k < 3; ++k) {
+    llc::Keyframe keyframe;
+    keyframe.scan = llc_test::ringScan(std::vector<double>(36, 2.0));
+    back.addKeyframe(keyframe, llc::Pose2{1.0, 0.0, 0.0}, certain);
+  }
+  llc::LoopClosure loop;
+  loop.from = 0, loop.to = 7, loop.accepted = true, loop.covariance = certain;
+  EXPECT_EQ(llc::loopRefusalOf(back.addLoop(loop).reject_reason), LoopRefusal::kBackEndMalformed);
+  loop.to = 2, loop.pose = llc::Pose2{-5.0, 3.0, 1.0};  // the chain says (2, 0, 0)
+  const llc::LoopRecord gated = back.addLoop(loop);
+  ASSERT_FALSE(gated.applied);
+  EXPECT_EQ(llc::loopRefusalOf(gated.reject_reason), LoopRefusal::kBackEndGate) << gated.reject_reason;
+  EXPECT_EQ(llc::loopRefusalOf("backend: the system could not be solved with it (x): taken back"),
+            LoopRefusal::kBackEndUnsolvable);
+  EXPECT_EQ(llc::loopRefusalOf("something else"), LoopRefusal::kOther);
+  // Names: distinct, one per kind, usable as report keys.
+  std::set<std::string> names;
+  for (std::size_t kind = 0; kind < llc::kLoopRefusalKinds; ++kind) {
+    const std::string name = llc::loopRefusalName(LoopRefusal(kind));
+    EXPECT_EQ(name.find_first_not_of("abcdefghijklmnopqrstuvwxyz_"), std::string::npos) << name;
+    names.insert(name);
+  }
+  EXPECT_EQ(names.size(), llc::kLoopRefusalKinds);
 }
 
 TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {

@@ -63,6 +63,26 @@ struct LoopClosure {
   double seconds = 0.0;
 };
 
+/// Why a candidate loop was not applied, by the stage that refused it: a name that reports,
+/// diagnostics and scripts count by (the reject_reason text beside it gives the details).
+enum class LoopRefusal {
+  kNone,               ///< applied (or not refused)
+  kPlaceGate,          ///< the back end's state puts the two keyframes too far apart ("place gate: ...")
+  kCrfMatch,           ///< no start for ICP: CRF-match and the global search found none ("crf: ...")
+  kIcp,                ///< ICP did not converge from any start ("icp: ...")
+  kValidation,         ///< aligned, but shape validation refused it ("validation: ...")
+  kBackEndGate,        ///< the back end's chi-square gate ("backend: innovation chi2 ...")
+  kBackEndUnsolvable,  ///< the filter could not be solved with it, taken back ("backend: the system could not be solved ...")
+  kBackEndMalformed,   ///< unknown keyframes, a non-finite pose or an unusable covariance ("backend: ...")
+  kOther,              ///< a reason none of the stages above writes
+};
+constexpr std::size_t kLoopRefusalKinds = 9;
+/// "none", "place_gate", "crf_match", "icp", "validation", "back_end_gate",
+/// "back_end_unsolvable", "back_end_malformed", "other".
+const char* loopRefusalName(LoopRefusal refusal);
+/// The stage that wrote a reject_reason, by the prefix each stage gives its reasons; empty: kNone.
+LoopRefusal loopRefusalOf(const std::string& reject_reason);
+
 /// One loop as the back end met it.
 struct LoopRecord {
   LoopClosure loop;

@@ -9,6 +9,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <array>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -150,6 +151,7 @@ class EsdfBackendRos {
   std::size_t refused_in_a_row_ = 0;
   double last_map_seconds_ = 0.0;
   std::chrono::steady_clock::time_point next_map_allowed_;  ///< map_cpu_share's throttle (under map_building_)
+  std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< loops the back end refused, by llc::LoopRefusal
   std::uint32_t session_loads_ = 0;                           ///< ~load_session calls that restored a session
   CallbackTiming callback_timing_;  ///< onKeyframe and onLoop (lock wait and the ESDF update included)
   std::string last_problem_;

@@ -19,6 +19,7 @@
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <array>
 #include <atomic>
 #include <map>
 #include <memory>
@@ -173,6 +174,7 @@ class LoopClosureRos {
   std::size_t malformed_ = 0;
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
   bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
+  std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< candidates not applied, by llc::LoopRefusal
   std::size_t keyframes_restored_ = 0;       ///< keyframes of the last session restored (~load_session of the back end)
   std::size_t models_trained_ = 0, models_swapped_ = 0;
   std::string model_path_;  ///< of the running model
