@@ -64,10 +64,12 @@ struct TruthCheck {
 
 }  // namespace
 
-const std::vector<std::string> kAlignerFlags = {"max-range", "global-search-below", "min-relative-overlap", "weak-direction-restarts", "weak-direction-above",
-                                                "icp-fixed-pairs-after", "validation-distance", "validation-share",
-                                                "validation-only-in-view", "validation-seen-through", "validation-max-position-std",
-                                                "free-space-margin", "crf-weights"};
+// The aligner's parameters, named as in config/slam.yaml, and the CRF weights file.
+const std::vector<std::string> kAlignerFlags = [] {
+  std::vector<std::string> flags = parameterNamesUnder("aligner/");
+  flags.push_back("crf-weights");
+  return flags;
+}();
 
 std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t index) {
   auto& slot = prepared_[index];
@@ -76,22 +78,9 @@ std::shared_ptr<const llc::PreparedScan> PreparedScanCache::get(std::size_t inde
 }
 
 llc::ScanAlignerOptions alignerOptions(const Args& args) {
-  llc::ScanAlignerOptions options;
-  options.max_range = args.number("max-range", options.max_range);
-  options.global_search_below = args.number("global-search-below", options.global_search_below);
-  options.min_relative_overlap = args.number("min-relative-overlap", options.min_relative_overlap);
-  options.weak_direction_restarts = int(args.integer("weak-direction-restarts", options.weak_direction_restarts));
-  options.weak_direction_above = args.number("weak-direction-above", options.weak_direction_above);
-  options.icp.fixed_pairs_after = int(args.integer("icp-fixed-pairs-after", options.icp.fixed_pairs_after));
-  options.validation.max_distance = args.number("validation-distance", options.validation.max_distance);
-  options.validation.min_inlier_share = args.number("validation-share", options.validation.min_inlier_share);
-  options.validation.max_seen_through_share =
-      args.number("validation-seen-through", options.validation.max_seen_through_share);
-  options.validation.free_space_margin = args.number("free-space-margin", options.validation.free_space_margin);
-  options.validation.max_position_std = args.number("validation-max-position-std", options.validation.max_position_std);
-  const long in_view = args.integer("validation-only-in-view", options.validation.only_in_view ? 1 : 0);
-  if (in_view != 0 && in_view != 1) throw UsageError("--validation-only-in-view must be 0 or 1");
-  options.validation.only_in_view = in_view == 1;
+  llc::SystemOptions system;
+  applyParameterFlags(args, &system);  // --aligner/... (the only parameter flags these subcommands take)
+  llc::ScanAlignerOptions options = system.slam.aligner;
   if (args.has("crf-weights")) {
     try {
       options.crf.weights = llc::loadCrfWeights(args.get("crf-weights", ""));

@@ -109,11 +109,10 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   // with --drift*, else as logged) says are surely two places (ThresholdCalibration).
   const long calibration_count = args.integer("calibration-pairs", 0);
   if (calibration_count < 0) throw UsageError("--calibration-pairs must be zero or more");
-  llc::ThresholdCalibrationOptions calibration;
+  llc::SystemOptions system;
+  applyParameterFlags(args, &system);  // --loops/calibration/{min_distance,drift_per_metre,max_path}
+  llc::ThresholdCalibrationOptions calibration = system.slam.loops.calibration;
   calibration.target_false_alarm = training.target_false_alarm;
-  calibration.min_distance = args.number("calibration-min-distance", calibration.min_distance);
-  calibration.drift_per_metre = args.number("calibration-drift-per-metre", calibration.drift_per_metre);
-  calibration.max_path = args.number("calibration-max-path", calibration.max_path);
   if (const std::string invalid = calibration.validate(); !invalid.empty()) throw UsageError(invalid);
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   std::vector<llc::TrainingSet> calibration_sets;

@@ -11,21 +11,15 @@
 
 namespace llc_tool {
 
+const std::vector<std::string> kEsdfFlags = parameterNamesUnder("esdf/", {"esdf/gate_loops"});
+
 int runGraph(const Args& args) {
   const std::string in_path = args.required("g2o"), out_path = args.required("out");
   if (args.has("incremental") && args.has("batch")) throw UsageError("--incremental and --batch exclude each other");
   const bool batch = args.has("batch");
-  llc::EsdfOptions options;
-  options.relinearize_translation = args.number("relinearize-translation", options.relinearize_translation);
-  options.relinearize_rotation = args.number("relinearize-rotation", options.relinearize_rotation);
-  options.relinearize_chi2 = args.number("relinearize-chi2", options.relinearize_chi2);
-  options.max_edges_relinearized_in_place =
-      int(args.integer("max-edges-in-place", options.max_edges_relinearized_in_place));
-  options.reorder_fill_ratio = args.number("reorder-fill-ratio", options.reorder_fill_ratio);
-  options.max_relinearizations = int(args.integer("max-relinearizations", options.max_relinearizations));
-  options.loop_chi2_threshold = args.number("loop-chi2", options.loop_chi2_threshold);
-  options.max_information = args.number("max-information", options.max_information);
-  options.robust_loop_chi2 = args.number("robust-loop-chi2", options.robust_loop_chi2);
+  llc::SystemOptions system;
+  applyParameterFlags(args, &system);  // --esdf/... (the only parameter flags llc graph takes)
+  const llc::EsdfOptions options = system.slam.esdf;
   const std::string invalid = options.validate();
   if (!invalid.empty()) throw UsageError(invalid);
   const bool gate = args.has("gate");

@@ -18,9 +18,11 @@ int runAlign(const Args& args);
 int runTrainCrf(const Args& args);
 int runGraph(const Args& args);
 int runSlam(const Args& args);
-/// Alignment options from --max-range, --validation-distance, --validation-share, --crf-weights.
+/// Alignment options from the --aligner/... parameter flags and --crf-weights.
 llc::ScanAlignerOptions alignerOptions(const Args& args);
 extern const std::vector<std::string> kAlignerFlags;
+/// The ESDF's parameters (esdf/..., named as in config/slam.yaml) but esdf/gate_loops: llc graph's --gate.
+extern const std::vector<std::string> kEsdfFlags;
 
 /// The scans of one recording prepared for alignment, each once, on first use.
 class PreparedScanCache {

@@ -52,7 +52,7 @@ const std::vector<Command>& commands() {
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
                   "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",
-                  "calibration-min-distance", "calibration-drift-per-metre", "calibration-max-path"},
+                  "loops/calibration/min_distance", "loops/calibration/drift_per_metre", "loops/calibration/max_path"},
                  with(with(kFeatureFlags, llc_tool::kAlignerFlags), llc_tool::kDriftFlags)),
             kInputFlags),
        with({"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"}, kFeatureSwitches),
@@ -62,8 +62,8 @@ const std::vector<Command>& commands() {
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
-       "      [--calibration-pairs 0 [--calibration-min-distance 10] [--calibration-drift-per-metre 0.3]\n"
-       "       [--calibration-max-path 50] [--drift moderate|strong ...]]\n"
+       "      [--calibration-pairs 0 [--loops/calibration/min_distance 10] [--loops/calibration/drift_per_metre 0.3]\n"
+       "       [--loops/calibration/max_path 50] [--drift moderate|strong ...]]\n"
        "      [--validate [alignment options]]   (the loop stage held out: pairs at or above K aligned, validated)\n"
        "      (each log scored by a model, stumps and K, trained on the other logs only; with calibration\n"
        "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry)"},
@@ -77,14 +77,10 @@ const std::vector<Command>& commands() {
        {"compare-pcl", "truth-check"},
        "align --data LOG:PAIRS [...] --out ALIGN.csv [--model MODEL.yaml] [--compare-pcl] [--truth-check]\n"
        "      [--tolerance-m 0.2] [--tolerance-deg 2] [alignment options]"},
-      {"graph", llc_tool::runGraph,
-       {"g2o", "out", "relinearize-translation", "relinearize-rotation", "relinearize-chi2", "max-edges-in-place", "reorder-fill-ratio",
-        "max-relinearizations", "loop-chi2", "max-information", "robust-loop-chi2"},
+      {"graph", llc_tool::runGraph, with({"g2o", "out"}, llc_tool::kEsdfFlags),
        {"incremental", "batch", "gate"},
-       "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--loop-chi2 16.27]\n"
-       "      [--relinearize-translation 0.05] [--relinearize-rotation 0.02] [--relinearize-chi2 0.001]\n"
-       "      [--max-edges-in-place 32] [--reorder-fill-ratio 1.5] [--max-relinearizations 20] [--max-information 1e12]\n"
-       "      [--robust-loop-chi2 0]   (W > 0: robust loops, each misfitting by chi2 X > W counts (2W/(W+X))^2 of its\n"
+       "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--esdf/PARAMETER VALUE ...]\n"
+       "      (--esdf/robust_loop_chi2 W > 0: robust loops, each misfitting by chi2 X > W counts (2W/(W+X))^2 of its\n"
        "       information; a batch run is solved from two starts and an incremental one re-solved so at the end)"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
@@ -114,12 +110,8 @@ bool takes(const Command& c, const std::vector<std::string>& names) {
 }
 
 void alignmentOptionsHelp(std::ostream& out) {
-  out << "alignment options: [--max-range 40] [--validation-distance 1] [--validation-share 0.9]\n"
-         "  [--validation-only-in-view 1] [--validation-seen-through 0.1] [--free-space-margin 0.5]\n"
-         "  [--validation-max-position-std 0.015]\n"
-         "  [--global-search-below 0.7] [--min-relative-overlap 0.6] [--weak-direction-restarts 3]\n"
-         "  [--weak-direction-above 0.6] [--icp-fixed-pairs-after 30]\n"
-         "  [--crf-weights CRF.yaml]\n";
+  out << "alignment options: [--aligner/PARAMETER VALUE ...] (every aligner/ parameter of config/slam.yaml;\n"
+         "  llc align --help lists them with defaults) [--crf-weights CRF.yaml]\n";
 }
 
 void inputHelp(std::ostream& out) {
@@ -138,12 +130,17 @@ void usage(std::ostream& out) {
 /// llc SUBCOMMAND --help: its usage with the defaults, and the option groups it takes.
 void commandHelp(const Command& c, std::ostream& out) {
   out << "usage: llc " << c.usage << "\n";
-  if (takes(c, llc_tool::kAlignerFlags)) alignmentOptionsHelp(out);
+  const bool slam = std::string(c.name) == "slam";  // takes every pipeline parameter: listed below
+  if (!slam && takes(c, llc_tool::kAlignerFlags)) {
+    alignmentOptionsHelp(out);
+    llc_tool::systemParametersHelp(out, "aligner/");
+  }
+  if (!slam && takes(c, llc_tool::kEsdfFlags)) llc_tool::systemParametersHelp(out, "esdf/");
   if (takes(c, llc_tool::kFeatureFlags))
     out << "feature options: [--features paper|extended] (extended) [--r-max 50] (m) [--g-max-dist 2.5] (m)\n"
            "  [--g-min-size 3] (points) [--open-ring] (default: closed ring for 360-degree scans)\n";
   if (takes(c, llc_tool::kInputFlags)) inputHelp(out);
-  if (takes(c, llc::systemParameterNames())) llc_tool::systemParametersHelp(out);
+  if (slam) llc_tool::systemParametersHelp(out);
   out << "exit codes: 0 done, 1 a file or the data could not be read or written, 2 bad usage\n";
 }
 

@@ -41,7 +41,14 @@ void applyParameterFlags(const Args& args, llc::SystemOptions* options) {
   }
 }
 
-void systemParametersHelp(std::ostream& out) {
+std::vector<std::string> parameterNamesUnder(const std::string& prefix, const std::vector<std::string>& except) {
+  std::vector<std::string> names;
+  for (const std::string& name : llc::systemParameterNames())
+    if (name.rfind(prefix, 0) == 0 && std::find(except.begin(), except.end(), name) == except.end()) names.push_back(name);
+  return names;
+}
+
+void systemParametersHelp(std::ostream& out, const std::string& prefix) {
   // The meaning of each parameter from the comment beside it in config/slam.yaml, keyed by its
   // nested name (indentation gives the sections).
   std::map<std::string, std::string> comments;
@@ -64,8 +71,10 @@ void systemParametersHelp(std::ostream& out) {
     }
     if (hash != std::string::npos) comments[name + key] = line.substr(line.find_first_not_of(' ', hash + 1));
   }
-  out << "pipeline parameters (each also a key of config/slam.yaml and a ROS parameter of the nodelets; default, then meaning):\n";
+  out << (prefix.empty() ? std::string("pipeline parameters") : "parameters " + prefix + "*")
+      << " (each also a key of config/slam.yaml and a ROS parameter of the nodelets; default, then meaning):\n";
   for (const auto& parameter : llc::systemParameterDefaults()) {
+    if (parameter.first.rfind(prefix, 0) != 0) continue;
     out << "  --" << parameter.first << " " << parameter.second;
     auto comment = comments.find(parameter.first);
     if (comment == comments.end()) {  // a block the file documents once (aligner/icp: "as above")

@@ -63,7 +63,10 @@ class Args {
 void applyParameterFlags(const Args& args, llc::SystemOptions* options);
 /// Lists every pipeline parameter as a flag with its built-in default, and its unit and meaning
 /// from the comment beside it in config/slam.yaml (a test checks that file against the defaults).
-void systemParametersHelp(std::ostream& out);
+void systemParametersHelp(std::ostream& out, const std::string& prefix = "");
+/// Every pipeline parameter name under `prefix` ("aligner/", "esdf/"), but those in `except`:
+/// the flags of a subcommand that runs one stage.
+std::vector<std::string> parameterNamesUnder(const std::string& prefix, const std::vector<std::string>& except = {});
 
 /// Feature options from --features, --r-max, --g-max-dist, --g-min-size, --open-ring.
 llc::FeatureOptions featureOptions(const Args& args);

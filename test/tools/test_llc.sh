@@ -89,11 +89,11 @@ check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.ba
 check "align on sim.bag" 0 "pcl_gicp_identity: within_tolerance=" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/align.csv" --compare-pcl
 check "align csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms$" -- head -1 "$TMP/sim/align.csv"
 check "align: >= 90% of positives within 0.2 m / 2 deg" 0 "^ok$" -- bash -c "'$LLC' align --data '$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv' --out '$TMP/sim/a2.csv' | awk -F'[= ]' '/^crf_icp/ {print (\$3 >= 0.9 ? \"ok\" : \"low \" \$3)}'"
-check "align --truth-check sorts the failures" 0 "^failed_positives=[0-9]+ no_start_near_truth=[0-9]+ better_fit_elsewhere=[0-9]+ truth_moves_under_icp=[0-9]+ icp_fails_at_truth=[0-9]+ of_those_two_gicp_from_truth_agrees_off_truth=[0-9]+ gicp_from_truth_stays=[0-9]+$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv" --truth-check --global-search-below 1
+check "align --truth-check sorts the failures" 0 "^failed_positives=[0-9]+ no_start_near_truth=[0-9]+ better_fit_elsewhere=[0-9]+ truth_moves_under_icp=[0-9]+ icp_fails_at_truth=[0-9]+ of_those_two_gicp_from_truth_agrees_off_truth=[0-9]+ gicp_from_truth_stays=[0-9]+$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv" --truth-check --aligner/global_search_below 1
 check "align --truth-check csv header" 0 "^a,b,label,x,y,theta,inlier_share,accepted,ms,fit,truth_fit,icp_from_truth_converged,icp_from_truth_fit,icp_from_truth_error_m,icp_from_truth_error_deg,icp_from_truth_refusal,gicp_from_truth_converged,gicp_from_truth_error_m,gicp_from_truth_error_deg,error_m,error_deg$" -- head -1 "$TMP/sim/a6.csv"
-check "align: global-search-below out of range" 2 "global_search_below must be in \[0, 1\]" -- "$LLC" align --global-search-below 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: min-relative-overlap out of range" 2 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --min-relative-overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: icp-fixed-pairs-after below 1" 2 "fixed_pairs_after must be >= 1" -- "$LLC" align --icp-fixed-pairs-after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: global-search-below out of range" 2 "global_search_below must be in \[0, 1\]" -- "$LLC" align --aligner/global_search_below 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: min-relative-overlap out of range" 2 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --aligner/min_relative_overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
+check "align: icp-fixed-pairs-after below 1" 2 "fixed_pairs_after must be >= 1" -- "$LLC" align --aligner/icp/fixed_pairs_after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
 check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "^session .*: [0-9]+ keyframes, [1-9][0-9]* positive and [1-9][0-9]* negative pairs labelled by its optimised map$" -- "$LLC" train --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self.yaml" --rounds 20 --repeats 1
 check "train --from-session beside --data" 0 "^pairs=(1[3-9][0-9]|[2-9][0-9]{2}|[0-9]{4,}) " -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self2.yaml" --rounds 20 --repeats 1
@@ -104,8 +104,8 @@ check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$
 check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
 check "align: corrupt CRF weights" 1 "bad.yaml: not a laser_loop_closure CRF weights file" -- "$LLC" align --crf-weights "$TMP/bad.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a5.csv"
 check "align: share of accepted positives within tolerance" 0 "^accepted_positives_within_tolerance=[01]\.[0-9]+ \([0-9]+/[0-9]+\)$" -- "$LLC" align --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
-check "align: negative position std" 2 "validation: max_position_std must be finite and >= 0" -- "$LLC" align --validation-max-position-std -1 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
-check "align: bad validation share" 2 "validation: min_inlier_share must be in" -- "$LLC" align --validation-share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
+check "align: negative position std" 2 "validation: max_position_std must be finite and >= 0" -- "$LLC" align --aligner/validation/max_position_std -1 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
+check "align: bad validation share" 2 "validation: min_inlier_share must be in" -- "$LLC" align --aligner/validation/min_inlier_share 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a6.csv"
 check "evaluate --validate" 0 "validated_detection_at_1pct_fa=" -- "$LLC" evaluate --validate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev2" --repeats 1 --no-curve --no-ablation --no-rotation
 check "evaluate --validate writes the validated ROC" 0 "false_alarm,detection" -- head -1 "$TMP/sim/ev2/roc_validated.csv"
 # Leave-one-log-out: each log scored by a model trained on the others only.
@@ -119,7 +119,7 @@ check "evaluate --leave-one-log-out --validate: the loop stage held out" 0 "^loo
 check "evaluate --leave-one-log-out --validate writes loop_stage.csv" 0 "^log,a,b,label,extra,score,accepted,inlier_share,seen_through_share,position_std,true_distance_m,error_m,error_deg,gate_chi2,through_gate,reject_reason$" -- head -1 "$TMP/sim/lolo5/loop_stage.csv"
 check "evaluate --leave-one-log-out --validate without --drift says the gate needs it" 0 "^loop_stage_with_gate: not run" -- cat "$TMP/sim/lolo5/summary.txt"
 check "evaluate --leave-one-log-out --validate --drift: the back end's gate too" 0 "^loop_stage_with_gate: true_pairs_through=[0-9]+/260 false_pairs_through=[0-9]+ wrong_poses_through=[0-9]+ " -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo6" --rounds 10 --folds 3 --validate --drift moderate
-check "evaluate --calibration-max-path must be positive" 2 "max_path must be finite and > 0" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs 10 --calibration-max-path -5
+check "evaluate --loops/calibration/max_path must be positive" 2 "max_path must be finite and > 0" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs 10 --loops/calibration/max_path -5
 check "evaluate --calibration-pairs must not be negative" 2 "calibration-pairs must be zero or more" -- "$LLC" evaluate --leave-one-log-out --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --data "$TMP/sim/sim.log:$TMP/sim/pairs.csv" --out "$TMP/sim/lolo4" --calibration-pairs -1
 # Pose graphs through the ESDF: a small g2o file written here (a square with one loop edge).
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 100 0 0 100 0 400\n' > "$TMP/square.g2o"
@@ -127,24 +127,24 @@ check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" 
 check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
 check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
 check "graph: both modes" 2 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
-check "graph: negative relinearize-chi2" 2 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --relinearize-chi2 -1
+check "graph: negative relinearize-chi2" 2 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/relinearize_chi2 -1
 printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
-check "graph: negative max-edges-in-place" 2 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place -1
-check "graph: reorder-fill-ratio below 1" 2 "reorder_fill_ratio must be finite and >= 1" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --reorder-fill-ratio 0.5
-check "graph: every swap as a rebuild still reaches the optimum" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-edges-in-place 0
+check "graph: negative max-edges-in-place" 2 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/max_edges_relinearized_in_place -1
+check "graph: reorder-fill-ratio below 1" 2 "reorder_fill_ratio must be finite and >= 1" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/reorder_fill_ratio 0.5
+check "graph: every swap as a rebuild still reaches the optimum" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/max_edges_relinearized_in_place 0
 check "graph: prints where its time went" 0 " seconds_rank_updates=[0-9.e+-]+ seconds_solves=[0-9.e+-]+ seconds_factorizations=[0-9.e+-]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 check "graph: prints its rebuild count" 0 " rebuilds=[0-9]+ " -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o"
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 1e24 0 0 1e24 0 1e24\n' > "$TMP/too_sure.g2o"
 check "graph: a loop beyond max_information is refused" 0 "refused edge 3 -> 0: information .* above max_information" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o"
-check "graph: max-information is an option" 0 "refused=0" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o" --max-information 1e25
-check "graph: max-information must be positive" 2 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --max-information 0
+check "graph: max-information is an option" 0 "refused=0" -- "$LLC" graph --g2o "$TMP/too_sure.g2o" --out "$TMP/x.g2o" --esdf/max_information 1e25
+check "graph: max-information must be positive" 2 "max_information must be finite and > 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/max_information 0
 # A wrong loop (pose 3 said to be 1 m from pose 0, in a 4 m square walked twice) bends the
 # least-squares solution; robust loops hold it at the clean optimum.
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 4 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 4 5 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 5 6 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 6 7 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 0 4 0 0 0 100 0 0 100 0 400\nEDGE_SE2 1 5 0 0 0 100 0 0 100 0 400\nEDGE_SE2 2 6 0 0 0 100 0 0 100 0 400\nEDGE_SE2 3 7 0 0 0 100 0 0 100 0 400\nEDGE_SE2 0 6 3 3 1 100 0 0 100 0 400\n' > "$TMP/wrong_loop.g2o"
 check "graph: a wrong loop bends least squares" 0 "^chi2=[0-9]{3,}" -- "$LLC" graph --g2o "$TMP/wrong_loop.g2o" --out "$TMP/x.g2o"
-check "graph --robust-loop-chi2: the wrong loop held at no weight" 0 "^robust: loops_down_weighted=1 " -- "$LLC" graph --g2o "$TMP/wrong_loop.g2o" --out "$TMP/x.g2o" --robust-loop-chi2 16.27
-check "graph --robust-loop-chi2 --batch: the rest fits exactly" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/wrong_loop.g2o' --out '$TMP/x.g2o' --robust-loop-chi2 16.27 --batch | awk '/^robust:/ {split(\$3, c, \"=\"); print (c[2] < 16.27 * 1.01 ? \"ok\" : \"robust cost \" c[2])}'"
-check "graph: robust-loop-chi2 must not be negative" 2 "robust_loop_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --robust-loop-chi2 -1
+check "graph --esdf/robust_loop_chi2: the wrong loop held at no weight" 0 "^robust: loops_down_weighted=1 " -- "$LLC" graph --g2o "$TMP/wrong_loop.g2o" --out "$TMP/x.g2o" --esdf/robust_loop_chi2 16.27
+check "graph --esdf/robust_loop_chi2 --batch: the rest fits exactly" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/wrong_loop.g2o' --out '$TMP/x.g2o' --esdf/robust_loop_chi2 16.27 --batch | awk '/^robust:/ {split(\$3, c, \"=\"); print (c[2] < 16.27 * 1.01 ? \"ok\" : \"robust cost \" c[2])}'"
+check "graph: robust-loop-chi2 must not be negative" 2 "robust_loop_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/robust_loop_chi2 -1
 check "graph: malformed g2o" 1 "bad.g2o:2: EDGE_SE2 needs" -- "$LLC" graph --g2o "$TMP/bad.g2o" --out "$TMP/x.g2o"
 check "graph: missing file" 1 "none.g2o: no such file" -- "$LLC" graph --g2o "$TMP/none.g2o" --out "$TMP/x.g2o"
 check "bag: front scanner topic renamed" 1 "no sensor_msgs/LaserScan on the front topic /front" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/f.csv" --front-topic /front
@@ -158,7 +158,9 @@ for sub in pairs features train evaluate score simulate align graph slam train-c
   check "$sub --help" 0 "^usage: llc $sub " -- "$LLC" "$sub" --help
 done
 check "slam --help lists defaults" 0 "\[--drift-noise-m 0\.01\]" -- "$LLC" slam --help
-check "align --help lists the alignment options" 0 "^alignment options: \[--max-range 40\]" -- "$LLC" align --help
+check "align --help lists the aligner's parameters with defaults" 0 "^  --aligner/max_range 40   # " -- "$LLC" align --help
+check "graph --help lists the ESDF's parameters with defaults" 0 "^  --esdf/loop_chi2_threshold 16.27   # " -- "$LLC" graph --help
+check "align: a bool parameter flag takes true/false" 2 "aligner/validation/only_in_view': bad value" -- "$LLC" align --aligner/validation/only_in_view maybe --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a8.csv"
 # Flags and outputs are checked before the run: nothing is written, no folder made.
 check "slam: a NaN flag is refused before the run" 2 "positive-distance must be a number, not 'nan'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nan" --positive-distance nan
 check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_nan' && echo present || echo absent"
