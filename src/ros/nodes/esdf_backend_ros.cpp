@@ -49,33 +49,23 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   // Not latched: a session comes in parts (a latch would keep only the last); the queue holds
   // every part of a long one for a subscriber over TCP.
   session_pub_ = nh.advertise<laser_loop_closure::Session>("session", 1000, false);
-  ros::NodeHandle service_nh(private_nh);
-  service_nh.setCallbackQueue(&service_queue_);
+  ros::NodeHandle service_nh = service_thread_.handle(private_nh);
   save_map_srv_ = service_nh.advertiseService("save_map", &EsdfBackendRos::saveMap, this);
   save_session_srv_ = service_nh.advertiseService("save_session", &EsdfBackendRos::saveSession, this);
   load_session_srv_ = service_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
-  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
-  service_spinner_->start();
-  ros::NodeHandle place_nh(private_nh);
-  place_nh.setCallbackQueue(&place_queue_);
-  place_check_srv_ = place_nh.advertiseService("place_check", &EsdfBackendRos::placeCheck, this);
-  place_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &place_queue_);
-  place_spinner_->start();
+  service_thread_.start();
+  place_check_srv_ = place_thread_.handle(private_nh).advertiseService("place_check", &EsdfBackendRos::placeCheck, this);
+  place_thread_.start();
   if (options_.publish_tf) {
-    ros::NodeHandle transform_nh(nh);
-    transform_nh.setCallbackQueue(&transform_queue_);
-    tf_timer_ = transform_nh.createTimer(ros::Duration(options_.tf_publish_period),
-                                         [this](const ros::TimerEvent&) { publishTransform(); });
-    transform_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &transform_queue_);
-    transform_spinner_->start();
+    tf_timer_ = transform_thread_.handle(nh).createTimer(ros::Duration(options_.tf_publish_period),
+                                                         [this](const ros::TimerEvent&) { publishTransform(); });
+    transform_thread_.start();
   }
   // The map is rebuilt on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
   // held every keyframe behind it, and the front end's place checks timed out meanwhile.
-  ros::NodeHandle map_nh(nh);
-  map_nh.setCallbackQueue(&map_queue_);
-  map_timer_ = map_nh.createWallTimer(ros::WallDuration(options_.map_publish_period), [this](const ros::WallTimerEvent&) { publishMap(); });
-  map_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &map_queue_);
-  map_spinner_->start();
+  map_timer_ = map_thread_.handle(nh).createWallTimer(ros::WallDuration(options_.map_publish_period),
+                                                      [this](const ros::WallTimerEvent&) { publishMap(); });
+  map_thread_.start();
   diagnostics_.setHardwareID("none");
   diagnostics_.add("esdf backend", this, &EsdfBackendRos::diagnose);
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
@@ -83,10 +73,10 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
 
 EsdfBackendRos::~EsdfBackendRos() {
   // The transform, service, place-check and map threads read members: stopped before any of them goes.
-  if (transform_spinner_) transform_spinner_->stop();
-  if (service_spinner_) service_spinner_->stop();
-  if (place_spinner_) place_spinner_->stop();
-  if (map_spinner_) map_spinner_->stop();
+  transform_thread_.stop();
+  service_thread_.stop();
+  place_thread_.stop();
+  map_thread_.stop();
   tf_timer_.stop();
   map_timer_.stop();
   diagnostics_timer_.stop();

@@ -74,18 +74,15 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   scan_sub_ = nh.subscribe("scan360", options_.queue_size, &LoopClosureRos::onScanReceived, this);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
   session_sub_ = nh.subscribe("session", 1000, &LoopClosureRos::onSession, this);  // every part of a long session
-  ros::NodeHandle service_nh(private_nh);
-  service_nh.setCallbackQueue(&service_queue_);
-  train_srv_ = service_nh.advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
-  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
-  service_spinner_->start();
+  train_srv_ = service_thread_.handle(private_nh).advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
+  service_thread_.start();
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 }
 
 LoopClosureRos::~LoopClosureRos() {
-  if (service_spinner_) service_spinner_->stop();
+  service_thread_.stop();
   diagnostics_timer_.stop();
   scan_sub_.shutdown();
   odometry_filter_.reset();
@@ -332,30 +329,11 @@ void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {
 }
 
 void LoopClosureRos::onSession(const laser_loop_closure::Session::ConstPtr& msg) {
-  // A session comes in parts, in order; it is restored when the last part of a load came after
-  // all its earlier ones (a part missing: that load is not restored, and it is said).
-  SessionParts& parts = session_parts_;
-  if (msg->part == 0) parts = SessionParts{msg->load, 0, {}, {}};
+  llc_ros::AssembledSession session;
   std::string error;
-  if (msg->load != parts.load || msg->part != parts.next_part || msg->first_keyframe != parts.keyframes.size())
-    error = "part " + std::to_string(msg->part) + " of load " + std::to_string(msg->load) + " came without the parts before it";
-  llc::Pose2 motion;
-  Eigen::Matrix3d covariance;
-  for (std::size_t k = 0; k < msg->keyframes.size() && error.empty(); ++k) {
-    parts.keyframes.emplace_back();
-    if (!fromKeyframeMsg(msg->keyframes[k], &parts.keyframes.back(), &motion, &covariance, &error))
-      error = "keyframe " + std::to_string(msg->first_keyframe + k) + ": " + error;
-    parts.features.push_back(msg->keyframes[k].features);
-  }
-  if (error.empty() && msg->part + 1 == msg->parts && parts.keyframes.size() != msg->total_keyframes)
-    error = std::to_string(parts.keyframes.size()) + " keyframes came, the session has " + std::to_string(msg->total_keyframes);
-  if (error.empty() && msg->part + 1 < msg->parts) {
-    ++parts.next_part;
-    return;  // more to come
-  }
-  const std::vector<llc::Keyframe> keyframes = std::move(parts.keyframes);
-  const std::vector<std::vector<double>> features = std::move(parts.features);
-  parts = SessionParts{};
+  if (session_assembler_.add(*msg, &session, &error) == SessionAssembler::Status::kIncomplete) return;
+  const std::vector<llc::Keyframe>& keyframes = session.keyframes;
+  const std::vector<std::vector<double>>& features = session.features;
   std::lock_guard<std::mutex> lock(mutex_);
   bool recomputed = false;
   if (error.empty()) error = front_->restore(keyframes, features, msg->continue_odometry, &recomputed);

@@ -25,6 +25,7 @@
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/ros/io/callback_thread.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 
@@ -108,16 +109,13 @@ class EsdfBackendRos {
   ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
   ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_;
   // The place check has its own queue and thread: it waits for keyframes the main queue brings.
-  ros::CallbackQueue place_queue_;
-  std::unique_ptr<ros::AsyncSpinner> place_spinner_;
+  CallbackThread place_thread_;
   // The services have their own queue and thread: they answer while keyframes queue up and
   // while the clock stands still (a bag ended or paused).
-  ros::CallbackQueue service_queue_;
-  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
-  ros::Timer tf_timer_;  // on transform_queue_
+  CallbackThread service_thread_;
+  ros::Timer tf_timer_;  // on transform_thread_
   // /map, the cloud and the markers are rebuilt on their own queue and thread (map_timer_).
-  ros::CallbackQueue map_queue_;
-  std::unique_ptr<ros::AsyncSpinner> map_spinner_;
+  CallbackThread map_thread_;
   // Wall time: the last keyframes of a bag reach /map, and the health is told, after the clock stopped.
   ros::WallTimer map_timer_, diagnostics_timer_;
   diagnostic_updater::Updater diagnostics_;
@@ -143,8 +141,7 @@ class EsdfBackendRos {
   llc::Pose2 map_to_odom_;       ///< guarded by transform_mutex_
   bool has_map_to_odom_ = false;  ///< guarded by transform_mutex_: the newest keyframe has wheel odometry
   ros::Time last_tf_time_;        ///< the transform thread's own
-  ros::CallbackQueue transform_queue_;
-  std::unique_ptr<ros::AsyncSpinner> transform_spinner_;
+  CallbackThread transform_thread_;
   std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;
   /// Keyframes refused since the last one taken: the graph is stopped while above 0 (a load's
   /// race with the front end refuses a few, then mapping goes on and this is 0 again).

@@ -35,7 +35,9 @@
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/slam/scan_backlog.hpp"
+#include "laser_loop_closure/ros/io/callback_thread.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
+#include "laser_loop_closure/ros/io/session_parts.hpp"
 #include "laser_loop_closure/ros/io/tf_listener.hpp"
 #include "laser_loop_closure/core/slam/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
@@ -136,18 +138,11 @@ class LoopClosureRos {
   ros::Subscriber scan_sub_, path_sub_, session_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<laser_loop_closure::Scan360>> odometry_filter_;
   ros::ServiceServer train_srv_;
-  ros::CallbackQueue service_queue_;  ///< ~train_classifier's, spun by its own thread
-  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  CallbackThread service_thread_;  ///< ~train_classifier's own queue and thread
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
-  /// The parts of a restored session so far (session_sub_'s callback only).
-  struct SessionParts {
-    std::uint32_t load = 0, next_part = 0;
-    std::vector<llc::Keyframe> keyframes;
-    std::vector<std::vector<double>> features;
-  };
-  SessionParts session_parts_;
+  SessionAssembler session_assembler_;  ///< the parts of a restored session (session_sub_'s callback only)
   CallbackTiming callback_timing_;  ///< onScanReceived and onScanWithOdometry (lock wait included)
   CallbackTiming scan_latency_;     ///< a scan's arrival to the end of its processing (queue + front end)  ///< wall time: the health is told while the clock stands still too
 
