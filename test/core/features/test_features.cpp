@@ -265,6 +265,63 @@ TEST(Features, OptionsAreValidated) {
   EXPECT_TRUE(FeatureOptions{}.validate().empty());
 }
 
+TEST(Features, NamedSlotsMatchTheNames) {
+  // The named slots the extractor writes and the names a model file and the CSVs carry are
+  // one layout: every enumerator against its name, and the counts.
+  using llc::ExtraFeature;
+  using llc::PaperFeature;
+  const auto& names = llc::featureNames(FeatureSet::kExtended);
+  ASSERT_EQ(llc::featureNames(FeatureSet::kPaper).size(), std::size_t(PaperFeature::kCount));
+  ASSERT_EQ(llc::signatureOffset(FeatureSet::kExtended), llc::featureIndex(ExtraFeature::kCount));
+  const std::vector<std::pair<std::size_t, const char*>> slots = {
+      {llc::featureIndex(PaperFeature::kArea), "area"},
+      {llc::featureIndex(PaperFeature::kAverageRange), "average_range"},
+      {llc::featureIndex(PaperFeature::kCentroid), "centroid"},
+      {llc::featureIndex(PaperFeature::kCloseArea), "close_area"},
+      {llc::featureIndex(PaperFeature::kCloseDistance), "close_distance"},
+      {llc::featureIndex(PaperFeature::kCircleRadius), "circle_radius"},
+      {llc::featureIndex(PaperFeature::kCircleResidual), "circle_residual"},
+      {llc::featureIndex(PaperFeature::kCurvatureMean), "curvature_mean"},
+      {llc::featureIndex(PaperFeature::kCurvatureStd), "curvature_std"},
+      {llc::featureIndex(PaperFeature::kDistance), "distance"},
+      {llc::featureIndex(PaperFeature::kFarDistance), "far_distance"},
+      {llc::featureIndex(PaperFeature::kGroupCount), "group_count"},
+      {llc::featureIndex(PaperFeature::kGroupSizeMean), "group_size_mean"},
+      {llc::featureIndex(PaperFeature::kMaxRangeCount), "max_range_count"},
+      {llc::featureIndex(PaperFeature::kAngularDifference), "angular_difference"},
+      {llc::featureIndex(PaperFeature::kMeanDeviation), "mean_deviation"},
+      {llc::featureIndex(PaperFeature::kRegularity), "regularity"},
+      {llc::featureIndex(PaperFeature::kSize), "size"},
+      {llc::featureIndex(PaperFeature::kDeviationStd), "deviation_std"},
+      {llc::featureIndex(PaperFeature::kRangeStd), "range_std"},
+      {llc::featureIndex(ExtraFeature::kValidFraction), "valid_fraction"},
+      {llc::featureIndex(ExtraFeature::kMaxRangeFraction), "max_range_fraction"},
+      {llc::featureIndex(ExtraFeature::kGroupSizeFraction), "group_size_fraction"},
+      {llc::featureIndex(ExtraFeature::kRangeQ10), "range_q10"},
+      {llc::featureIndex(ExtraFeature::kRangeQ25), "range_q25"},
+      {llc::featureIndex(ExtraFeature::kRangeQ50), "range_q50"},
+      {llc::featureIndex(ExtraFeature::kRangeQ75), "range_q75"},
+      {llc::featureIndex(ExtraFeature::kRangeQ90), "range_q90"},
+      {llc::featureIndex(ExtraFeature::kPrincipalSigmaMajor), "principal_sigma_major"},
+      {llc::featureIndex(ExtraFeature::kPrincipalSigmaMinor), "principal_sigma_minor"},
+      {llc::featureIndex(ExtraFeature::kAnisotropy), "anisotropy"},
+      {llc::featureIndex(ExtraFeature::kGapCount), "gap_count"},
+      {llc::featureIndex(ExtraFeature::kWidestGapAngle), "widest_gap_angle"},
+      {llc::featureIndex(ExtraFeature::kLongestGroupLength), "longest_group_length"},
+      {llc::featureIndex(ExtraFeature::kGroupLengthMean), "group_length_mean"},
+      {llc::featureIndex(ExtraFeature::kRangeHistogram), "range_hist_0_1"},
+      {llc::featureIndex(ExtraFeature::kRangeHistogram) + llc::kRangeHistogramBins - 1, "range_hist_16_max"},
+      {llc::signatureOffset(FeatureSet::kExtended) + std::size_t(llc::Signature::kChord) * llc::kSignatureLevels,
+       "chord_distribution_0"},
+      {llc::signatureOffset(FeatureSet::kExtended) +
+           std::size_t(llc::Signature::kOutlineCentroidDistance) * llc::kSignatureLevels,
+       "outline_centroid_distance_distribution_0"}};
+  for (const auto& [index, name] : slots) {
+    ASSERT_LT(index, names.size()) << name;
+    EXPECT_EQ(names[index], name);
+  }
+}
+
 TEST(Features, PairFeaturesAreAbsoluteThenRelativeDifferences) {
   std::vector<double> a(20, 0.0), b(20, 0.0);
   a[0] = 1.0, b[0] = 3.0, a[1] = 5.0, b[1] = 1.0;

@@ -37,6 +37,37 @@ struct FeatureOptions {
   bool operator!=(const FeatureOptions& other) const { return !(*this == other); }
 };
 
+/// The paper's 20 features by name, in the paper's order (#1 is kArea): slot i of every
+/// feature vector is featureNames()[i].
+enum class PaperFeature : std::size_t {
+  kArea, kAverageRange, kCentroid, kCloseArea, kCloseDistance, kCircleRadius, kCircleResidual,
+  kCurvatureMean, kCurvatureStd, kDistance, kFarDistance, kGroupCount, kGroupSizeMean, kMaxRangeCount,
+  kAngularDifference, kMeanDeviation, kRegularity, kSize, kDeviationStd, kRangeStd,
+  kCount
+};
+
+/// Bins of the extended set's range histogram: [0,1) [1,2) [2,4) [4,8) [8,16) [16,r_max) m.
+constexpr std::size_t kRangeHistogramBins = 6;
+
+/// The extended set's scalar additions by name; they follow the paper's 20.
+enum class ExtraFeature : std::size_t {
+  kValidFraction, kMaxRangeFraction, kGroupSizeFraction,
+  kRangeQ10, kRangeQ25, kRangeQ50, kRangeQ75, kRangeQ90,
+  kPrincipalSigmaMajor, kPrincipalSigmaMinor, kAnisotropy,
+  kGapCount, kWidestGapAngle, kLongestGroupLength, kGroupLengthMean,
+  kRangeHistogram,  ///< the first of kRangeHistogramBins fractions of the beams
+  kCount = kRangeHistogram + kRangeHistogramBins
+};
+
+/// The extended set's signatures by name, stored after the scalar additions.
+enum class Signature : std::size_t { kRange, kCentroidDistance, kChord, kOutlineD2, kOutlineCentroidDistance, kCount };
+
+/// Where a named feature sits in a feature vector.
+constexpr std::size_t featureIndex(PaperFeature feature) { return std::size_t(feature); }
+constexpr std::size_t featureIndex(ExtraFeature feature) {
+  return std::size_t(PaperFeature::kCount) + std::size_t(feature);
+}
+
 /// Number of values in a scan's feature vector (20 for the paper's).
 std::size_t featureCount(FeatureSet set);
 /// The first scalarFeatureCount(set) of them are rotation-invariant numbers whose pair
@@ -48,7 +79,7 @@ std::size_t profileOffset(FeatureSet set);
 /// Signatures (extended set only): distributions stored inside the feature vector as
 /// kSignatureLevels quantiles each, from signatureOffset(set) on.
 constexpr std::size_t kSignatureLevels = 16;
-constexpr std::size_t kSignatureCount = 5;
+constexpr std::size_t kSignatureCount = std::size_t(Signature::kCount);
 std::size_t signatureCount(FeatureSet set);
 std::size_t signatureOffset(FeatureSet set);
 /// Wasserstein-1 distance of two signatures (the mean absolute difference of their
@@ -75,7 +106,24 @@ class FeatureExtractor {
   std::vector<double> extract(const Scan& scan);
 
  private:
+  struct Shape;  // what the blocks below share (features.cpp)
+
   void updateTrigonometry(const std::vector<double>& bearings);
+  // The blocks of extract(), in the order it calls them: each measures one aspect of the
+  // scan into the Shape, or writes named features from it.
+  Shape measureBeams(const Scan& scan);
+  void measureNeighbours(Shape& shape);
+  void measureTriples(Shape& shape);
+  void measureGroups(Shape& shape);
+  void measureMoments(Shape& shape);
+  static void writePaperFeatures(const Shape& shape, double* out);
+  void writeExtraFeatures(const Shape& shape, double* out);
+  void writeGaps(const Shape& shape, double* out);
+  void writeRangeHistogram(const Shape& shape, double* out) const;
+  /// Puts the valid beams' entries of values into ranks_ and returns their number.
+  std::size_t rankValid(const Shape& shape, const double* values);
+  void writeRangeDistribution(const Shape& shape, double* out);
+  void writeChordSignature(const Shape& shape, double* out);
   /// The two outline signatures (outline.hpp) of the points in x_, y_ into out.
   void writeOutlineSignatures(bool closed, std::size_t n, double* out);
 
