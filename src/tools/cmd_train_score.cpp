@@ -48,7 +48,7 @@ int runTrain(const Args& args) {
       throw ToolError(e.what());
     }
     if (!session.features.empty() && session.features.front().size() != llc::featureCount(features.feature_set))
-      throw ToolError(path + ": its keyframe features are not those of --features " + llc::toString(features.feature_set));
+      throw ToolError(path + ": its keyframe features are not those of --features/set " + llc::toString(features.feature_set));
     bool full_circle = true;
     for (const llc::Keyframe& k : session.keyframes) full_circle = full_circle && k.scan.full_circle;
     std::vector<llc::LabeledPair> pairs;

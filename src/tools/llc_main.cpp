@@ -25,7 +25,6 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 const std::vector<Command>& commands() {
   using llc_tool::kFeatureFlags;
-  using llc_tool::kFeatureSwitches;
   using llc_tool::kInputFlags;
   static const std::vector<Command> list = {
       {"pairs", llc_tool::runPairs,
@@ -36,15 +35,14 @@ const std::vector<Command>& commands() {
        "pairs --log LOG --out PAIRS.csv [--positive-distance 1.5] [--positive-heading-deg 45]\n"
        "      [--min-gap 30] [--negative-distance 10] [--max-per-class 200] [--seed 1]\n"
        "      [--full-circle|--partial]   (default: full circle when every scan is 360 degrees)"},
-      {"features", llc_tool::runFeatures, with(with({"log", "out"}, kFeatureFlags), kInputFlags), kFeatureSwitches,
-       "features --log LOG --out FEATURES.csv [--features paper|extended] [--r-max 50]\n"
-       "      [--g-max-dist 2.5] [--g-min-size 3] [--open-ring]"},
+      {"features", llc_tool::runFeatures, with(with({"log", "out"}, kFeatureFlags), kInputFlags), {},
+       "features --log LOG --out FEATURES.csv [feature options]"},
       {"train", llc_tool::runTrain,
        with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
                   "min-keyframe-gap"},
                  kFeatureFlags),
             kInputFlags),
-       kFeatureSwitches,
+       {},
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]\n"
        "      [--from-session SESSION [--min-keyframe-gap 30]]   (self-training: adds the session's keyframe\n"
@@ -55,9 +53,9 @@ const std::vector<Command>& commands() {
                   "loops/calibration/min_distance", "loops/calibration/drift_per_metre", "loops/calibration/max_path"},
                  with(with(kFeatureFlags, llc_tool::kAlignerFlags), llc_tool::kDriftFlags)),
             kInputFlags),
-       with({"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"}, kFeatureSwitches),
+       {"no-curve", "no-ablation", "no-rotation", "validate", "leave-one-log-out"},
        "evaluate --data LOG:PAIRS [...] --out DIR [--folds 10] [--repeats 10] [--rounds 50]\n"
-       "      [--seed 1] [--features paper|extended] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
+       "      [--seed 1] [--curve-max-rounds 1000] [--curve-repeats 1]\n"
        "      [--ablation-repeats 1] [--no-curve] [--no-ablation] [--no-rotation] [feature options]\n"
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
@@ -136,9 +134,16 @@ void commandHelp(const Command& c, std::ostream& out) {
     llc_tool::systemParametersHelp(out, "aligner/");
   }
   if (!slam && takes(c, llc_tool::kEsdfFlags)) llc_tool::systemParametersHelp(out, "esdf/");
-  if (takes(c, llc_tool::kFeatureFlags))
-    out << "feature options: [--features paper|extended] (extended) [--r-max 50] (m) [--g-max-dist 2.5] (m)\n"
-           "  [--g-min-size 3] (points) [--open-ring] (default: closed ring for 360-degree scans)\n";
+  if (takes(c, llc_tool::kFeatureFlags)) {
+    const llc::FeatureOptions d;  // the defaults, as the model file's keys
+    out << "feature options (the keys of a model file's features, docs/file_formats.md):\n"
+        << "  --features/set " << llc::toString(d.feature_set) << "   paper (the paper's 20) or extended\n"
+        << "  --features/r_max " << d.r_max << "   m; beams at or beyond it (or with no finite return) are max-range\n"
+        << "  --features/g_max_dist " << d.g_max_dist << "   m; gate on the distance between consecutive points\n"
+        << "  --features/g_min_size " << d.g_min_size << "   points; a cluster is a group only with more than this\n"
+        << "  --features/closed_ring " << (d.closed_ring ? "true" : "false")
+        << "   the last beam of a 360-degree scan neighbours the first\n";
+  }
   if (takes(c, llc_tool::kInputFlags)) inputHelp(out);
   if (slam) llc_tool::systemParametersHelp(out);
   out << "exit codes: 0 done, 1 a file or the data could not be read or written, 2 bad usage\n";

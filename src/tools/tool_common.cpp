@@ -16,8 +16,9 @@
 
 namespace llc_tool {
 
-const std::vector<std::string> kFeatureFlags = {"features", "r-max", "g-max-dist", "g-min-size"};
-const std::vector<std::string> kFeatureSwitches = {"open-ring"};
+// The keys of a model file's `features:` section (docs/file_formats.md, "Model file").
+const std::vector<std::string> kFeatureFlags = {"features/set", "features/r_max", "features/g_max_dist",
+                                                "features/g_min_size", "features/closed_ring"};
 const std::vector<std::string> kInputFlags = {"front-topic", "back-topic", "odom-topic", "truth-topic"};
 
 llc_ros::BagReadOptions bagOptions(const Args& args) {
@@ -149,15 +150,23 @@ long Args::integer(const std::string& name, long fallback) const {
   return value;
 }
 
+bool Args::boolean(const std::string& name, bool fallback) const {
+  if (!has(name)) return fallback;
+  const std::string text = get(name, "");
+  if (text == "true") return true;
+  if (text == "false") return false;
+  throw UsageError("--" + name + " must be true or false, not '" + text + "'");
+}
+
 llc::FeatureOptions featureOptions(const Args& args) {
   llc::FeatureOptions options;
-  const std::string set = args.get("features", "extended");
+  const std::string set = args.get("features/set", llc::toString(options.feature_set));
   if (!llc::parseFeatureSet(set, &options.feature_set))
-    throw UsageError("--features must be 'paper' or 'extended', not '" + set + "'");
-  options.r_max = args.number("r-max", options.r_max);
-  options.g_max_dist = args.number("g-max-dist", options.g_max_dist);
-  options.g_min_size = int(args.integer("g-min-size", options.g_min_size));
-  options.closed_ring = !args.has("open-ring");
+    throw UsageError("--features/set must be 'paper' or 'extended', not '" + set + "'");
+  options.r_max = args.number("features/r_max", options.r_max);
+  options.g_max_dist = args.number("features/g_max_dist", options.g_max_dist);
+  options.g_min_size = int(args.integer("features/g_min_size", options.g_min_size));
+  options.closed_ring = args.boolean("features/closed_ring", options.closed_ring);
   const std::string invalid = options.validate();
   if (!invalid.empty()) throw UsageError("feature options: " + invalid);
   return options;

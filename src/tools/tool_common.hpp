@@ -52,6 +52,8 @@ class Args {
   std::vector<std::string> all(const std::string& name) const;
   double number(const std::string& name, double fallback) const;
   long integer(const std::string& name, long fallback) const;
+  /// "true" or "false", else UsageError.
+  bool boolean(const std::string& name, bool fallback) const;
 
  private:
   std::multimap<std::string, std::string> values_;
@@ -68,10 +70,10 @@ void systemParametersHelp(std::ostream& out, const std::string& prefix = "");
 /// the flags of a subcommand that runs one stage.
 std::vector<std::string> parameterNamesUnder(const std::string& prefix, const std::vector<std::string>& except = {});
 
-/// Feature options from --features, --r-max, --g-max-dist, --g-min-size, --open-ring.
+/// Feature options from --features/set, --features/r_max, --features/g_max_dist,
+/// --features/g_min_size and --features/closed_ring: the keys of a model file's features.
 llc::FeatureOptions featureOptions(const Args& args);
 extern const std::vector<std::string> kFeatureFlags;   ///< the option names it reads
-extern const std::vector<std::string> kFeatureSwitches;
 
 /// One --data LOG:PAIRS item, loaded (the adapter's: the service reads pairs the same way).
 using llc_ros::PairData;

@@ -25,7 +25,8 @@ check "no subcommand" 2 "usage: llc" -- "$LLC"
 check "unknown subcommand" 2 "unknown subcommand" -- "$LLC" fly
 check "unknown option" 2 "unknown option --bogus" -- "$LLC" pairs --bogus 1
 check "missing log" 1 "no such file" -- "$LLC" pairs --log "$TMP/none.log" --out "$TMP/p.csv"
-check "bad feature set" 2 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features fancy
+check "bad feature set" 2 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features/set fancy
+check "feature option: not a boolean" 2 "--features/closed_ring must be true or false" -- "$LLC" features --log x --out y --features/closed_ring maybe
 printf 'FLASER 3 1 2\n' > "$TMP/bad.log"
 check "malformed log" 1 "bad.log:1: FLASER" -- "$LLC" features --log "$TMP/bad.log" --out "$TMP/f.csv"
 printf 'not a model\n' > "$TMP/bad.yaml"
