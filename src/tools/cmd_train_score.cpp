@@ -10,6 +10,7 @@
 #include "laser_loop_closure/core/classifier/classifier_training.hpp"
 #include "laser_loop_closure/core/classifier/evaluation.hpp"
 #include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/self_training.hpp"
 #include "laser_loop_closure/core/slam/session_io.hpp"
 
 namespace llc_tool {
@@ -32,8 +33,8 @@ int runTrain(const Args& args) {
   if (args.has("k") && !(given_k >= 0.0 && given_k <= 1.0)) throw UsageError("--k must lie in [0, 1]");
   // --from-session S (any number): self-training, the session's keyframe pairs labelled by
   // its optimised map added to the labelled pairs (the session's features must be this set's).
-  const long min_gap = args.integer("min-keyframe-gap", long(llc::LoopDetectorOptions{}.min_keyframe_gap));
-  if (min_gap < 1) throw UsageError("--min-keyframe-gap must be at least 1");
+  llc::SystemOptions system;  // loops/min_keyframe_gap: the gap the nodelet's self-training keeps too
+  applyParameterFlags(args, &system);
   checkOutputFile("model", model_path);
 
   const std::vector<PairData> data =
@@ -47,18 +48,14 @@ int runTrain(const Args& args) {
     } catch (const llc::SessionError& e) {
       throw ToolError(e.what());
     }
-    if (!session.features.empty() && session.features.front().size() != llc::featureCount(features.feature_set))
-      throw ToolError(path + ": its keyframe features are not those of --features/set " + llc::toString(features.feature_set));
-    bool full_circle = true;
-    for (const llc::Keyframe& k : session.keyframes) full_circle = full_circle && k.scan.full_circle;
-    std::vector<llc::LabeledPair> pairs;
-    const llc::TrainingSet own = llc::selfLabelledTrainingSet(session.features, session.poses, features.feature_set,
-                                                              full_circle, std::size_t(min_gap), &pairs);
-    std::size_t positives = 0;
-    for (const llc::LabeledPair& p : pairs) positives += p.label == 1;
-    set.append(own);
-    std::cout << "session " << path << ": " << session.keyframes.size() << " keyframes, " << positives << " positive and "
-              << pairs.size() - positives << " negative pairs labelled by its optimised map\n";
+    llc::SelfTrainingSet own;
+    try {
+      own = llc::selfTrainingSet(session, features.feature_set, system.slam.loops.min_keyframe_gap);
+    } catch (const std::invalid_argument& e) {
+      throw ToolError(path + ": " + e.what() + " (--features/set)");
+    }
+    set.append(own.set);
+    std::cout << "session " << path << ": " << own.summary() << "\n";
     session_text << (session_text.tellp() ? " " : "") << path;
   }
   if (set.size() == 0) throw ToolError("no training pairs: give --data LOG:PAIRS and/or --from-session SESSION");

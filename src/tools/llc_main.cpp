@@ -39,13 +39,13 @@ const std::vector<Command>& commands() {
        "features --log LOG --out FEATURES.csv [feature options]"},
       {"train", llc_tool::runTrain,
        with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
-                  "min-keyframe-gap"},
+                  "loops/min_keyframe_gap"},
                  kFeatureFlags),
             kInputFlags),
        {},
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]\n"
-       "      [--from-session SESSION [--min-keyframe-gap 30]]   (self-training: adds the session's keyframe\n"
+       "      [--from-session SESSION [--loops/min_keyframe_gap 30]]   (self-training: adds the session's keyframe\n"
        "       pairs labelled by its optimised map; --data may then be left out)"},
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",

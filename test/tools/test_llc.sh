@@ -96,7 +96,7 @@ check "align: global-search-below out of range" 2 "global_search_below must be i
 check "align: min-relative-overlap out of range" 2 "min_relative_overlap must be in \[0, 1\]" -- "$LLC" align --aligner/min_relative_overlap 2 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align: icp-fixed-pairs-after below 1" 2 "fixed_pairs_after must be >= 1" -- "$LLC" align --aligner/icp/fixed_pairs_after 0 --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a7.csv"
 check "align with a model aligns only its matches" 0 "accepted by the classifier" -- "$LLC" align --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a3.csv"
-check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "^session .*: [0-9]+ keyframes, [1-9][0-9]* positive and [1-9][0-9]* negative pairs labelled by its optimised map$" -- "$LLC" train --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self.yaml" --rounds 20 --repeats 1
+check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "^session .*: [0-9]+ keyframes, [1-9][0-9]* positive and [1-9][0-9]* negative pairs labelled by their optimised poses$" -- "$LLC" train --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self.yaml" --rounds 20 --repeats 1
 check "train --from-session beside --data" 0 "^pairs=(1[3-9][0-9]|[2-9][0-9]{2}|[0-9]{4,}) " -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self2.yaml" --rounds 20 --repeats 1
 printf 'not a session' > "$TMP/corrupt.llcsession"
 check "train --from-session refuses a corrupt session" 1 "corrupt.llcsession" -- "$LLC" train --from-session "$TMP/corrupt.llcsession" --model "$TMP/sim/self3.yaml"

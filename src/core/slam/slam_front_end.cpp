@@ -34,6 +34,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
+  keyframes_full_circle_ = allFullCircle(keyframes);
   chain_.assign(keyframes.size(), Pose2{});
   path_.assign(keyframes.size(), 0.0);
   chain_start_ = keyframes.size();
@@ -110,7 +111,10 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       }
       last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
-      if (!odometry_.movedEnough(guess)) return step;  // not a keyframe: nothing more to do
+      if (!odometry_.movedEnough(guess)) {  // not a keyframe: nothing more to do
+        setOdometryPose(step);
+        return step;
+      }
       prepared = detector_.aligner().prepare(scan);
       step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale());
       wheel_noise_.add(step.odometry.wheel_disagreement);
@@ -135,6 +139,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       tracked_motion_ = step.odometry.motion;
       if (!odometry_.movedEnough(tracked_motion_)) {
         counters_.seconds_odometry += secondsSince(start);
+        setOdometryPose(step);
         return step;
       }
     }
@@ -157,12 +162,25 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   tracked_motion_ = Pose2{};
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
+  keyframes_full_circle_ = keyframes_full_circle_ && scan.full_circle;
   const bool chained = step.keyframe_index > chain_start_ && isFinite(step.odometry.motion);
   if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain
   chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
   path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
+  // The own odometry frame goes on through a new chain (whose motion is the identity).
+  const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
+  keyframe_in_odometry_ = has_keyframe_in_odometry_ ? compose(keyframe_in_odometry_, motion) : Pose2{};
+  has_keyframe_in_odometry_ = true;
+  step.odometry_pose = keyframe_in_odometry_;
+  step.has_odometry_pose = true;
   ++counters_.keyframes;
   return step;
+}
+
+void SlamFrontEnd::setOdometryPose(FrontEndStep& step) const {
+  if (!has_keyframe_in_odometry_ || !isFinite(step.odometry.motion)) return;
+  step.odometry_pose = compose(keyframe_in_odometry_, step.odometry.motion);
+  step.has_odometry_pose = true;
 }
 
 std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
@@ -191,6 +209,15 @@ LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const 
   counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;
   for (const LoopClosure& loop : loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
   return loops;
+}
+
+SelfTrainingSet SlamFrontEnd::selfTrainingSet(const std::vector<Pose2>& optimised_poses) const {
+  const std::size_t placed = std::min(optimised_poses.size(), detector_.size());
+  std::vector<std::vector<double>> features;
+  features.reserve(placed);
+  for (std::size_t k = 0; k < placed; ++k) features.push_back(detector_.features(k));
+  return llc::selfTrainingSet(features, optimised_poses, detector_.model().features.feature_set,
+                              keyframes_full_circle_, loop_options_.min_keyframe_gap);
 }
 
 }  // namespace llc

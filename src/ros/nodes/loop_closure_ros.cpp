@@ -250,7 +250,6 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   if (!step.wheel_jump.empty()) ROS_WARN_THROTTLE(5.0, "loop_closure: scan %zu: %s", pending.index, step.wheel_jump.c_str());
   if (options_.publish_odometry_tf || without_wheels_) publishOdometry(step, msg.header, &keyframe);
   if (!step.keyframe) return;
-  keyframes_full_circle_ = keyframes_full_circle_ && keyframe.scan.full_circle;
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
@@ -296,19 +295,12 @@ std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::si
 }
 
 void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {
-  // The front end matched this scan to the newest keyframe (step.odometry.motion: from it);
-  // a new keyframe moves the chain on.
-  llc::Pose2 pose;
+  // The scan's pose in the front end's own odometry frame (its chain of matched motions).
+  if (!step.has_odometry_pose) return;
+  const llc::Pose2& pose = step.odometry_pose;
   if (step.keyframe) {
-    keyframe_in_odometry_ = has_keyframe_in_odometry_ ? llc::compose(keyframe_in_odometry_, step.odometry.motion) : llc::Pose2{};
-    has_keyframe_in_odometry_ = true;
-    pose = keyframe_in_odometry_;
     keyframe->has_wheel_odometry = true;  // the back end's map -> odom comes from it
     keyframe->wheel_odometry = pose;
-  } else if (has_keyframe_in_odometry_) {
-    pose = llc::compose(keyframe_in_odometry_, step.odometry.motion);
-  } else {
-    return;
   }
   if (scan_header.stamp <= last_odometry_stamp_) return;  // tf would warn about a repeated or older stamp
   last_odometry_stamp_ = scan_header.stamp;
@@ -343,8 +335,6 @@ void LoopClosureRos::onSession(const laser_loop_closure::Session::ConstPtr& msg)
     return;
   }
   keyframes_restored_ = keyframes.size();
-  keyframes_full_circle_ = true;
-  for (const llc::Keyframe& k : keyframes) keyframes_full_circle_ = keyframes_full_circle_ && k.scan.full_circle;
   ROS_INFO("loop_closure: restored %zu keyframes from %s (%s%s)", keyframes.size(), msg->path.c_str(),
            msg->continue_odometry ? "odometry continues" : "the next keyframe starts a new chain",
            recomputed ? "; features recomputed: the session's were made with other feature parameters" : "");
@@ -364,19 +354,14 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
     std::lock_guard<std::mutex> lock(mutex_);
     running = front_->detector().model();
     if (request.data.empty() || request.with_session) {
-      // Keyframes the back end has placed (the path may lag a keyframe or two behind).
-      const std::size_t n = std::min(optimised_poses_.size(), front_->keyframeCount());
-      std::vector<std::vector<double>> features;
-      for (std::size_t k = 0; k < n; ++k) features.push_back(front_->detector().features(k));
-      const std::vector<llc::Pose2> poses(optimised_poses_.begin(), optimised_poses_.begin() + long(n));
       try {
-        session = llc::selfLabelledTrainingSet(features, poses, running.features.feature_set, keyframes_full_circle_,
-                                               system_.slam.loops.min_keyframe_gap);
+        const llc::SelfTrainingSet own = front_->selfTrainingSet(optimised_poses_);
+        session = own.set;
+        session_text = "session: " + own.summary();
       } catch (const std::exception& e) {
         response.message = std::string("not trained: ") + e.what();
         return true;
       }
-      session_text = "session: " + std::to_string(n) + " keyframes labelled by their optimised poses";
     }
   }
   ROS_INFO("loop_closure: training a classifier (%s)", request.data.empty() ? session_text.c_str() : "from files");

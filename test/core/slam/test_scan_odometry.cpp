@@ -116,6 +116,41 @@ TEST(ScanOdometry, OddStampsAreNotPredictedFromAndNothingBreaks) {
   EXPECT_GE(keyframes, 5u) << "0.7 m a scan: a keyframe every second scan";
 }
 
+TEST(ScanOdometry, TheFrontEndsOwnOdometryFrameChainsItsMotionsAndNeverJumps) {
+  // Without wheels the loop_closure nodelet broadcasts odom -> base_link from the front end's
+  // own chain: each keyframe's pose the composition of the keyframe motions, a scan between
+  // keyframes the newest keyframe's pose and the scan's motion from it; after time jumps back
+  // (a looped bag) the new chain starts where the old one ended.
+  llc::SlamFrontEnd front(llc_test::defaultModel(), llc::ScanOdometryOptions{}, llc::ScanAlignerOptions{},
+                          llc::LoopDetectorOptions{});
+  const std::vector<Wall> walls = corridor();
+  llc::Pose2 keyframe_pose;
+  bool has_keyframe = false;
+  std::size_t keyframes = 0, between = 0, jumps = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int k = 0; k < 20; ++k) {
+      llc::Scan scan = corridorScan(walls, k);
+      scan.stamp = 100.0 - 30.0 * pass + 0.1 * k;  // the second pass: time jumps back 31.9 s
+      const llc::FrontEndStep step = front.addScan(scan, nullptr);
+      ASSERT_TRUE(step.skip_reason.empty()) << step.skip_reason;
+      ASSERT_TRUE(step.has_odometry_pose) << "pass " << pass << " scan " << k;
+      jumps += !step.time_jump.empty();
+      const llc::Pose2 expected = !has_keyframe ? llc::Pose2{}
+                                  : !step.time_jump.empty() ? keyframe_pose  // a new chain goes on from here
+                                                            : llc::compose(keyframe_pose, step.odometry.motion);
+      EXPECT_NEAR(step.odometry_pose.x, expected.x, 1e-12) << "pass " << pass << " scan " << k;
+      EXPECT_NEAR(step.odometry_pose.y, expected.y, 1e-12);
+      EXPECT_NEAR(step.odometry_pose.theta, expected.theta, 1e-12);
+      if (step.keyframe) keyframe_pose = step.odometry_pose, has_keyframe = true, ++keyframes;
+      else ++between;
+    }
+  }
+  EXPECT_EQ(jumps, 1u);
+  EXPECT_GT(keyframes, 5u);
+  EXPECT_GT(between, 5u);
+  EXPECT_GT(keyframe_pose.x, 0.7 * 19 + 3.0) << "the second pass goes on past the first";
+}
+
 TEST(ScanOdometry, PredictionOptionsAreValidated) {
   llc::ScanOdometryOptions options;
   for (const double bad : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {

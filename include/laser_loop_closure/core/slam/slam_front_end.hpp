@@ -12,6 +12,7 @@
 #include "laser_loop_closure/core/common/random.hpp"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/core/slam/scan_odometry.hpp"
+#include "laser_loop_closure/core/slam/self_training.hpp"
 
 namespace llc {
 
@@ -35,6 +36,12 @@ struct FrontEndStep {
   bool keyframe = false;
   std::size_t keyframe_index = 0;
   OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
+  /// The scan's pose in the front end's own odometry frame: its matched motions chained from
+  /// the first keyframe (a new chain after a restore or a time jump goes on from where the
+  /// last one ended, so the frame never jumps). What a robot without wheels broadcasts as
+  /// odom -> base_link. Set for every scan after the first keyframe.
+  Pose2 odometry_pose;
+  bool has_odometry_pose = false;
   std::string skip_reason;    ///< non-empty: the scan was not used (and why)
   /// Non-empty: the wheel odometry jumped farther than max_speed allows since the scan before
   /// (what it did); that jump was left out of the motion.
@@ -71,6 +78,11 @@ class SlamFrontEnd {
   /// Covariance of the link between a restored session and a new chain (m^2, rad^2).
   static Eigen::Matrix3d restartCovariance();
 
+  /// Self-training (the train_classifier service): the pairs of the keyframes the back end has
+  /// placed, labelled by their optimised poses (selfTrainingSet with this front end's feature
+  /// set, min_keyframe_gap and scans). Throws std::invalid_argument as selfTrainingSet does.
+  SelfTrainingSet selfTrainingSet(const std::vector<Pose2>& optimised_poses) const;
+
   std::size_t keyframeCount() const { return detector_.size(); }
   const FrontEndCounters& counters() const { return counters_; }
   LoopDetector& detector() { return detector_; }
@@ -85,6 +97,7 @@ class SlamFrontEnd {
   LoopDetectorOptions loop_options_;
   FrontEndCounters counters_;
   bool has_keyframe_ = false;
+  bool keyframes_full_circle_ = true;  ///< every keyframe's scan covers 360 degrees
   bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
   std::string restart_reason_;    ///< why it does (the step's reject_reason)
   double last_keyframe_stamp_ = 0.0;
@@ -98,6 +111,10 @@ class SlamFrontEnd {
   Pose2 before_jump_reference_, before_jump_wheels_;
   double before_jump_stamp_ = 0.0;
   bool has_jump_ = false;
+  Pose2 keyframe_in_odometry_;  ///< the newest keyframe in the front end's own odometry frame
+  bool has_keyframe_in_odometry_ = false;
+  /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
+  void setOdometryPose(FrontEndStep& step) const;
   Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
   // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
   // the robot's frame; zero after a restore) and the stamp of the last scan used.

@@ -168,15 +168,12 @@ class LoopClosureRos {
   std::mutex training_;  ///< one training at a time
   std::size_t malformed_ = 0;
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
-  bool keyframes_full_circle_ = true;        ///< every keyframe scan covers 360 degrees
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< candidates not applied, by llc::LoopRefusal
   std::size_t keyframes_restored_ = 0;       ///< keyframes of the last session restored (~load_session of the back end)
   std::size_t models_trained_ = 0, models_swapped_ = 0;
   std::string model_path_;  ///< of the running model
-  // Scan-matching odometry (publish_odometry_tf): the newest keyframe's pose in odom_frame.
+  // Scan-matching odometry (publish_odometry_tf): the front end's own odometry as odom -> base.
   tf2_ros::TransformBroadcaster odometry_broadcaster_;
-  llc::Pose2 keyframe_in_odometry_;
-  bool has_keyframe_in_odometry_ = false;
   ros::Time last_odometry_stamp_;
   std::string last_problem_;
   // The place gate through the back end (worker thread only).
