@@ -364,6 +364,13 @@ int runSlam(const Args& args) {
   // Every candidate not applied, by the stage that refused it (llc::LoopRefusal's names).
   for (std::size_t kind = 1; kind < refusals.size(); ++kind)
     report << "candidates_refused_" << llc::loopRefusalName(llc::LoopRefusal(kind)) << "=" << refusals[kind] << "\n";
+  // Scans skipped and keyframe steps scan matching did not measure, by name (llc::ScanRefusal,
+  // llc::OdometryRefusal); the text of each reason is counted at the end of the report.
+  for (std::size_t kind = 1; kind < llc::kScanRefusalKinds; ++kind)
+    report << "scans_skipped_" << llc::scanRefusalName(llc::ScanRefusal(kind)) << "=" << c.scans_skipped[kind] << "\n";
+  for (std::size_t kind = 1; kind < llc::kOdometryRefusalKinds; ++kind)
+    report << "odometry_steps_not_matched_" << llc::odometryRefusalName(llc::OdometryRefusal(kind)) << "="
+           << c.steps_not_matched[kind] << "\n";
   report << "seconds_odometry=" << c.seconds_odometry << "\n"
          << "seconds_classify=" << c.seconds_classify << "\n"
          << "seconds_align=" << c.seconds_align << "\n"

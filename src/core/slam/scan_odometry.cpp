@@ -78,19 +78,20 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   step.motion = guess;
   // Wheels noisier than modelled get the covariance they earn (infinite scale: not known yet).
   const double wheel_scale = std::isfinite(wheel_noise_scale) ? std::max(1.0, wheel_noise_scale) : 1.0;
-  auto finish = [&](std::string reason) {
+  auto finish = [&](std::string reason, OdometryRefusal refusal) {
     step.reject_reason = std::move(reason);
+    step.refusal = refusal;
     step.covariance = stepCovariance(step.motion, step.matched) * (step.matched ? 1.0 : wheel_scale);
     step.seconds = secondsSince(start);
     return step;
   };
-  if (!options_.scan_matching) return finish("");
+  if (!options_.scan_matching) return finish("", OdometryRefusal::kNone);
   const IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
-  if (!icp.converged) return finish("icp: " + icp.reject_reason);
+  if (!icp.converged) return finish("icp: " + icp.reject_reason, OdometryRefusal::kIcp);
   const Pose2 correction = between(guess, icp.pose);
   if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
                             std::abs(correction.theta) > options_.max_correction_rotation))
-    return finish("icp moved too far from wheel odometry");
+    return finish("icp moved too far from wheel odometry", OdometryRefusal::kTooFarFromWheels);
   Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
   bool disputed = false;
   if (guess_from_wheels) {
@@ -105,10 +106,10 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   overlap.min_inlier_share = options_.min_overlap_share;
   const ShapeValidationResult check = validateShape(current.points, previous.icp_target.tree, icp.pose, overlap, &previous.view);
   step.overlap_share = check.inlier_share;
-  if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share");
+  if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share", OdometryRefusal::kLowOverlap);
   step.motion = icp.pose;
   step.matched = true;
-  finish("");
+  finish("", OdometryRefusal::kNone);
   if (disputed) {
     // Which one is wrong is not known: on the drifted logs ICP's minimum, on the raw Intel log
     // the wheels (either as the mean measured the same). ICP's step is kept with a covariance

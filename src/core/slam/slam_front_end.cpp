@@ -57,16 +57,21 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
 FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry) {
   FrontEndStep step;
   ++counters_.scans;
-  auto skip = [&](std::string reason) {
+  auto skip = [&](ScanRefusal why, std::string reason) {
     ++counters_.skipped_scans;
+    ++counters_.scans_skipped[std::size_t(why)];
+    step.skip = why;
     step.skip_reason = std::move(reason);
     return step;
   };
-  if (!std::isfinite(scan.stamp)) return skip("stamp is not finite");
-  if (scan.ranges.size() != scan.bearings.size()) return skip("ranges and bearings differ in count");
-  if (wheel_odometry && !isFinite(*wheel_odometry)) return skip("wheel odometry is not finite");
+  if (!std::isfinite(scan.stamp)) return skip(ScanRefusal::kStampNotFinite, "stamp is not finite");
+  if (scan.ranges.size() != scan.bearings.size())
+    return skip(ScanRefusal::kRangesAndBearingsDiffer, "ranges and bearings differ in count");
+  if (wheel_odometry && !isFinite(*wheel_odometry))
+    return skip(ScanRefusal::kWheelOdometryNotFinite, "wheel odometry is not finite");
   if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) {
-    if (last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back) return skip("time went backwards");
+    if (last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back)
+      return skip(ScanRefusal::kTimeWentBackwards, "time went backwards");
     // A looped bag or a reset clock: a new chain from this scan on, as after a restored session.
     step.time_jump = "time jumped back " + std::to_string(last_keyframe_stamp_ - scan.stamp) +
                      " s: a new odometry chain, placed by its first loop closure";
@@ -148,6 +153,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
     step.odometry.reject_reason = restart_reason_;
+    step.odometry.refusal = OdometryRefusal::kNewChain;
     chain_start_ = detector_.size();  // this keyframe starts the chain the calibration walks
     restart_pending_ = false;
   }
@@ -162,6 +168,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   tracked_motion_ = Pose2{};
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
+  ++counters_.steps_not_matched[std::size_t(step.odometry.refusal)];
   keyframes_full_circle_ = keyframes_full_circle_ && scan.full_circle;
   const bool chained = step.keyframe_index > chain_start_ && isFinite(step.odometry.motion);
   if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain

@@ -52,6 +52,7 @@ SlamCounters SlamPipeline::counters() const {
   const BackEndCounters& b = back_.counters();
   SlamCounters c;
   c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
+  c.scans_skipped = f.scans_skipped, c.steps_not_matched = f.steps_not_matched;
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
@@ -67,6 +68,7 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   FrontEndStep front = front_.addScan(scan, wheel_odometry);
   SlamStepResult step;
   step.skip_reason = std::move(front.skip_reason);
+  step.skip = front.skip;
   step.wheel_jump = std::move(front.wheel_jump);
   step.time_jump = std::move(front.time_jump);
   if (!front.keyframe) return step;

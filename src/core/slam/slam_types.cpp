@@ -17,6 +17,28 @@ const char* loopRefusalName(LoopRefusal refusal) {
   return "other";
 }
 
+const char* odometryRefusalName(OdometryRefusal refusal) {
+  switch (refusal) {
+    case OdometryRefusal::kNone: return "none";
+    case OdometryRefusal::kIcp: return "icp";
+    case OdometryRefusal::kTooFarFromWheels: return "too_far_from_wheels";
+    case OdometryRefusal::kLowOverlap: return "low_overlap";
+    case OdometryRefusal::kNewChain: return "new_chain";
+  }
+  return "none";
+}
+
+const char* scanRefusalName(ScanRefusal refusal) {
+  switch (refusal) {
+    case ScanRefusal::kNone: return "none";
+    case ScanRefusal::kStampNotFinite: return "stamp_not_finite";
+    case ScanRefusal::kRangesAndBearingsDiffer: return "ranges_bearings_differ";
+    case ScanRefusal::kWheelOdometryNotFinite: return "wheel_odometry_not_finite";
+    case ScanRefusal::kTimeWentBackwards: return "time_went_backwards";
+  }
+  return "none";
+}
+
 LoopRefusal loopRefusalOf(const std::string& reason) {
   auto starts = [&](const char* prefix) { return reason.rfind(prefix, 0) == 0; };
   if (reason.empty()) return LoopRefusal::kNone;

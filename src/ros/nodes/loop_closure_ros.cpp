@@ -437,6 +437,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("scans processed", backlog.popped);
   status.add("malformed scans", malformed_);
   status.add("scans skipped by the front end", c.skipped_scans);
+  for (std::size_t kind = 1; kind < llc::kScanRefusalKinds; ++kind)  // llc::ScanRefusal's names
+    status.add(std::string("scans skipped: ") + llc::scanRefusalName(llc::ScanRefusal(kind)), c.scans_skipped[kind]);
   status.add("model", model_path_);
   status.add("models trained", models_trained_);
   status.add("models swapped in", models_swapped_);
@@ -444,6 +446,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("steps matched by ICP", c.matched_steps);
   status.add("steps from wheel odometry alone", c.wheel_steps);
   status.add("steps where ICP and wheels disagreed", c.disputed_steps);
+  for (std::size_t kind = 1; kind < llc::kOdometryRefusalKinds; ++kind)  // llc::OdometryRefusal's names
+    status.add(std::string("steps not matched: ") + llc::odometryRefusalName(llc::OdometryRefusal(kind)),
+               c.steps_not_matched[kind]);
   status.add("wheel odometry jumps left out", c.wheel_jumps);
   status.add("stamps that jumped back (new odometry chains)", c.time_jumps);
   status.add("pairs classified", c.pairs_classified);

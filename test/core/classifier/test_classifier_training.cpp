@@ -130,7 +130,9 @@ TEST(SelfLabelledTrainingSet, NeverLabelsTwoKeyframesCloserThanTheGapAsARevisit)
           EXPECT_GE(p.b - p.a, gap) << p.a << "-" << p.b;
           EXPECT_LT(distance, 1.5);
           // Partial scans: the way back (heading pi) never matches the way out (heading 0).
-          if (!full_circle) EXPECT_LT(std::abs(poses[p.b].theta - poses[p.a].theta), M_PI / 4);
+          if (!full_circle) {
+            EXPECT_LT(std::abs(poses[p.b].theta - poses[p.a].theta), M_PI / 4);
+          }
         } else {
           EXPECT_GT(distance, 10.0);
         }

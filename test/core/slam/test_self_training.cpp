@@ -38,7 +38,9 @@ TEST(SelfTraining, LabelsOnlyTheKeyframesTheBackEndHasPlaced) {
   ASSERT_GT(own.positives(), 0u);
   for (const llc::LabeledPair& p : own.pairs) {
     EXPECT_LT(std::max(p.a, p.b), poses.size());
-    if (p.label == 1) EXPECT_GE(p.b - p.a, 30u) << "a positive closer than the gap";
+    if (p.label == 1) {
+      EXPECT_GE(p.b - p.a, 30u) << "a positive closer than the gap";
+    }
   }
   EXPECT_NE(own.summary().find(std::to_string(poses.size()) + " keyframes, " + std::to_string(own.positives()) +
                                " positive and "),
@@ -99,7 +101,9 @@ TEST(SelfTraining, TheFrontEndLabelsItsOwnKeyframesWithItsOwnGap) {
   ASSERT_EQ(own.set.dimension, llc::pairFeatureCount(llc::FeatureSet::kExtended));
   for (std::size_t row = 0; row < own.pairs.size(); ++row) {
     const llc::LabeledPair& p = own.pairs[row];
-    if (p.label == 1) EXPECT_GE(p.b - p.a, 4u);
+    if (p.label == 1) {
+      EXPECT_GE(p.b - p.a, 4u);
+    }
     // Each row is the pair features of the front end's own stored keyframe features.
     const std::vector<double> expected =
         llc::pairFeatures(llc::FeatureSet::kExtended, front.detector().features(p.a), front.detector().features(p.b));

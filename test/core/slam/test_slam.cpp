@@ -4,6 +4,7 @@
 #include <Eigen/LU>
 #include <yaml-cpp/yaml.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -341,6 +342,12 @@ TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {
   scan.stamp = 11.0;
   EXPECT_EQ(slam.addScan(scan, 4, &bad_odometry).skip_reason, "wheel odometry is not finite");
   EXPECT_EQ(slam.counters().skipped_scans, 4u);
+  // Each skip also by its name, once each, and none as "none".
+  const std::array<std::size_t, llc::kScanRefusalKinds> once = {0, 1, 1, 1, 1};
+  EXPECT_EQ(slam.counters().scans_skipped, once);
+  std::set<std::string> names;
+  for (std::size_t kind = 0; kind < llc::kScanRefusalKinds; ++kind) names.insert(llc::scanRefusalName(llc::ScanRefusal(kind)));
+  EXPECT_EQ(names.size(), llc::kScanRefusalKinds);
   // Scans of garbage and of nothing still become keyframes when the wheels say so.
   const std::vector<std::vector<double>> garbage = {
       {}, std::vector<double>(360, std::nan("")), std::vector<double>(360, kInf), std::vector<double>(360, -2.0), {1.0, 2.0}};
@@ -353,7 +360,14 @@ TEST(SlamPipeline, BadScansAreSkippedWithAReasonAndNeverThrow) {
     EXPECT_TRUE(step.skip_reason.empty());
     EXPECT_TRUE(step.keyframe);
     EXPECT_FALSE(step.odometry.matched);  // nothing to match: the wheels are used
+    // Named: ICP (no points) or the overlap (too few) refused; never "none".
+    EXPECT_TRUE(step.odometry.refusal == llc::OdometryRefusal::kIcp ||
+                step.odometry.refusal == llc::OdometryRefusal::kLowOverlap)
+        << llc::odometryRefusalName(step.odometry.refusal) << ": " << step.odometry.reject_reason;
   }
+  EXPECT_EQ(slam.counters().steps_not_matched[std::size_t(llc::OdometryRefusal::kIcp)] +
+                slam.counters().steps_not_matched[std::size_t(llc::OdometryRefusal::kLowOverlap)],
+            garbage.size());
   for (const llc::Pose2& pose : slam.poses()) EXPECT_TRUE(std::isfinite(pose.x) && std::isfinite(pose.theta));
   EXPECT_NEAR(slam.poses().back().x, x, 1e-6);
 }
@@ -537,7 +551,9 @@ TEST(LoopDetector, CalibrationSetsKFromTheScoresOfSurelyDifferentPairs) {
     std::vector<std::size_t> others(10);
     for (std::size_t j = 0; j < 10; ++j) others[j] = j, fed.push_back(detector.pairScore(j, q));
     EXPECT_EQ(detector.calibrate(q, others), 10u);
-    if (q < 12) EXPECT_DOUBLE_EQ(detector.threshold(), model_k) << "too few pairs yet";
+    if (q < 12) {
+      EXPECT_DOUBLE_EQ(detector.threshold(), model_k) << "too few pairs yet";
+    }
   }
   EXPECT_EQ(detector.calibrator().seen(), 30u);
   EXPECT_DOUBLE_EQ(detector.threshold(), llc::thresholdForFalseAlarm(fed, 0.1));

@@ -3,6 +3,7 @@
 // The loop_closure nodelet runs it alone; SlamPipeline joins it to the back end directly.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
 
@@ -19,6 +20,8 @@ namespace llc {
 /// Counts of the front end's decisions since the start.
 struct FrontEndCounters {
   std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
+  std::array<std::size_t, kScanRefusalKinds> scans_skipped{};          ///< by ScanRefusal
+  std::array<std::size_t, kOdometryRefusalKinds> steps_not_matched{};  ///< keyframe steps by OdometryRefusal
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
@@ -43,6 +46,7 @@ struct FrontEndStep {
   Pose2 odometry_pose;
   bool has_odometry_pose = false;
   std::string skip_reason;    ///< non-empty: the scan was not used (and why)
+  ScanRefusal skip = ScanRefusal::kNone;  ///< the same as a name
   /// Non-empty: the wheel odometry jumped farther than max_speed allows since the scan before
   /// (what it did); that jump was left out of the motion.
   std::string wheel_jump;

@@ -3,6 +3,7 @@
 // end. `llc slam` drives it; the nodelets run the two halves apart, joined by messages.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <string>
@@ -42,6 +43,8 @@ struct SlamOptions {
 /// Counts of every decision since the start.
 struct SlamCounters {
   std::size_t scans = 0, skipped_scans = 0, keyframes = 0;
+  std::array<std::size_t, kScanRefusalKinds> scans_skipped{};          ///< by ScanRefusal
+  std::array<std::size_t, kOdometryRefusalKinds> steps_not_matched{};  ///< keyframe steps by OdometryRefusal
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
@@ -65,6 +68,7 @@ struct SlamStepResult {
   std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them
   std::string back_end_note;    ///< when keyframe: non-empty if the back end could not use its odometry as given (SlamBackEnd::addKeyframe)
   std::string skip_reason;      ///< non-empty: the scan was not used (and why)
+  ScanRefusal skip = ScanRefusal::kNone;  ///< the same as a name
   std::string wheel_jump;       ///< non-empty: its wheel odometry jumped and was left out (FrontEndStep)
   std::string time_jump;        ///< non-empty: its stamp jumped back and it starts a new chain (FrontEndStep)
 };

@@ -38,6 +38,32 @@ inline Keyframe makeKeyframe(Scan scan, std::size_t scan_index, const Pose2* whe
 }
 
 /// The motion from one keyframe to the next and how it was measured.
+/// Why a keyframe step was not measured by scan matching (the guess was used instead), or
+/// that it starts a new chain: a name reports and diagnostics count by.
+enum class OdometryRefusal {
+  kNone,              ///< matched by ICP, or scan matching is off
+  kIcp,               ///< ICP did not converge ("icp: ...")
+  kTooFarFromWheels,  ///< ICP moved beyond max_correction_* from the wheels' guess
+  kLowOverlap,        ///< the matched scans overlap less than min_overlap_share
+  kNewChain,          ///< a new chain (after a restored session or a time jump back): no motion
+};
+constexpr std::size_t kOdometryRefusalKinds = 5;
+/// "none", "icp", "too_far_from_wheels", "low_overlap", "new_chain".
+const char* odometryRefusalName(OdometryRefusal refusal);
+
+/// Why the front end skipped a scan.
+enum class ScanRefusal {
+  kNone,
+  kStampNotFinite,
+  kRangesAndBearingsDiffer,  ///< the two arrays differ in count
+  kWheelOdometryNotFinite,
+  kTimeWentBackwards,        ///< older than the newest keyframe, by less than restart_after_jump_back
+};
+constexpr std::size_t kScanRefusalKinds = 5;
+/// "none", "stamp_not_finite", "ranges_bearings_differ", "wheel_odometry_not_finite",
+/// "time_went_backwards".
+const char* scanRefusalName(ScanRefusal refusal);
+
 struct OdometryStep {
   Pose2 motion;                    ///< the new keyframe in the frame of the previous one
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of motion's x, y, theta
@@ -45,6 +71,7 @@ struct OdometryStep {
   double overlap_share = 0.0;      ///< after ICP
   double seconds = 0.0;
   std::string reject_reason;       ///< why ICP was not used (empty when matched or not tried)
+  OdometryRefusal refusal = OdometryRefusal::kNone;  ///< the same as a name
   /// Squared Mahalanobis distance of ICP's result from the wheel guess under the modelled wheel
   /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
   double wheel_disagreement = -1.0;
