@@ -170,7 +170,13 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
     if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
   }
+  llc::AtomicTextFile scan_poses(dir + "/scans.csv");
+  scan_poses << "scan,stamp,x,y,theta,keyframe\n" << std::fixed << std::setprecision(6);
+  for (const llc::ScanPose& s : slam.scanPoses())
+    scan_poses << s.scan_index << "," << s.stamp << "," << s.pose.x << "," << s.pose.y << "," << s.pose.theta << ","
+          << s.keyframe << "\n";
   trajectory.commit();
+  scan_poses.commit();
   loops.commit();
   std::vector<const llc::Scan*> scans;
   for (const llc::Keyframe& k : keyframes) scans.push_back(&k.scan);
@@ -241,6 +247,8 @@ int runSlam(const Args& args) {
     if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
   }
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
+  const std::vector<llc::Relation> relations =
+      args.has("relations") ? loadRelationsFile(args.get("relations", "")) : std::vector<llc::Relation>{};
   llc::SystemOptions options;
   const std::string config = args.get("config", configFilePath("slam.yaml"));
   if (args.has("config") || std::ifstream(config)) {
@@ -377,6 +385,13 @@ int runSlam(const Args& args) {
          << "seconds_backend=" << c.seconds_backend << "\n"
          << "input_seconds=" << duration << "\n"
          << "faster_than_real_time=" << (seconds > 0 ? duration / seconds : 0.0) << "\n";
+  if (!relations.empty()) {  // --relations: the Kuemmerle et al. metric of the per-scan poses
+    std::vector<std::pair<std::size_t, llc::Pose2>> poses;
+    for (const llc::ScanPose& s : slam.scanPoses()) poses.emplace_back(s.scan_index, s.pose);
+    const llc::RelationErrorResult result = evaluateRunRelations(relations, sequence, poses);
+    reportRelations(result, report);
+    writeRelationErrors(result, relations, dir + "/relation_errors.csv");
+  }
   if (truth.available) {
     report << "path_length_m=" << truth.path_length << "\n"
            << "rms_error_m=" << truth.slam_rms << "\n"

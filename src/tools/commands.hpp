@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/geometry/relation_error.hpp"
 #include "tool_common.hpp"
 
 namespace llc_tool {
@@ -18,6 +19,18 @@ int runAlign(const Args& args);
 int runTrainCrf(const Args& args);
 int runGraph(const Args& args);
 int runSlam(const Args& args);
+int runRelations(const Args& args);
+/// The relations metric of a run: the log's stamps and odometry, the run's (scan, pose) pairs.
+llc::RelationErrorResult evaluateRunRelations(const std::vector<llc::Relation>& relations,
+                                              const llc::ScanSequence& sequence,
+                                              const std::vector<std::pair<std::size_t, llc::Pose2>>& scan_poses);
+/// A .relations file, or ToolError naming the line.
+std::vector<llc::Relation> loadRelationsFile(const std::string& path);
+/// Report lines relations=..., relation_translation_mean_m=..., ...
+void reportRelations(const llc::RelationErrorResult& result, std::ostream& out);
+/// One line per evaluated relation (relation_errors.csv).
+void writeRelationErrors(const llc::RelationErrorResult& result, const std::vector<llc::Relation>& relations,
+                         const std::string& path);
 /// Alignment options from the --aligner/... parameter flags and --crf-weights.
 llc::ScanAlignerOptions alignerOptions(const Args& args);
 extern const std::vector<std::string> kAlignerFlags;

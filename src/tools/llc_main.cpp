@@ -83,17 +83,26 @@ const std::vector<Command>& commands() {
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
-             "drift-noise-rad", "drift-noise-share", "drift-seed"},
+             "drift-noise-rad", "drift-noise-share", "drift-seed", "relations"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
        "      [--SECTION/FIELD VALUE ...]   (any pipeline parameter, named as in config/slam.yaml; after --config)\n"
-       "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, loops.csv, map.pgm/.yaml/.png, report.txt)\n"
+       "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, scans.csv, loops.csv,\n"
+       "       map.pgm/.yaml/.png, report.txt)\n"
+       "      [--relations R]   (the Kuemmerle et al. relations metric of scans.csv against R, in report.txt,\n"
+       "       each relation's error in relation_errors.csv)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
        "       keeping the truth: moderate as written, strong twice each figure)"},
+      {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out"}, kInputFlags), {},
+       "relations --log LOG (--poses DIR/scans.csv | --keyframes CSV) --relations R [--out ERRORS.csv]\n"
+       "      (the Kuemmerle et al. 2009 relations metric: mean, std and largest translational (m) and\n"
+       "      rotational (deg) error; --keyframes: poses by stamp, a CSV naming stamp, x, y, theta|yaw such as\n"
+       "      llc slam's trajectory.csv or the nodelets' path.csv; a scan without a pose is carried from the\n"
+       "      nearest one with a pose by the log's odometry)"},
       {"train-crf", llc_tool::runTrainCrf,
        with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
        "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},

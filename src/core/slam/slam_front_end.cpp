@@ -117,6 +117,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
       if (!odometry_.movedEnough(guess)) {  // not a keyframe: nothing more to do
+        step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
         setOdometryPose(step);
         return step;
       }

@@ -64,6 +64,15 @@ SlamCounters SlamPipeline::counters() const {
   return c;
 }
 
+std::vector<ScanPose> SlamPipeline::scanPoses() const {
+  std::vector<ScanPose> scans;
+  scans.reserve(placements_.size());
+  const std::vector<Pose2>& keyframes = poses();
+  for (const Placement& p : placements_)
+    if (p.keyframe < keyframes.size()) scans.push_back({p.scan_index, p.stamp, p.keyframe, compose(keyframes[p.keyframe], p.offset)});
+  return scans;
+}
+
 SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
   FrontEndStep front = front_.addScan(scan, wheel_odometry);
   SlamStepResult step;
@@ -71,6 +80,9 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   step.skip = front.skip;
   step.wheel_jump = std::move(front.wheel_jump);
   step.time_jump = std::move(front.time_jump);
+  if (front.skip == ScanRefusal::kNone && front_.keyframeCount() > 0)
+    placements_.push_back({scan_index, scan.stamp, front.keyframe ? front.keyframe_index : front_.keyframeCount() - 1,
+                           front.keyframe ? Pose2{} : front.odometry.motion});
   if (!front.keyframe) return step;
   step.keyframe = true;
   step.keyframe_index = front.keyframe_index;
@@ -116,6 +128,7 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
   error = front_.restore(session.keyframes, session.features, continue_odometry);
   if (!error.empty()) return error;
   loops_ = session.loops;
+  placements_.clear();  // the scans of another run: their keyframes are gone
   return "";
 }
 

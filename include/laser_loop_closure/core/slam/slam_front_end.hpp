@@ -38,7 +38,10 @@ struct FrontEndCounters {
 struct FrontEndStep {
   bool keyframe = false;
   std::size_t keyframe_index = 0;
-  OdometryStep odometry;      ///< from the previous keyframe (when keyframe and not the first)
+  /// From the previous keyframe (when keyframe and not the first). For a scan that is not a
+  /// keyframe, motion is its pose relative to the newest keyframe: the wheels' guess, or
+  /// scan matching's without wheels.
+  OdometryStep odometry;
   /// The scan's pose in the front end's own odometry frame: its matched motions chained from
   /// the first keyframe (a new chain after a restore or a time jump goes on from where the
   /// last one ended, so the frame never jumps). What a robot without wheels broadcasts as

@@ -73,6 +73,15 @@ struct SlamStepResult {
   std::string time_jump;        ///< non-empty: its stamp jumped back and it starts a new chain (FrontEndStep)
 };
 
+/// One scan's pose in the map: its keyframe's optimised pose carried by the scan's motion from
+/// that keyframe (the wheels', or scan matching's without wheels).
+struct ScanPose {
+  std::size_t scan_index = 0;  ///< the caller's index of the scan
+  double stamp = 0.0;          ///< s
+  std::size_t keyframe = 0;    ///< the newest keyframe when the scan came
+  Pose2 pose;                  ///< in the map frame
+};
+
 class SlamPipeline {
  public:
   /// Throws std::invalid_argument on bad options or a model the extractor cannot serve.
@@ -90,6 +99,9 @@ class SlamPipeline {
   /// Every aligned candidate: refused by alignment, refused by the gate, or applied.
   const std::vector<LoopRecord>& loops() const { return loops_; }
   SlamCounters counters() const;
+  /// Every scan the front end used (not the skipped ones), in the order fed, placed from the
+  /// current optimised keyframe poses.
+  std::vector<ScanPose> scanPoses() const;
   /// The map -> odom transform (REP-105) implied by the newest keyframe; identity without odometry.
   Pose2 mapToOdom() const { return back_.mapToOdom(); }
   SlamBackEnd& backEnd() { return back_; }
@@ -105,6 +117,14 @@ class SlamPipeline {
   SlamFrontEnd front_;
   SlamBackEnd back_;
   std::vector<LoopRecord> loops_;
+  /// Each used scan: its index, stamp, newest keyframe and motion from it (scanPoses).
+  struct Placement {
+    std::size_t scan_index;
+    double stamp;
+    std::size_t keyframe;
+    Pose2 offset;
+  };
+  std::vector<Placement> placements_;
 };
 
 }  // namespace llc
