@@ -27,6 +27,10 @@ check "unknown option" 2 "unknown option --bogus" -- "$LLC" pairs --bogus 1
 check "missing log" 1 "no such file" -- "$LLC" pairs --log "$TMP/none.log" --out "$TMP/p.csv"
 check "bad feature set" 2 "must be 'paper' or 'extended'" -- "$LLC" features --log x --out y --features/set fancy
 check "feature option: not a boolean" 2 "--features/closed_ring must be true or false" -- "$LLC" features --log x --out y --features/closed_ring maybe
+printf '# t1 t2 x y z roll pitch yaw\n1 2 3 4 5 6 7\n' > "$TMP/short.relations"
+check "relations: a line of 7 values" 1 "short.relations:2: 7 values, not the 8" -- "$LLC" relations --log x --poses y --relations "$TMP/short.relations"
+check "relations: both --poses and --keyframes" 2 "exactly one of --poses and --keyframes" -- "$LLC" relations --log x --poses y --keyframes z --relations r
+check "slam --relations: a missing file, before the run" 1 "none.relations: cannot be read" -- "$LLC" slam --log x --out "$TMP/none" --relations "$TMP/none.relations"
 printf 'FLASER 3 1 2\n' > "$TMP/bad.log"
 check "malformed log" 1 "bad.log:1: FLASER" -- "$LLC" features --log "$TMP/bad.log" --out "$TMP/f.csv"
 printf 'not a model\n' > "$TMP/bad.yaml"
@@ -155,7 +159,7 @@ check "bag: truncated" 1 "cut.bag: (not a readable bag|the bag is damaged)" -- "
 check "simulate bad parking time" 2 "parking-mean-s must be" -- "$LLC" simulate --out "$TMP/sim" --parking-mean-s 0
 
 # Help for every subcommand: its usage with defaults, exit 0.
-for sub in pairs features train evaluate score simulate align graph slam train-crf; do
+for sub in pairs features train evaluate score simulate align graph slam train-crf relations; do
   check "$sub --help" 0 "^usage: llc $sub " -- "$LLC" "$sub" --help
 done
 check "slam --help lists defaults" 0 "\[--drift-noise-m 0\.01\]" -- "$LLC" slam --help
@@ -211,6 +215,17 @@ if [ -f "$LOG" ]; then
     check "slam on the raw Intel log finds its odometry offset" 0 "^odometry_offset=-1$" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_intel" --odometry-offset auto --quiet
     check "slam on the raw Intel log applies loops" 0 "^ok$" -- awk -F= '/^loops_accepted=/ {print ($2 >= 150 ? "ok" : "loops " $2)}' "$TMP/slam_intel/report.txt"
     check "odometry offset not a number" 2 "odometry-offset" -- "$LLC" slam --log "$RAW" --out "$TMP/slam_bad" --odometry-offset soon --quiet
+  fi
+  MIT="$DATA/relations/mit-csail.log.gz"
+  if [ -f "$MIT" ]; then
+    # The Kümmerle benchmark: every relation evaluated on the run's own per-scan poses; the same
+    # figure again from scans.csv by llc relations, and near it from the keyframes alone.
+    check "slam --relations on MIT CSAIL" 0 "^relations_evaluated=1172$" -- "$LLC" slam --log "$MIT" --out "$TMP/mit" --odometry-offset auto --relations "${MIT%.log.gz}.relations" --quiet
+    check "MIT CSAIL relations: mean translational error under 0.1 m" 0 "^ok$" -- awk -F= '/^relation_translation_mean_m=/ {print ($2 < 0.1 ? "ok" : "error " $2)}' "$TMP/mit/report.txt"
+    mean="$(sed -n 's/^relation_translation_mean_m=//p' "$TMP/mit/report.txt")"
+    check "llc relations on scans.csv gives slam's figure" 0 "^relation_translation_mean_m=$mean$" -- "$LLC" relations --log "$MIT" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations" --out "$TMP/mit/errors.csv"
+    check "llc relations on the keyframes, carried by odometry" 0 "^relations_carried=[1-9]" -- "$LLC" relations --log "$MIT" --keyframes "$TMP/mit/trajectory.csv" --relations "${MIT%.log.gz}.relations"
+    check "relations: poses of another log" 1 "not in the log" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations"
   fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
