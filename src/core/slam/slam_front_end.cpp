@@ -116,13 +116,19 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       }
       last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
-      if (!odometry_.movedEnough(guess)) {  // not a keyframe: nothing more to do
+      const bool keyframe = odometry_.movedEnough(guess);
+      if (!keyframe && !odometry_.options().match_every_scan) {  // not a keyframe: nothing more to do
         step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
         setOdometryPose(step);
         return step;
       }
       prepared = detector_.aligner().prepare(scan);
       step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale());
+      if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
+        counters_.seconds_odometry += secondsSince(start);
+        setOdometryPose(step);
+        return step;
+      }
       wheel_noise_.add(step.odometry.wheel_disagreement);
     } else {
       // No wheels: every scan is matched to the newest keyframe to know when it moved enough,

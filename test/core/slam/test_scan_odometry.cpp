@@ -151,6 +151,41 @@ TEST(ScanOdometry, TheFrontEndsOwnOdometryFrameChainsItsMotionsAndNeverJumps) {
   EXPECT_GT(keyframe_pose.x, 0.7 * 19 + 3.0) << "the second pass goes on past the first";
 }
 
+TEST(ScanOdometry, MatchEveryScanGivesAScanBetweenKeyframesItsOwnPose) {
+  // Wheels that read 10% short: a scan between keyframes sits where the wheels put it, unless
+  // match_every_scan matches it too (then where ICP puts it, the truth); keyframes are the same.
+  const std::vector<Wall> walls = corridor();
+  for (const bool every : {false, true}) {
+    llc::ScanOdometryOptions odometry;
+    odometry.match_every_scan = every;
+    llc::SlamFrontEnd front(llc_test::defaultModel(), odometry, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+    std::size_t between = 0, keyframes = 0;
+    double last_keyframe_x = 0.0;
+    for (int k = 0; k < 20; ++k) {  // 0.7 m a scan, in the corridor's first 14 m (niches: ICP is posed)
+      llc::Scan scan = corridorScan(walls, k);
+      scan.stamp = 100.0 + 0.1 * k;
+      const llc::Pose2 wheels{0.9 * 0.7 * k, 0.0, 0.0};
+      const llc::FrontEndStep step = front.addScan(scan, &wheels);
+      ASSERT_TRUE(step.has_odometry_pose);
+      const double true_x = 0.7 * k;
+      if (step.keyframe) {
+        last_keyframe_x = true_x, ++keyframes;
+        continue;
+      }
+      ++between;
+      const double from_keyframe = true_x - last_keyframe_x;
+      if (every) {
+        EXPECT_TRUE(step.odometry.matched) << k;
+        EXPECT_NEAR(step.odometry.motion.x, from_keyframe, 0.03) << "ICP's pose, scan " << k;
+      } else {
+        EXPECT_NEAR(step.odometry.motion.x, 0.9 * from_keyframe, 1e-9) << "the wheels' guess, scan " << k;
+      }
+    }
+    EXPECT_GT(between, 5u);
+    EXPECT_GT(keyframes, 5u);
+  }
+}
+
 TEST(ScanOdometry, PredictionOptionsAreValidated) {
   llc::ScanOdometryOptions options;
   for (const double bad : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {

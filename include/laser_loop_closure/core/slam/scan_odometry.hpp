@@ -42,6 +42,11 @@ struct ScanOdometryOptions {
   /// by it when ICP fails (a featureless stretch), instead of standing still until the robot is
   /// too far from the keyframe for any match (false: no motion model).
   bool predict_motion = true;
+  /// With wheel odometry: also match each scan that is not a keyframe to the newest keyframe
+  /// (ICP from the wheels' guess), so that every scan has a pose of its own (scans.csv, the
+  /// relations metric, odom from publish_odometry_tf); one ICP per scan. Keyframes are chosen
+  /// by the wheels either way. (Without wheels every scan is matched anyway.)
+  bool match_every_scan = false;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these

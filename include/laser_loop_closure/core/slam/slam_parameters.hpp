@@ -55,6 +55,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/rotation_sigma_per_radian", odometry.rotation_sigma_per_radian);
   visit("odometry/wheel_sigma_scale", odometry.wheel_sigma_scale);
   visit("odometry/predict_motion", odometry.predict_motion);
+  visit("odometry/match_every_scan", odometry.match_every_scan);
   visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visit("odometry/max_speed", odometry.max_speed);
   visit("odometry/max_turn_rate", odometry.max_turn_rate);
