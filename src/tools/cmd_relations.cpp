@@ -1,6 +1,7 @@
 // llc relations, and llc slam --relations: the Kümmerle et al. 2009 relations metric of a
 // run's per-scan poses (scans.csv) against a .relations file.
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -15,38 +16,16 @@ namespace {
 
 constexpr double kDegrees = 180.0 / M_PI;
 
-/// scans.csv as llc slam writes it: scan,stamp,x,y,theta,keyframe (a header line first).
-std::vector<std::pair<std::size_t, llc::Pose2>> readScanPoses(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ToolError(path + ": cannot be read");
-  std::string line;
-  if (!std::getline(in, line) || line.rfind("scan,stamp,x,y,theta", 0) != 0)
-    throw ToolError(path + ":1: not a scans.csv of llc slam (header scan,stamp,x,y,theta,keyframe)");
-  std::vector<std::pair<std::size_t, llc::Pose2>> poses;
-  for (std::size_t number = 2; std::getline(in, line); ++number) {
-    if (line.empty()) continue;
-    std::istringstream fields(line);
-    std::string scan, stamp, x, y, theta;
-    std::getline(fields, scan, ','), std::getline(fields, stamp, ','), std::getline(fields, x, ',');
-    std::getline(fields, y, ','), std::getline(fields, theta, ',');
-    try {
-      std::size_t used = 0;
-      const unsigned long index = std::stoul(scan, &used);
-      if (used != scan.size()) throw std::invalid_argument(scan);
-      const llc::Pose2 pose{std::stod(x), std::stod(y), std::stod(theta)};
-      if (!llc::isFinite(pose)) throw std::invalid_argument("not finite");
-      poses.emplace_back(index, pose);
-    } catch (const std::exception&) {
-      throw ToolError(path + ":" + std::to_string(number) + ": expected scan,stamp,x,y,theta,keyframe with finite numbers");
-    }
-  }
-  return poses;
-}
+/// One row of a pose CSV: its line number, the text of its key column and its pose.
+struct PoseRow {
+  std::size_t line = 0;
+  std::string key;
+  llc::Pose2 pose;
+};
 
-/// Poses keyed by stamp from a CSV with a header naming stamp, x, y and theta or yaw (llc
-/// slam's trajectory.csv, the nodelets' path.csv), each put on the log's scan of that stamp.
-std::vector<std::pair<std::size_t, llc::Pose2>> readStampedPoses(const std::string& path,
-                                                                 const llc::ScanSequence& sequence) {
+/// A CSV whose header names `key`, x, y and theta or yaw (llc slam's scans.csv and
+/// trajectory.csv, the nodelets' path.csv); refuses a short row or a pose that is not finite.
+std::vector<PoseRow> readPoseCsv(const std::string& path, const char* key) {
   std::ifstream in(path);
   if (!in) throw ToolError(path + ": cannot be read");
   std::string line;
@@ -57,34 +36,62 @@ std::vector<std::pair<std::size_t, llc::Pose2>> readStampedPoses(const std::stri
     for (const char* name : names)
       for (std::size_t i = 0; i < header.size(); ++i)
         if (header[i] == name) return i;
-    throw ToolError(path + ":1: no column " + *names.begin() + " (a header naming stamp, x, y and theta or yaw)");
+    throw ToolError(path + ":1: no column " + *names.begin() + " (a header naming " + key + ", x, y and theta or yaw)");
   };
-  const std::size_t stamp_at = column({"stamp"}), x_at = column({"x"}), y_at = column({"y"});
+  const std::size_t key_at = column({key}), x_at = column({"x"}), y_at = column({"y"});
   const std::size_t theta_at = column({"theta", "yaw"});
-  std::vector<double> stamps;
-  for (const llc::LoggedScan& s : sequence.scans) stamps.push_back(s.stamp);
-  const llc::StampIndex scans(std::move(stamps));
-  std::vector<std::pair<std::size_t, llc::Pose2>> poses;
-  std::size_t unmatched = 0, rows = 0;
+  std::vector<PoseRow> rows;
   for (std::size_t number = 2; std::getline(in, line); ++number) {
     if (line.empty()) continue;
     std::vector<std::string> fields;
     for (std::istringstream values(line); std::getline(values, line, ',');) fields.push_back(line);
     try {
       if (fields.size() < header.size()) throw std::invalid_argument("short");
-      const double stamp = std::stod(fields[stamp_at]);
       const llc::Pose2 pose{std::stod(fields[x_at]), std::stod(fields[y_at]), std::stod(fields[theta_at])};
-      if (!std::isfinite(stamp) || !llc::isFinite(pose)) throw std::invalid_argument("not finite");
-      ++rows;
-      if (const auto scan = scans.find(stamp, llc::RelationErrorOptions{}.stamp_tolerance)) poses.emplace_back(*scan, pose);
-      else ++unmatched;
+      if (!llc::isFinite(pose)) throw std::invalid_argument("not finite");
+      rows.push_back({number, fields[key_at], pose});
     } catch (const std::exception&) {
       throw ToolError(path + ":" + std::to_string(number) + ": expected " + std::to_string(header.size()) +
-                      " comma-separated values, stamp and pose finite");
+                      " comma-separated values with a finite pose");
     }
   }
-  if (unmatched > 0)
-    std::cerr << "warning: " << path << ": " << unmatched << " of " << rows
+  return rows;
+}
+
+/// scans.csv as llc slam writes it: poses by scan index.
+std::vector<std::pair<std::size_t, llc::Pose2>> readScanPoses(const std::string& path) {
+  std::vector<std::pair<std::size_t, llc::Pose2>> poses;
+  for (const PoseRow& row : readPoseCsv(path, "scan")) {
+    std::size_t used = 0;
+    unsigned long index = 0;
+    try {
+      index = std::stoul(row.key, &used);
+    } catch (const std::exception&) {
+    }
+    if (used == 0 || used != row.key.size())
+      throw ToolError(path + ":" + std::to_string(row.line) + ": '" + row.key + "' is not a scan index");
+    poses.emplace_back(index, row.pose);
+  }
+  return poses;
+}
+
+/// Poses by stamp (trajectory.csv, path.csv), each put on the log's scan of that stamp.
+std::vector<std::pair<std::size_t, llc::Pose2>> readStampedPoses(const std::string& path,
+                                                                 const llc::ScanSequence& sequence) {
+  std::vector<double> stamps;
+  for (const llc::LoggedScan& s : sequence.scans) stamps.push_back(s.stamp);
+  const llc::StampIndex scans(std::move(stamps));
+  const std::vector<PoseRow> rows = readPoseCsv(path, "stamp");
+  std::vector<std::pair<std::size_t, llc::Pose2>> poses;
+  for (const PoseRow& row : rows) {
+    char* end = nullptr;
+    const double stamp = std::strtod(row.key.c_str(), &end);
+    if (row.key.empty() || *end != '\0' || !std::isfinite(stamp))
+      throw ToolError(path + ":" + std::to_string(row.line) + ": '" + row.key + "' is not a finite stamp");
+    if (const auto scan = scans.find(stamp, llc::RelationErrorOptions{}.stamp_tolerance)) poses.emplace_back(*scan, row.pose);
+  }
+  if (poses.size() < rows.size())
+    std::cerr << "warning: " << path << ": " << rows.size() - poses.size() << " of " << rows.size()
               << " poses have a stamp that names no scan of the log: left out\n";
   return poses;
 }

@@ -87,6 +87,13 @@ head -c 8 "$TMP/sim/world.png" | od -c | grep -q "P   N   G" && passed=$((passed
 # Every log-taking subcommand also takes the bag, with topic flags.
 check "pairs on sim.bag" 0 "any heading" -- "$LLC" pairs --log "$TMP/sim/sim.bag" --out "$TMP/sim/bag_pairs.csv" --max-per-class 60
 check "features on sim.bag" 0 "features=157" -- "$LLC" features --log "$TMP/sim/sim.bag" --out "$TMP/sim/f.csv"
+printf '1 2 0 0 0 0 0 0\n' > "$TMP/one.relations"
+printf 'scan,stamp,x,y,theta,keyframe\n0,1.0,0,0,0,0\n1,1.1,nan,0,0,0\n' > "$TMP/nan_scans.csv"
+check "relations: a pose that is not finite, by line" 1 "nan_scans.csv:3: expected 6 comma-separated values with a finite pose" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/nan_scans.csv" --relations "$TMP/one.relations"
+printf 'scan,stamp,x,y,theta,keyframe\nfirst,1.0,0,0,0,0\n' > "$TMP/word_scans.csv"
+check "relations: a scan index that is a word" 1 "word_scans.csv:2: 'first' is not a scan index" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/word_scans.csv" --relations "$TMP/one.relations"
+printf 'stamp,x,y\n1.0,0,0\n' > "$TMP/no_theta.csv"
+check "relations: keyframes without a heading column" 1 "no_theta.csv:1: no column theta" -- "$LLC" relations --log "$TMP/sim/sim.log" --keyframes "$TMP/no_theta.csv" --relations "$TMP/one.relations"
 check "train on sim.bag" 0 "rounds=20" -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --model "$TMP/sim/m.yaml" --rounds 20 --repeats 1
 check "score on sim.bag" 0 "pairs=120" -- "$LLC" score --model "$TMP/sim/m.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/s.csv"
 check "evaluate on sim.bag" 0 "^auc=" -- "$LLC" evaluate --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/ev" --repeats 1 --no-curve --no-ablation

@@ -31,6 +31,11 @@ SelfTrainingSet selfTrainingSet(const std::vector<std::vector<double>>& features
       throw std::invalid_argument("keyframe " + std::to_string(k) + " has " + std::to_string(features[k].size()) +
                                   " feature values, not the " + std::to_string(featureCount(feature_set)) + " of the " +
                                   toString(feature_set) + " set");
+  if (features.size() == optimised_poses.size()) {  // the usual case: no copy
+    result.set = selfLabelledTrainingSet(features, optimised_poses, feature_set, full_circle, min_keyframe_gap,
+                                         &result.pairs);
+    return result;
+  }
   const std::vector<std::vector<double>> placed(features.begin(), features.begin() + long(result.keyframes));
   const std::vector<Pose2> poses(optimised_poses.begin(), optimised_poses.begin() + long(result.keyframes));
   result.set = selfLabelledTrainingSet(placed, poses, feature_set, full_circle, min_keyframe_gap, &result.pairs);

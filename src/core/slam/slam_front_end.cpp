@@ -230,8 +230,9 @@ SelfTrainingSet SlamFrontEnd::selfTrainingSet(const std::vector<Pose2>& optimise
   std::vector<std::vector<double>> features;
   features.reserve(placed);
   for (std::size_t k = 0; k < placed; ++k) features.push_back(detector_.features(k));
-  return llc::selfTrainingSet(features, optimised_poses, detector_.model().features.feature_set,
-                              keyframes_full_circle_, loop_options_.min_keyframe_gap);
+  const std::vector<Pose2> poses(optimised_poses.begin(), optimised_poses.begin() + long(placed));
+  return llc::selfTrainingSet(features, poses, detector_.model().features.feature_set, keyframes_full_circle_,
+                              loop_options_.min_keyframe_gap);
 }
 
 }  // namespace llc
