@@ -300,6 +300,7 @@ int runSlam(const Args& args) {
               << path << (args.has("continue-odometry") ? " (odometry continues)\n" : " (a new chain)\n");
   }
   Progress progress(sequence.scans.size(), !args.has("quiet"));
+  const std::size_t loops_before = slam.loops().size();  // a restored session's
   std::size_t first_skip_reported = 0, loosely_linked = 0, wheel_jumps = 0;
   std::map<std::string, std::size_t> odometry_reasons, loop_reasons;
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals{};  // by llc::LoopRefusal
@@ -322,16 +323,18 @@ int runSlam(const Args& args) {
     if (step.keyframe && !step.back_end_note.empty() && loosely_linked++ == 0)
       std::cerr << "warning: keyframe " << step.keyframe_index << ": " << step.back_end_note << " (later ones are only counted)\n";
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
-    for (const llc::LoopRecord& record : step.records)
-      if (!record.applied) {
-        ++loop_reasons[general(record.reject_reason)];
-        ++refusals[std::size_t(llc::loopRefusalOf(record.reject_reason))];
-      }
     for (const llc::LoopClosure& skipped : step.loops.not_aligned) ++refusals[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
     not_aligned.insert(not_aligned.end(), step.loops.not_aligned.begin(), step.loops.not_aligned.end());
     progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // This run's loops as they ended (the back end may apply a refused one later, by consensus).
+  for (std::size_t k = loops_before; k < slam.loops().size(); ++k) {
+    const llc::LoopRecord& record = slam.loops()[k];
+    if (record.applied) continue;
+    ++loop_reasons[general(record.reject_reason)];
+    ++refusals[std::size_t(llc::loopRefusalOf(record.reject_reason))];
+  }
   writeOutputs(slam, options.map, dir);
   if (args.has("save-session")) {
     try {
@@ -360,6 +363,7 @@ int runSlam(const Args& args) {
          << "time_jumps_back=" << c.time_jumps << "  (stamps back by more than restart_after_jump_back: new odometry chains)\n"
          << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
+         << "odometry_steps_recovered=" << c.recovered_steps << "  (the wheels doubted, the laser's motion from a correlative search taken)\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"
          << "classifier_threshold=" << c.classifier_threshold << "  (K at the end; loops/calibration moves it)\n"
@@ -368,7 +372,8 @@ int runSlam(const Args& args) {
          << "aligned=" << c.aligned << "\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
-         << "loops_refused_by_gate=" << c.refused_by_gate << "\n";
+         << "loops_refused_by_gate=" << c.refused_by_gate << "\n"
+         << "loops_applied_by_consensus=" << c.applied_by_consensus << "  (of loops_accepted: refused by the gate, then applied with others that agree)\n";
   // Every candidate not applied, by the stage that refused it (llc::LoopRefusal's names).
   for (std::size_t kind = 1; kind < refusals.size(); ++kind)
     report << "candidates_refused_" << llc::loopRefusalName(llc::LoopRefusal(kind)) << "=" << refusals[kind] << "\n";

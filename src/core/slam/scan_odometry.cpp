@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <optional>
 #include <cmath>
 #include <stdexcept>
 
@@ -31,6 +32,10 @@ std::string ScanOdometryOptions::validate() const {
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
     return "min_velocity_interval must be finite and >= 0";
   if (!(restart_after_jump_back > 0.0)) return "restart_after_jump_back must be > 0";
+  if (!(correlative_min_score_gain >= 0.0 && correlative_min_score_gain <= 1.0))
+    return "correlative_min_score_gain must be in [0, 1]";
+  const std::string correlative_error = correlative.validate();
+  if (!correlative_error.empty()) return "correlative: " + correlative_error;
   const std::string error = icp.validate();
   return error.empty() ? "" : "icp: " + error;
 }
@@ -87,11 +92,35 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   };
   if (!options_.scan_matching) return finish("", OdometryRefusal::kNone);
   const IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
-  if (!icp.converged) return finish("icp: " + icp.reject_reason, OdometryRefusal::kIcp);
+  ShapeValidationOptions overlap;
+  overlap.max_distance = options_.overlap_distance;
+  overlap.min_inlier_share = options_.min_overlap_share;
+  // The wheels were doubted (ICP failed, went far, overlapped little or disagreed): does the
+  // laser clearly place the scan elsewhere? Then its motion is matched, as any other.
+  auto recover = [&]() {
+    if (!guess_from_wheels || !options_.correlative_recovery) return false;
+    const std::optional<Pose2> laser = recoverFromWheels(previous, current, guess, icp, overlap, wheel_scale);
+    if (!laser) return false;
+    step.motion = *laser;
+    step.matched = true;
+    step.recovered = true;
+    step.reject_reason.clear();
+    step.refusal = OdometryRefusal::kNone;
+    // Found where matching was hard (ICP failed or strayed, little overlap): no more certain
+    // than a wheel step. A matched step's covariance made the map too sure of such steps for
+    // the back end's gate to take the loops that mend them (MIT CSAIL, FR079).
+    step.covariance = stepCovariance(step.motion, false);
+    step.seconds = secondsSince(start);
+    return true;
+  };
+  if (!icp.converged) {
+    if (recover()) return step;
+    return finish("icp: " + icp.reject_reason, OdometryRefusal::kIcp);
+  }
   const Pose2 correction = between(guess, icp.pose);
   if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
                             std::abs(correction.theta) > options_.max_correction_rotation))
-    return finish("icp moved too far from wheel odometry", OdometryRefusal::kTooFarFromWheels);
+    return recover() ? step : finish("icp moved too far from wheel odometry", OdometryRefusal::kTooFarFromWheels);
   Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
   bool disputed = false;
   if (guess_from_wheels) {
@@ -101,12 +130,13 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     disputed = options_.max_wheel_disagreement > 0.0 &&
                step.wheel_disagreement > options_.max_wheel_disagreement * wheel_noise_scale;
   }
-  ShapeValidationOptions overlap;
-  overlap.max_distance = options_.overlap_distance;
-  overlap.min_inlier_share = options_.min_overlap_share;
   const ShapeValidationResult check = validateShape(current.points, previous.icp_target.tree, icp.pose, overlap, &previous.view);
   step.overlap_share = check.inlier_share;
-  if (!check.accepted) return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share", OdometryRefusal::kLowOverlap);
+  if (!check.accepted) {
+    if (recover()) return step;
+    return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share", OdometryRefusal::kLowOverlap);
+  }
+  if (disputed && recover()) return step;
   step.motion = icp.pose;
   step.matched = true;
   finish("", OdometryRefusal::kNone);
@@ -118,6 +148,57 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     step.covariance = stepCovariance(guess, false) * wheel_scale + disagreement * disagreement.transpose();
   }
   return step;
+}
+
+std::optional<Pose2> ScanOdometry::recoverFromWheels(const PreparedScan& previous, const PreparedScan& current,
+                                                     const Pose2& guess, const IcpResult& icp,
+                                                     const ShapeValidationOptions& overlap, double wheel_scale) const {
+  // Two windows: around the wheels' guess (a slip, a gap between scans, a turn mismeasured)
+  // and around the same step backwards (wheels that count a reverse as forward are wrong in
+  // sign, not in size). Not one window wide enough for both: a building's repeated rooms and
+  // doors fit metres away too. Ties go to the centre: where the laser cannot tell (a bare
+  // corridor), the guess stands.
+  const CorrelativeSearchOptions& window = options_.correlative;
+  const LikelihoodField field(previous.points, window);
+  CorrelativeSearchResult search = searchCorrelative(field, current.points, guess, window);
+  if (std::hypot(guess.x, guess.y) > window.max_translation) {
+    const CorrelativeSearchResult reverse = searchCorrelative(field, current.points, Pose2{-guess.x, -guess.y, guess.theta}, window);
+    if (reverse.found && (!search.found || reverse.score > search.score)) search = reverse;
+  }
+  if (!search.found) return std::nullopt;
+  const IcpResult refined = alignIcp(current.points, previous.icp_target, search.pose, options_.icp, &current.icp_target.normals);
+  auto inWindow = [&](const Pose2& pose, const Pose2& centre) {
+    return std::abs(pose.x - centre.x) <= window.max_translation + window.translation_step &&
+           std::abs(pose.y - centre.y) <= window.max_translation + window.translation_step &&
+           std::abs(normalizeAngle(pose.theta - centre.theta)) <= window.max_rotation + window.rotation_step;
+  };
+  std::optional<Pose2> best;
+  double best_score = -1.0;
+  for (const IcpResult* result : {&icp, &refined}) {
+    // Only a motion of a window searched: beyond them another place may fit as well, unseen.
+    if (!result->converged || !(inWindow(result->pose, guess) || inWindow(result->pose, Pose2{-guess.x, -guess.y, guess.theta})))
+      continue;
+    const double score = correlativeScore(field, current.points, result->pose, window.max_points);
+    if (score > best_score) best_score = score, best = result->pose;
+  }
+  // The search's own pose when ICP fits clearly worse by the search's measure (ICP's trimmed
+  // point-to-line pairs can slide where few points pair): coarse, but where the laser says.
+  // Not on a near tie: the grid's cells favour its own poses a little.
+  if (search.score > 1.1 * best_score) best_score = search.score, best = search.pose;
+  // How well the scans fit anywhere the wheels could be (within two of their standard
+  // deviations): a guess a little off always fits worse than ICP's minimum, and says nothing.
+  const Eigen::Matrix3d wheel_covariance = stepCovariance(guess, false) * wheel_scale;
+  CorrelativeSearchOptions wheels = options_.correlative;
+  wheels.max_translation = 2.0 * std::sqrt(std::max(wheel_covariance(0, 0), wheel_covariance(1, 1)));
+  wheels.translation_step = wheels.cell;
+  wheels.max_rotation = 2.0 * std::sqrt(wheel_covariance(2, 2));
+  wheels.rotation_step = std::min(wheels.rotation_step, std::max(1e-3, wheels.max_rotation / 5.0));
+  const CorrelativeSearchResult near_wheels = searchCorrelative(field, current.points, guess, wheels);
+  const double wheel_score = std::max(near_wheels.found ? near_wheels.score : 0.0,
+                                      correlativeScore(field, current.points, guess, window.max_points));
+  if (!(best_score >= wheel_score + options_.correlative_min_score_gain)) return std::nullopt;
+  if (!validateShape(current.points, previous.icp_target.tree, *best, overlap, &previous.view).accepted) return std::nullopt;
+  return best;
 }
 
 }  // namespace llc

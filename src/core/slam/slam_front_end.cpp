@@ -157,6 +157,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     }
     ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
     counters_.disputed_steps += step.odometry.disputed;
+    counters_.recovered_steps += step.odometry.recovered;
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
     step.odometry.reject_reason = restart_reason_;

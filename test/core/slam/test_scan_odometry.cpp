@@ -244,7 +244,9 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
   const llc::ScanAligner aligner;
   const auto first = aligner.prepare(roomScan({}));
   const auto second = aligner.prepare(roomScan(truth));
-  const llc::ScanOdometry odometry;  // max_wheel_disagreement 9 under the wheel covariance
+  llc::ScanOdometryOptions hold_both;  // max_wheel_disagreement 9 under the wheel covariance
+  hold_both.correlative_recovery = false;  // (on, the laser overrules wheels this far off: below)
+  const llc::ScanOdometry odometry(hold_both);
   // chi2 of a guess off the truth (where ICP lands) under the wheel covariance of that guess:
   // sigma 5 x (0.02 + 0.01 x distance) m, so about 3.3 for 0.3 m and 13 for 0.6 m.
   const auto chi2 = [&](const llc::Pose2& guess) {
@@ -271,13 +273,76 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
 
   // Wheels known to be four times noisier than modelled: 0.6 m is no dispute.
   EXPECT_FALSE(odometry.match(*first, *second, far_guess, true, 4.0).disputed);
-  llc::ScanOdometryOptions off;
+  llc::ScanOdometryOptions off = hold_both;
   off.max_wheel_disagreement = 0.0;
   const llc::OdometryStep unchecked = llc::ScanOdometry(off).match(*first, *second, far_guess, true);
   EXPECT_FALSE(unchecked.disputed);
   EXPECT_TRUE(unchecked.covariance.isApprox(odometry.stepCovariance(unchecked.motion, true)));
   // Without wheels there is nothing to disagree with.
   EXPECT_LT(odometry.match(*first, *second, far_guess, false).wheel_disagreement, 0.0);
+
+  // With correlative_recovery (the default) the laser fits far better than the wheels' guess
+  // 0.6 m off: ICP's motion is a matched step with a wheel step's covariance, not disputed.
+  const llc::ScanOdometry recovering;
+  const llc::OdometryStep recovered = recovering.match(*first, *second, far_guess, true);
+  ASSERT_TRUE(recovered.matched) << recovered.reject_reason;
+  EXPECT_TRUE(recovered.recovered);
+  EXPECT_FALSE(recovered.disputed);
+  EXPECT_NEAR(recovered.motion.x, truth.x, 0.01);
+  EXPECT_NEAR(recovered.motion.y, truth.y, 0.01);
+  EXPECT_TRUE(recovered.covariance.isApprox(recovering.stepCovariance(recovered.motion, false)));
+  // Near the truth the wheels are not doubted: nothing to recover.
+  EXPECT_FALSE(recovering.match(*first, *second, near_guess, true).recovered);
+}
+
+/// FR079's wheels count a reverse as forward: the guess is 0.6 m ahead, the robot 0.6 m back.
+/// ICP's result is 1.2 m from the wheels (beyond max_correction_translation), so without
+/// recovery the wheels' step stands; the correlative search, centred on no motion, finds the
+/// reverse, and ICP from there the exact motion.
+TEST(ScanOdometry, WheelsThatCountAReverseAsForwardAreOverruledByTheLaser) {
+  const llc::Pose2 truth{-0.6, 0.05, 0.1};
+  const llc::Pose2 guess{0.6, 0.0, 0.1};
+  const llc::ScanAligner aligner;
+  const auto first = aligner.prepare(roomScan({}));
+  const auto second = aligner.prepare(roomScan(truth));
+  llc::ScanOdometryOptions off;
+  off.correlative_recovery = false;
+  const llc::OdometryStep wheels = llc::ScanOdometry(off).match(*first, *second, guess, true);
+  EXPECT_FALSE(wheels.matched);
+  EXPECT_EQ(wheels.refusal, llc::OdometryRefusal::kTooFarFromWheels);
+  EXPECT_NEAR(wheels.motion.x, guess.x, 1e-12);
+
+  const llc::OdometryStep laser = llc::ScanOdometry().match(*first, *second, guess, true);
+  ASSERT_TRUE(laser.matched) << laser.reject_reason;
+  EXPECT_TRUE(laser.recovered);
+  EXPECT_EQ(laser.refusal, llc::OdometryRefusal::kNone);
+  EXPECT_NEAR(laser.motion.x, truth.x, 0.02);
+  EXPECT_NEAR(laser.motion.y, truth.y, 0.02);
+  EXPECT_NEAR(laser.motion.theta, truth.theta, 0.005);
+}
+
+/// In a bare corridor every shift along it fits about alike: the laser cannot say the wheels
+/// are wrong, so a guess 0.8 m too far along stays as the wheels' (unmatched or ICP's, never
+/// pulled back by the search).
+TEST(ScanOdometry, WhereTheLaserCannotTellTheWheelsStay) {
+  const std::vector<Wall> walls = corridor();
+  const llc::ScanAligner aligner;
+  const auto first = aligner.prepare(corridorScan(walls, 150));  // x = 105 m: the niches out of range
+  const auto second = aligner.prepare(corridorScan(walls, 151));  // 0.7 m on
+  const llc::Pose2 guess{1.5, 0.1 * (std::sin(0.05 * 151) - std::sin(0.05 * 150)), 0.0};
+  const llc::OdometryStep step = llc::ScanOdometry().match(*first, *second, guess, true);
+  EXPECT_FALSE(step.recovered);
+  EXPECT_GT(step.motion.x, 1.1) << "the laser cannot know how far the robot went";
+}
+
+TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
+  llc::ScanOdometryOptions options;
+  options.correlative_min_score_gain = 1.5;
+  EXPECT_NE(options.validate().find("correlative_min_score_gain"), std::string::npos);
+  options = {};
+  options.correlative.translation_step = 0.0;
+  EXPECT_NE(options.validate().find("correlative: translation_step"), std::string::npos);
+  EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
 }
 
 TEST(WheelNoiseScale, IsUnknownUntilTwentyStepsThenTheMedianOverTheChiSquareMedianAtLeastOne) {

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "laser_loop_closure/core/alignment/correlative_search.hpp"
 #include "laser_loop_closure/core/alignment/icp.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
@@ -61,6 +63,18 @@ struct ScanOdometryOptions {
   /// as out of order.
   double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
   IcpOptions icp{};                ///< ICP of consecutive keyframes
+  /// With wheel odometry: when ICP from the wheels' guess fails, moves too far, overlaps too
+  /// little or is disputed, a correlative search (correlative.max_translation, .max_rotation)
+  /// around the guess and around the same step backwards seeds a second ICP. When the best of
+  /// the two and the search's own pose fits the scans by at least correlative_min_score_gain
+  /// more than the best pose within two standard deviations of the wheel step does
+  /// (correlativeScore), the laser's motion is taken, as a matched step with a wheel step's
+  /// covariance (found where matching was hard), not disputed: FR079's wheels count a reverse
+  /// as forward; wheels slip; a gap between scans. Where the wheels' pose fits about as well
+  /// (a corridor, a wrong ICP minimum) the step stays as it was.
+  bool correlative_recovery = true;
+  double correlative_min_score_gain = 0.1;  ///< of the mean likelihood (0..1) of the scan's points
+  CorrelativeSearchOptions correlative{};   ///< the search of correlative_recovery
   std::string validate() const;
 };
 
@@ -99,6 +113,11 @@ class ScanOdometry {
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
 
  private:
+  /// correlative_recovery: the laser's motion when it fits clearly better than the wheels' guess.
+  std::optional<Pose2> recoverFromWheels(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+                                         const IcpResult& icp, const ShapeValidationOptions& overlap,
+                                         double wheel_scale) const;
+
   ScanOdometryOptions options_;
 };
 

@@ -24,6 +24,7 @@ struct FrontEndCounters {
   std::array<std::size_t, kOdometryRefusalKinds> steps_not_matched{};  ///< keyframe steps by OdometryRefusal
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
+  std::size_t recovered_steps = 0;  ///< of the matched ones, by correlative_recovery (the laser over the wheels)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;

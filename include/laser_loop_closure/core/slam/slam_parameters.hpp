@@ -35,6 +35,19 @@ void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit)
   visit(prefix + "fixed_pairs_after", o.fixed_pairs_after);
 }
 
+template <class Visit>
+void visitCorrelativeParameters(const std::string& prefix, CorrelativeSearchOptions& o, Visit&& visit) {
+  visit(prefix + "cell", o.cell);
+  visit(prefix + "sigma", o.sigma);
+  visit(prefix + "max_range", o.max_range);
+  visit(prefix + "connect_distance", o.connect_distance);
+  visit(prefix + "max_translation", o.max_translation);
+  visit(prefix + "translation_step", o.translation_step);
+  visit(prefix + "max_rotation", o.max_rotation);
+  visit(prefix + "rotation_step", o.rotation_step);
+  visit(prefix + "max_points", o.max_points);
+}
+
 /// Calls visit(name, field) for every parameter; field is a double, int, bool or std::size_t.
 template <class Visit>
 void visitParameters(SystemOptions& options, Visit&& visit) {
@@ -62,6 +75,9 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/min_velocity_interval", odometry.min_velocity_interval);
   visit("odometry/restart_after_jump_back", odometry.restart_after_jump_back);
   visitIcpParameters("odometry/icp/", odometry.icp, visit);
+  visit("odometry/correlative_recovery", odometry.correlative_recovery);
+  visit("odometry/correlative_min_score_gain", odometry.correlative_min_score_gain);
+  visitCorrelativeParameters("odometry/correlative/", odometry.correlative, visit);
 
   LoopDetectorOptions& loops = options.slam.loops;
   visit("loops/min_keyframe_gap", loops.min_keyframe_gap);
@@ -125,6 +141,13 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/max_information", esdf.max_information);
   visit("esdf/robust_loop_chi2", esdf.robust_loop_chi2);
   visit("esdf/gate_loops", options.slam.gate_loops);
+
+  LoopConsensusOptions& consensus = options.slam.consensus;
+  visit("consensus/enabled", consensus.enabled);
+  visit("consensus/min_loops", consensus.min_loops);
+  visit("consensus/max_keyframe_span", consensus.max_keyframe_span);
+  visit("consensus/pair_chi2", consensus.pair_chi2);
+  visit("consensus/max_held", consensus.max_held);
 
   PlaceGateOptions& place_gate = options.slam.place_gate;
   visit("place_gate/enabled", place_gate.enabled);

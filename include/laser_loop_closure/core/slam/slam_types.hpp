@@ -76,6 +76,8 @@ struct OdometryStep {
   /// covariance (negative when there was no such comparison: no wheels, or ICP failed).
   double wheel_disagreement = -1.0;
   bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
+  /// matched from the correlative search's start, over the wheels (correlative_recovery)
+  bool recovered = false;
 };
 
 /// One aligned candidate pair and its verdict.
