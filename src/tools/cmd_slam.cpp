@@ -328,7 +328,7 @@ int runSlam(const Args& args) {
     progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  // This run's loops as they ended (the back end may apply a refused one later, by consensus).
+  // This run's loops as they ended.
   for (std::size_t k = loops_before; k < slam.loops().size(); ++k) {
     const llc::LoopRecord& record = slam.loops()[k];
     if (record.applied) continue;
@@ -372,8 +372,7 @@ int runSlam(const Args& args) {
          << "aligned=" << c.aligned << "\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
-         << "loops_refused_by_gate=" << c.refused_by_gate << "\n"
-         << "loops_applied_by_consensus=" << c.applied_by_consensus << "  (of loops_accepted: refused by the gate, then applied with others that agree)\n";
+         << "loops_refused_by_gate=" << c.refused_by_gate << "\n";
   // Every candidate not applied, by the stage that refused it (llc::LoopRefusal's names).
   for (std::size_t kind = 1; kind < refusals.size(); ++kind)
     report << "candidates_refused_" << llc::loopRefusalName(llc::LoopRefusal(kind)) << "=" << refusals[kind] << "\n";

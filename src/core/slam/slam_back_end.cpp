@@ -27,8 +27,8 @@ const EsdfOptions& checked(const EsdfOptions& options) {
 
 }  // namespace
 
-SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops, const LoopConsensusOptions& consensus)
-    : options_(checked(options)), gate_loops_(gate_loops), consensus_(consensus) {}
+SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops)
+    : options_(checked(options)), gate_loops_(gate_loops) {}
 
 const std::vector<Pose2>& SlamBackEnd::poses() const {
   static const std::vector<Pose2> none;
@@ -87,19 +87,7 @@ std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, con
   return note;
 }
 
-bool SlamBackEnd::applyByConsensus(LoopRecord& record) {
-  const LoopClosure& loop = record.loop;
-  const EsdfUpdateResult update = esdf_->update(loop.from, loop.to, loop.pose, loop.covariance, false);
-  if (!update.applied) return false;  // unsolvable with it: stays refused, with the gate's reason
-  record.applied = true;
-  record.reject_reason.clear();
-  --counters_.refused_by_gate;
-  ++counters_.loops_accepted;
-  ++counters_.applied_by_consensus;
-  return true;
-}
-
-LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop, std::vector<std::size_t>* also_applied) {
+LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
   LoopRecord record;
   record.loop = loop;
   auto refuse = [&](const std::string& why) {
@@ -122,17 +110,6 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop, std::vector<std::size_t
   } else {
     record.reject_reason = "backend: " + update.reject_reason;
     ++counters_.refused_by_gate;
-    // Refused by the gate itself (not unsolvable): held, or applied with held ones that agree.
-    if (update.innovation_chi2 > options_.loop_chi2_threshold) {
-      const std::vector<std::size_t> agreeing = consensus_.agree(loop, *esdf_);
-      if (agreeing.empty()) {
-        consensus_.hold(loop, loops_.size());
-      } else {
-        for (const std::size_t index : agreeing)
-          if (applyByConsensus(loops_[index]) && also_applied) also_applied->push_back(index);
-        applyByConsensus(record);
-      }
-    }
   }
   counters_.seconds += secondsSince(start);
   loops_.push_back(record);
@@ -161,7 +138,6 @@ std::string SlamBackEnd::restore(const SlamSession& session) {
     }
   }
   esdf_ = std::move(esdf);
-  consensus_ = LoopConsensus(consensus_.options());  // held loops of the run replaced
   keyframes_ = session.keyframes;
   loops_ = session.loops;
   counters_ = BackEndCounters{};

@@ -39,15 +39,13 @@ std::string SlamOptions::validate() const {
   if (!error.empty()) return "loops: " + error;
   error = esdf.validate();
   if (!error.empty()) return "esdf: " + error;
-  error = consensus.validate();
-  if (!error.empty()) return "consensus: " + error;
   return "";
 }
 
 SlamPipeline::SlamPipeline(const ClassifierModel& model, const SlamOptions& options)
     : options_(checked(options)),
       front_(model, options.odometry, options.aligner, options.loops),
-      back_(options.esdf, options.gate_loops, options.consensus) {}
+      back_(options.esdf, options.gate_loops) {}
 
 SlamCounters SlamPipeline::counters() const {
   const FrontEndCounters& f = front_.counters();
@@ -62,7 +60,6 @@ SlamCounters SlamPipeline::counters() const {
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
-  c.applied_by_consensus = b.applied_by_consensus;
   c.calibration_pairs = f.calibration_pairs, c.classifier_threshold = front_.detector().threshold();
   c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
   c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
@@ -107,13 +104,7 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   for (const LoopClosure& loop : step.loops.aligned) {
     LoopRecord record;
     if (loop.accepted) {
-      std::vector<std::size_t> also_applied;
-      record = back_.addLoop(loop, &also_applied);
-      back_end_records_.push_back(loops_.size());
-      for (const std::size_t index : also_applied) {  // earlier refusals the newest one agreed with
-        loops_[back_end_records_[index]] = back_.loops()[index];
-        step.records.push_back(back_.loops()[index]);
-      }
+      record = back_.addLoop(loop);
     } else {
       record.loop = loop;
       record.reject_reason = loop.reject_reason;
@@ -139,8 +130,6 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
   error = front_.restore(session.keyframes, session.features, continue_odometry);
   if (!error.empty()) return error;
   loops_ = session.loops;
-  back_end_records_.clear();  // the session's loops are the back end's, one for one
-  for (std::size_t k = 0; k < loops_.size(); ++k) back_end_records_.push_back(k);
   placements_.clear();  // the scans of another run: their keyframes are gone
   return "";
 }

@@ -36,7 +36,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
       [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &system_);
   options_.map_frame = tfFrame(options_.map_frame);  // tf2 refuses tf1's leading slash
   options_.odom_frame = tfFrame(options_.odom_frame);
-  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops, system_.slam.consensus);
+  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
@@ -211,18 +211,12 @@ bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request
 }
 
 void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
-  std::vector<std::size_t> also_applied;
-  const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg), &also_applied);
+  const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg));
   if (!record.applied) {
     ++refusals_[std::size_t(llc::loopRefusalOf(record.reject_reason))];
     ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
   }
   record_pub_.publish(toLoopClosureMsg(record, msg.header));
-  // Earlier refusals the new loop agreed with (consensus): applied now, their records again.
-  for (const std::size_t index : also_applied) {
-    --refusals_[std::size_t(llc::LoopRefusal::kBackEndGate)];
-    record_pub_.publish(toLoopClosureMsg(back_->loops()[index], msg.header));
-  }
   map_dirty_ = true;
 }
 

@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "laser_loop_closure/core/backend/esdf.hpp"
-#include "laser_loop_closure/core/slam/loop_consensus.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
 #include "laser_loop_closure/core/geometry/scan.hpp"
 
@@ -21,8 +20,7 @@ struct BackEndCounters {
   std::size_t keyframes = 0;
   std::size_t loosely_linked_keyframes = 0;  ///< kept, but their odometry was unusable (see addKeyframe)
   std::size_t loops_accepted = 0;     ///< applied
-  std::size_t refused_by_gate = 0;    ///< the chi-square test said no (and no consensus applied it later)
-  std::size_t applied_by_consensus = 0;  ///< of loops_accepted: refused by the gate, applied with others that agree
+  std::size_t refused_by_gate = 0;    ///< the chi-square test said no
   std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
   double seconds = 0.0;
 };
@@ -36,8 +34,7 @@ Eigen::Matrix3d looseLinkCovariance();
 class SlamBackEnd {
  public:
   /// Throws std::invalid_argument on bad options.
-  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true,
-                       const LoopConsensusOptions& consensus = {});
+  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true);
 
   /// Appends keyframe number keyframes().size() with its motion from the previous keyframe
   /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Always
@@ -49,9 +46,7 @@ class SlamBackEnd {
   std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
   /// A loop between two stored keyframes (from older than to), through the gate when
   /// gate_loops. The record says whether it was applied and why not; never throws on data.
-  /// A loop the gate refuses is held (LoopConsensus); when it and held ones agree, all are
-  /// applied, and the indices in loops() of the held ones now applied go to also_applied.
-  LoopRecord addLoop(const LoopClosure& loop, std::vector<std::size_t>* also_applied = nullptr);
+  LoopRecord addLoop(const LoopClosure& loop);
 
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
   /// Optimised keyframe poses in the map frame.
@@ -76,11 +71,8 @@ class SlamBackEnd {
   std::string restore(const SlamSession& session);
 
  private:
-  /// Applies a loop the gate refused without the gate; false (record unchanged) when unsolvable.
-  bool applyByConsensus(LoopRecord& record);
   EsdfOptions options_;
   bool gate_loops_;
-  LoopConsensus consensus_;
   std::unique_ptr<Esdf> esdf_;
   std::vector<Keyframe> keyframes_;
   std::vector<LoopRecord> loops_;

@@ -142,12 +142,6 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/robust_loop_chi2", esdf.robust_loop_chi2);
   visit("esdf/gate_loops", options.slam.gate_loops);
 
-  LoopConsensusOptions& consensus = options.slam.consensus;
-  visit("consensus/enabled", consensus.enabled);
-  visit("consensus/min_loops", consensus.min_loops);
-  visit("consensus/max_keyframe_span", consensus.max_keyframe_span);
-  visit("consensus/pair_chi2", consensus.pair_chi2);
-  visit("consensus/max_held", consensus.max_held);
 
   PlaceGateOptions& place_gate = options.slam.place_gate;
   visit("place_gate/enabled", place_gate.enabled);

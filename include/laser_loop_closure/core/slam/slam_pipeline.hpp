@@ -36,7 +36,6 @@ struct SlamOptions {
   LoopDetectorOptions loops{};
   EsdfOptions esdf{};
   bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
-  LoopConsensusOptions consensus{};  ///< loops the gate refused, applied when several agree
   PlaceGateOptions place_gate{};
   std::string validate() const;  ///< names the stage whose option is wrong
 };
@@ -54,8 +53,7 @@ struct SlamCounters {
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
-  std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no (and no consensus later)
-  std::size_t applied_by_consensus = 0;  ///< of loops_accepted: refused by the gate, applied with others that agree
+  std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
   std::size_t not_aligned = 0;           ///< candidates the place gate kept from alignment
   std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
   double classifier_threshold = 0.0;     ///< the K candidates must reach now (calibrated or not)
@@ -68,7 +66,7 @@ struct SlamStepResult {
   std::size_t keyframe_index = 0;
   OdometryStep odometry;        ///< when keyframe (and not the first one)
   LoopDetectionResult loops;    ///< when keyframe: candidates aligned and not
-  std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them, then earlier ones it applied now (consensus)
+  std::vector<LoopRecord> records;  ///< the loops of this keyframe as the back end met them
   std::string back_end_note;    ///< when keyframe: non-empty if the back end could not use its odometry as given (SlamBackEnd::addKeyframe)
   std::string skip_reason;      ///< non-empty: the scan was not used (and why)
   ScanRefusal skip = ScanRefusal::kNone;  ///< the same as a name
@@ -120,7 +118,6 @@ class SlamPipeline {
   SlamFrontEnd front_;
   SlamBackEnd back_;
   std::vector<LoopRecord> loops_;
-  std::vector<std::size_t> back_end_records_;  ///< for each of the back end's loops(), its index in loops_
   /// Each used scan: its index, stamp, newest keyframe and motion from it (scanPoses).
   struct Placement {
     std::size_t scan_index;
