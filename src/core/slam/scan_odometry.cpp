@@ -189,9 +189,11 @@ std::optional<Pose2> ScanOdometry::recoverFromWheels(const PreparedScan& previou
   // deviations): a guess a little off always fits worse than ICP's minimum, and says nothing.
   const Eigen::Matrix3d wheel_covariance = stepCovariance(guess, false) * wheel_scale;
   CorrelativeSearchOptions wheels = options_.correlative;
-  wheels.max_translation = 2.0 * std::sqrt(std::max(wheel_covariance(0, 0), wheel_covariance(1, 1)));
+  // (Never wider than the search's own window: wheels known to be very noisy would make it a
+  // search of the whole neighbourhood, and slow.)
+  wheels.max_translation = std::min(window.max_translation, 2.0 * std::sqrt(std::max(wheel_covariance(0, 0), wheel_covariance(1, 1))));
   wheels.translation_step = wheels.cell;
-  wheels.max_rotation = 2.0 * std::sqrt(wheel_covariance(2, 2));
+  wheels.max_rotation = std::min(window.max_rotation, 2.0 * std::sqrt(wheel_covariance(2, 2)));
   wheels.rotation_step = std::min(wheels.rotation_step, std::max(1e-3, wheels.max_rotation / 5.0));
   const CorrelativeSearchResult near_wheels = searchCorrelative(field, current.points, guess, wheels);
   const double wheel_score = std::max(near_wheels.found ? near_wheels.score : 0.0,
