@@ -86,6 +86,14 @@ inline llc::ClassifierModel defaultModel() {
   return llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml");
 }
 
+/// The simulated drive through the default world, length_m of route.
+inline llc::SimDrive simulatedDrive(double length_m) {
+  llc::SimDriveOptions options;
+  options.length_m = length_m;
+  const llc::SimWorld world(llc::simWorldOptions(options));
+  return llc::simulateDrive(world, options);
+}
+
 /// The 360-degree scan of one simulated frame, as the bag reader merges it.
 inline llc::Scan frameScan(const llc::SimDrive& drive, const llc::SimFrame& frame) {
   auto one = [&](const llc::SimScannerOptions& scanner, const std::vector<double>& ranges) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 namespace llc {
@@ -24,6 +25,8 @@ std::string LoopDetectorOptions::validate() const {
   if (!(score_threshold >= 0.0 && score_threshold <= 1.0)) return "score_threshold must be in [0, 1] (0: the model's K)";
   if (threads == 0) return "threads must be >= 1";
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
+  if (!(nearby_distance > 0.0) || !std::isfinite(nearby_distance)) return "nearby_distance must be > 0 m";
+  if (!(nearby_max_std > 0.0) || !std::isfinite(nearby_max_std)) return "nearby_max_std must be > 0 m";
   return calibration.validate();
 }
 
@@ -112,39 +115,65 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   return loop;
 }
 
-LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check) const {
+LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check, const NearbyKeyframes& nearby) const {
   const auto start = std::chrono::steady_clock::now();
   if (index >= prepared_.size()) throw std::out_of_range("detect: no keyframe " + std::to_string(index));
   LoopDetectionResult result;
   result.keyframe = index;
   result.compared = index > options_.min_keyframe_gap ? index - options_.min_keyframe_gap : 0;
-  if (result.compared > 0) {
-    const std::vector<double> query = store_.features(index);
-    // Without a check, only max_candidates can ever be aligned: no need to rank more.
-    const std::size_t wanted = check ? std::max(options_.checked_candidates, options_.max_candidates) : options_.max_candidates;
-    const std::vector<LoopCandidate> candidates =
-        store_.query(classifier_, query.data(), result.compared, wanted, options_.threads);
-    result.candidates = candidates.size();
-    result.classify_seconds = secondsSince(start);
-    for (const LoopCandidate& candidate : candidates) {
-      if (result.aligned.size() == options_.max_candidates) break;
-      std::string refused;
-      if (check) {
-        const auto check_start = std::chrono::steady_clock::now();
-        refused = check(candidate.keyframe, index);
-        result.check_seconds += secondsSince(check_start);
-      }
-      if (!refused.empty()) {
-        LoopClosure skipped;
-        skipped.from = candidate.keyframe;
-        skipped.to = index;
-        skipped.score = candidate.score;
-        skipped.reject_reason = std::move(refused);
-        result.not_aligned.push_back(std::move(skipped));
-        continue;
-      }
-      result.aligned.push_back(verify(candidate.keyframe, index, candidate.score));
-      if (result.aligned.back().accepted && options_.stop_at_first_accepted) break;
+  if (result.compared == 0) {
+    result.seconds = secondsSince(start);
+    return result;
+  }
+  // Checks one candidate and aligns it when let through; true once a loop is found.
+  auto tryCandidate = [&](std::size_t keyframe, double score) {
+    std::string refused;
+    if (check) {
+      const auto check_start = std::chrono::steady_clock::now();
+      refused = check(keyframe, index);
+      result.check_seconds += secondsSince(check_start);
+    }
+    if (!refused.empty()) {
+      LoopClosure skipped;
+      skipped.from = keyframe;
+      skipped.to = index;
+      skipped.score = score;
+      skipped.reject_reason = std::move(refused);
+      result.not_aligned.push_back(std::move(skipped));
+      return false;
+    }
+    result.aligned.push_back(verify(keyframe, index, score));
+    return result.aligned.back().accepted;
+  };
+  const std::vector<double> query = store_.features(index);
+  // Without a check, only max_candidates can ever be aligned: no need to rank more.
+  const std::size_t wanted = check ? std::max(options_.checked_candidates, options_.max_candidates) : options_.max_candidates;
+  const std::vector<LoopCandidate> candidates =
+      store_.query(classifier_, query.data(), result.compared, wanted, options_.threads);
+  result.candidates = candidates.size();
+  result.classify_seconds = secondsSince(start);
+  bool found = false;
+  for (const LoopCandidate& candidate : candidates) {
+    if (result.aligned.size() == options_.max_candidates) break;
+    found = tryCandidate(candidate.keyframe, candidate.score) || found;
+    if (found && options_.stop_at_first_accepted) break;
+  }
+  if (!found && nearby && options_.nearby_candidates > 0) {
+    auto seen = [&](std::size_t keyframe) {
+      for (const auto* list : {&result.aligned, &result.not_aligned})
+        for (const LoopClosure& loop : *list)
+          if (loop.from == keyframe) return true;
+      return false;
+    };
+    // A few more than wanted: the check may refuse some, and classifier candidates come back.
+    const std::size_t before_nearby = result.aligned.size();
+    for (std::size_t keyframe : nearby(index, result.compared, options_.nearby_distance, options_.nearby_max_std,
+                                         2 * options_.nearby_candidates + 3)) {
+      if (result.nearby == options_.nearby_candidates) break;
+      if (keyframe >= result.compared || seen(keyframe)) continue;
+      const bool accepted = tryCandidate(keyframe, pairScore(keyframe, index));
+      result.nearby = result.aligned.size() - before_nearby;
+      if (accepted && options_.stop_at_first_accepted) break;
     }
   }
   result.seconds = secondsSince(start);

@@ -1,6 +1,7 @@
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -51,6 +52,32 @@ double SlamBackEnd::placeChi2(std::size_t from, std::size_t to, double radius) {
   const double chi2 = esdf_->placeChi2(from, to, radius);
   counters_.seconds += secondsSince(start);
   return chi2;
+}
+
+std::vector<std::size_t> SlamBackEnd::nearbyKeyframes(std::size_t index, std::size_t before, double max_distance,
+                                                      double max_std, std::size_t count) {
+  if (!esdf_ || index >= esdf_->size()) throw std::out_of_range("nearbyKeyframes: no keyframe " + std::to_string(index));
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<Pose2>& mean = esdf_->mean();
+  std::vector<std::pair<double, std::size_t>> near;
+  for (std::size_t k = 0; k < std::min(before, mean.size()); ++k) {
+    const double distance = std::hypot(mean[k].x - mean[index].x, mean[k].y - mean[index].y);
+    if (distance <= max_distance) near.emplace_back(distance, k);
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<std::size_t> keyframes;
+  // The uncertainty costs a covariance recovery each: only the nearest few are asked.
+  for (std::size_t i = 0; i < near.size() && i < 4 * count && keyframes.size() < count; ++i) {
+    Pose2 relative;
+    Eigen::Matrix3d covariance;
+    esdf_->relativePose(near[i].second, index, &relative, &covariance);
+    // The larger eigenvalue of the 2x2 translation block, in closed form.
+    const double a = covariance(0, 0), b = covariance(0, 1), c = covariance(1, 1);
+    const double largest = 0.5 * (a + c) + std::hypot(0.5 * (a - c), b);
+    if (std::sqrt(std::max(largest, 0.0)) <= max_std) keyframes.push_back(near[i].second);
+  }
+  counters_.seconds += secondsSince(start);
+  return keyframes;
 }
 
 Eigen::Matrix3d looseLinkCovariance() { return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal(); }

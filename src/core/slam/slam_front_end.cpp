@@ -211,14 +211,16 @@ std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
   return found;
 }
 
-LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check) {
+LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check,
+                                              const NearbyKeyframes& nearby) {
   const auto start = std::chrono::steady_clock::now();
   counters_.calibration_pairs += detector_.calibrate(keyframe_index, surelyElsewhere(keyframe_index));
   counters_.seconds_classify += secondsSince(start);
-  LoopDetectionResult loops = detector_.detect(keyframe_index, check);
+  LoopDetectionResult loops = detector_.detect(keyframe_index, check, nearby);
   counters_.pairs_classified += loops.compared;
   counters_.candidates += loops.candidates;
   counters_.aligned += loops.aligned.size();
+  counters_.nearby_aligned += loops.nearby;
   counters_.not_aligned += loops.not_aligned.size();
   counters_.seconds_classify += loops.classify_seconds;
   counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;

@@ -55,7 +55,6 @@ SlamCounters SlamPipeline::counters() const {
   c.scans_skipped = f.scans_skipped, c.steps_not_matched = f.steps_not_matched;
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
   c.recovered_steps = f.recovered_steps;
-  c.recovered_steps = f.recovered_steps;
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
@@ -99,7 +98,11 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
       return placeGateVerdict(options_.place_gate, back_.placeChi2(from, to, options_.place_gate.radius));
     };
   }
-  step.loops = front_.detectLoops(step.keyframe_index, place_gate);
+  const NearbyKeyframes nearby = [this](std::size_t index, std::size_t before, double max_distance, double max_std,
+                                        std::size_t count) {
+    return back_.nearbyKeyframes(index, before, max_distance, max_std, count);
+  };
+  step.loops = front_.detectLoops(step.keyframe_index, place_gate, nearby);
 
   for (const LoopClosure& loop : step.loops.aligned) {
     LoopRecord record;

@@ -55,6 +55,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   load_session_srv_ = service_nh.advertiseService("load_session", &EsdfBackendRos::loadSession, this);
   service_thread_.start();
   place_check_srv_ = place_thread_.handle(private_nh).advertiseService("place_check", &EsdfBackendRos::placeCheck, this);
+  nearby_srv_ = place_thread_.handle(private_nh).advertiseService("nearby_keyframes", &EsdfBackendRos::nearbyKeyframes, this);
   place_thread_.start();
   if (options_.publish_tf) {
     tf_timer_ = transform_thread_.handle(nh).createTimer(ros::Duration(options_.tf_publish_period),
@@ -185,19 +186,25 @@ void EsdfBackendRos::takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& m
   pending_loops_.push_back(*msg);
 }
 
+std::string EsdfBackendRos::waitForFrontEndState(std::unique_lock<std::mutex>& lock, std::size_t keyframes,
+                                                 std::uint64_t loops) {
+  // Wall time: the front end waits on this answer, and the clock may stand still.
+  const bool reached = state_changed_.wait_for(lock, std::chrono::seconds(2), [&] {
+    return back_->keyframes().size() >= keyframes && loops_taken_ >= loops;
+  });
+  if (reached) return "";
+  return "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
+         std::to_string(loops_taken_) + " loop messages, not " + std::to_string(keyframes) + " and " +
+         std::to_string(loops) + ", after 2 s";
+}
+
 bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request,
                                 laser_loop_closure::PlaceCheck::Response& response) {
   std::unique_lock<std::mutex> lock(mutex_);
   ++place_checks_;
-  // Wall time: the front end waits on this answer, and the clock may stand still.
-  const bool reached = state_changed_.wait_for(lock, std::chrono::seconds(2), [&] {
-    return back_->keyframes().size() >= request.keyframes && loops_taken_ >= request.loops;
-  });
-  if (!reached) {
+  response.message = waitForFrontEndState(lock, request.keyframes, request.loops);
+  if (!response.message.empty()) {
     ++place_checks_unanswered_;
-    response.message = "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
-                       std::to_string(loops_taken_) + " loop messages, not " + std::to_string(request.keyframes) +
-                       " and " + std::to_string(request.loops) + ", after 2 s";
     return true;
   }
   try {
@@ -205,6 +212,27 @@ bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request
     response.answered = true;
   } catch (const std::exception& e) {
     ++place_checks_unanswered_;
+    response.message = e.what();
+  }
+  return true;
+}
+
+bool EsdfBackendRos::nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Request& request,
+                                     laser_loop_closure::NearbyKeyframes::Response& response) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  ++nearby_asked_;
+  response.message = waitForFrontEndState(lock, request.keyframes, request.loops);
+  if (!response.message.empty()) {
+    ++nearby_unanswered_;
+    return true;
+  }
+  try {
+    for (std::size_t k : back_->nearbyKeyframes(request.keyframe, request.before, request.max_distance, request.max_std,
+                                                request.count))
+      response.nearby.push_back(std::uint32_t(k));
+    response.answered = true;
+  } catch (const std::exception& e) {
+    ++nearby_unanswered_;
     response.message = e.what();
   }
   return true;
@@ -429,6 +457,8 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("candidates refused by alignment", refused_by_alignment_.size());
   status.add("place checks answered for the front end", place_checks_ - place_checks_unanswered_);
   status.add("place checks unanswered", place_checks_unanswered_);
+  status.add("nearby keyframes asked by the front end", nearby_asked_);
+  status.add("nearby keyframes unanswered", nearby_unanswered_);
   status.add("keyframes held for their loops", held_keyframes_.size());
   status.add("keyframes taken without all their loops (loop messages lost)", loop_order_resyncs_);
   status.add("loops waiting for keyframes", pending_loops_.size());

@@ -260,7 +260,13 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
     const std::size_t k = step.keyframe_index;
     place_gate = [this, k](std::size_t from, std::size_t to) { return placeCheck(from, to, k); };
   }
-  const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index, place_gate);
+  llc::NearbyKeyframes nearby;
+  if (system_.slam.loops.nearby_candidates > 0) {
+    nearby = [this](std::size_t index, std::size_t before, double max_distance, double max_std, std::size_t count) {
+      return nearbyKeyframes(index, before, max_distance, max_std, count);
+    };
+  }
+  const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index, place_gate, nearby);
   for (const llc::LoopClosure& loop : loops.aligned) {
     loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
     ++loops_published_;
@@ -269,29 +275,58 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   for (const llc::LoopClosure& skipped : loops.not_aligned) ++refusals_[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
 }
 
+template <class Service>
+std::string LoopClosureRos::callBackEnd(ros::ServiceClient& client, ros::WallTime& retry, const std::string& name,
+                                        Service& service) {
+  const ros::WallTime now = ros::WallTime::now();
+  if (!client.isValid() && now >= retry) {
+    client = nh_.serviceClient<Service>(name, true);
+    retry = now + ros::WallDuration(5.0);
+  }
+  // The back end bounds its own wait, so this call returns; a back end that is not there fails at once.
+  if (client.isValid() && client.call(service) && service.response.answered) return "";
+  const std::string why = !client.isValid() ? "no connection" : service.response.message.empty() ? "the call failed" : service.response.message;
+  if (!client.isValid() || service.response.message.empty()) client.shutdown();
+  return why;
+}
+
 std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::size_t keyframe) {
   ++place_checks_;
-  const ros::WallTime now = ros::WallTime::now();
-  if (!place_client_.isValid() && now >= place_client_retry_) {
-    place_client_ = nh_.serviceClient<laser_loop_closure::PlaceCheck>(options_.place_check_service, true);
-    place_client_retry_ = now + ros::WallDuration(5.0);
-  }
   laser_loop_closure::PlaceCheck check;
   check.request.from_keyframe = std::uint32_t(from);
   check.request.to_keyframe = std::uint32_t(to);
   check.request.keyframes = std::uint32_t(keyframe + 1);
   check.request.loops = loops_published_;
   check.request.radius = system_.slam.place_gate.radius;
-  // The back end bounds its own wait, so this call returns; a back end that is not there fails at once.
-  if (!place_client_.isValid() || !place_client_.call(check) || !check.response.answered) {
+  const std::string why = callBackEnd(place_client_, place_client_retry_, options_.place_check_service, check);
+  if (!why.empty()) {
     ++place_checks_unanswered_;
-    const std::string why = !place_client_.isValid() ? "no connection" : check.response.message.empty() ? "the call failed" : check.response.message;
     ROS_WARN_THROTTLE(10.0, "loop_closure: the place gate got no answer from %s (%s): candidates are aligned ungated",
                       options_.place_check_service.c_str(), why.c_str());
-    if (!place_client_.isValid() || check.response.message.empty()) place_client_.shutdown();
     return "";
   }
   return llc::placeGateVerdict(system_.slam.place_gate, check.response.chi2);
+}
+
+std::vector<std::size_t> LoopClosureRos::nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance,
+                                                         double max_std, std::size_t count) {
+  ++nearby_asked_;
+  laser_loop_closure::NearbyKeyframes ask;
+  ask.request.keyframe = std::uint32_t(keyframe);
+  ask.request.before = std::uint32_t(before);
+  ask.request.count = std::uint32_t(count);
+  ask.request.max_distance = max_distance;
+  ask.request.max_std = max_std;
+  ask.request.keyframes = std::uint32_t(keyframe + 1);
+  ask.request.loops = loops_published_;
+  const std::string why = callBackEnd(nearby_client_, nearby_client_retry_, options_.nearby_service, ask);
+  if (!why.empty()) {
+    ++nearby_unanswered_;
+    ROS_WARN_THROTTLE(10.0, "loop_closure: %s gave no nearby keyframes (%s): only the classifier's candidates are aligned",
+                      options_.nearby_service.c_str(), why.c_str());
+    return {};
+  }
+  return std::vector<std::size_t>(ask.response.nearby.begin(), ask.response.nearby.end());
 }
 
 void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {
@@ -458,6 +493,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("candidates kept from alignment by the place gate", c.not_aligned);
   status.add("place checks asked of the back end", place_checks_);
   status.add("place checks unanswered (aligned ungated)", place_checks_unanswered_);
+  status.add("nearby keyframes asked of the back end", nearby_asked_);
+  status.add("nearby keyframes unanswered (none aligned)", nearby_unanswered_);
   status.add("threshold calibration pairs", c.calibration_pairs);
   status.add("loops found", c.loops_found);
   status.add("refused by alignment", c.refused_by_alignment);

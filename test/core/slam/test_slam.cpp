@@ -31,14 +31,8 @@ const double kInf = std::numeric_limits<double>::infinity();
 
 using llc_test::defaultModel;
 using llc_test::frameScan;
+using llc_test::simulatedDrive;
 
-/// The simulated drive through the default world, length_m of route.
-llc::SimDrive simulatedDrive(double length_m) {
-  llc::SimDriveOptions options;
-  options.length_m = length_m;
-  const llc::SimWorld world(llc::simWorldOptions(options));
-  return llc::simulateDrive(world, options);
-}
 
 TEST(TrajectoryError, RigidlyMovedCopyHasNoErrorAndTheMotionIsFound) {
   const std::vector<llc::Pose2> truth = {{0, 0, 0}, {1, 0, 0.1}, {2, 1, 0.5}, {1, 3, 2.0}};

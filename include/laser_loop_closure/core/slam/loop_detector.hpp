@@ -27,6 +27,14 @@ struct LoopDetectorOptions {
   std::size_t checked_candidates = 0;
   double score_threshold = 0.0;       ///< on the normalised score; 0 = the model's K
   bool stop_at_first_accepted = true;  ///< align no further candidate once one is accepted
+  /// Keyframes the map puts near the new one, aligned (no initial guess, as any candidate)
+  /// when the classifier's candidates gave no loop: the classifier misses places of a
+  /// building it never saw, the map's estimate does not. 0: the classifier alone (the paper).
+  std::size_t nearby_candidates = 2;
+  double nearby_distance = 5.0;  ///< m; how far apart the map may put a nearby keyframe (its estimate, not a test)
+  /// m; only keyframes whose position relative to the new one the map knows this well (largest
+  /// standard deviation): where it does not, a look-alike place nearby is aligned as readily.
+  double nearby_max_std = 1.0;
   std::size_t threads = 1;            ///< threads of the classifier query
   /// Floors added to ICP's covariance of a loop (which only knows the residuals, and is
   /// optimistic): standard deviations, as the back end's chi-square gate sees them.
@@ -42,6 +50,7 @@ struct LoopDetectionResult {
   std::size_t keyframe = 0;
   std::size_t compared = 0;    ///< stored keyframes the classifier saw
   std::size_t candidates = 0;  ///< of those, at or above the threshold (at most checked_candidates kept)
+  std::size_t nearby = 0;      ///< of `aligned`, the keyframes a NearbyKeyframes source offered
   std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
   /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
   std::vector<LoopClosure> not_aligned;
@@ -51,6 +60,12 @@ struct LoopDetectionResult {
 /// Asked before a candidate pair (from, to) is aligned: "" to align it, else why not (e.g. the
 /// back end says the two keyframes cannot be at one place). Detection itself needs none.
 using CandidateCheck = std::function<std::string(std::size_t from, std::size_t to)>;
+
+/// Asked for keyframes older than `before` that the map puts within `max_distance` of keyframe
+/// `index`, their relative position known to `max_std`, nearest first, at most `count` (e.g.
+/// SlamBackEnd::nearbyKeyframes).
+using NearbyKeyframes = std::function<std::vector<std::size_t>(std::size_t index, std::size_t before, double max_distance,
+                                                               double max_std, std::size_t count)>;
 
 class LoopDetector {
  public:
@@ -70,9 +85,11 @@ class LoopDetector {
   /// Stores a keyframe whose features are already known (a loaded session).
   std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared);
   /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
-  /// the best candidates, each after `check` (when given) let it through. Throws
-  /// std::out_of_range for an unknown keyframe.
-  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}) const;
+  /// the best candidates, each after `check` (when given) let it through. When none gave a
+  /// loop, the keyframes `nearby` (when given) offers are checked and aligned the same way
+  /// (nearby_candidates of them, not aligned twice). Throws std::out_of_range for an unknown
+  /// keyframe.
+  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}, const NearbyKeyframes& nearby = {}) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
 

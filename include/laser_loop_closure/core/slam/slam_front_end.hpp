@@ -28,6 +28,7 @@ struct FrontEndCounters {
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
+  std::size_t nearby_aligned = 0;        ///< of `aligned`, keyframes the map put near (not the classifier)
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment
@@ -72,7 +73,8 @@ class SlamFrontEnd {
   FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
   /// Loop detection for a stored keyframe (LoopDetector::detect), counted. Two calls apart so
   /// that a back end can take the keyframe first and then answer `check`.
-  LoopDetectionResult detectLoops(std::size_t keyframe_index, const CandidateCheck& check = {});
+  LoopDetectionResult detectLoops(std::size_t keyframe_index, const CandidateCheck& check = {},
+                                  const NearbyKeyframes& nearby = {});
 
   /// Replaces the keyframes by a saved session's: stored features are used when they are what
   /// this model's extractor makes (checked on the first keyframe), else recomputed from the

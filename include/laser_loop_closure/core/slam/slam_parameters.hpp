@@ -85,6 +85,9 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/checked_candidates", loops.checked_candidates);
   visit("loops/score_threshold", loops.score_threshold);
   visit("loops/stop_at_first_accepted", loops.stop_at_first_accepted);
+  visit("loops/nearby_candidates", loops.nearby_candidates);
+  visit("loops/nearby_distance", loops.nearby_distance);
+  visit("loops/nearby_max_std", loops.nearby_max_std);
   visit("loops/threads", loops.threads);
   visit("loops/translation_sigma", loops.translation_sigma);
   visit("loops/rotation_sigma", loops.rotation_sigma);

@@ -21,6 +21,7 @@
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/LoadSession.h"
+#include "laser_loop_closure/NearbyKeyframes.h"
 #include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
@@ -86,6 +87,11 @@ class EsdfBackendRos {
   void takeKeyframe(const laser_loop_closure::Keyframe& msg);
   /// loop_closure's place gate: answers from the state llc slam would have (waits for it, bounded).
   bool placeCheck(laser_loop_closure::PlaceCheck::Request& request, laser_loop_closure::PlaceCheck::Response& response);
+  bool nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Request& request,
+                       laser_loop_closure::NearbyKeyframes::Response& response);
+  /// Waits (wall time, bounded) until the back end holds `keyframes` keyframes and has taken
+  /// `loops` loop messages: "" then, else why not. Under `lock` (on mutex_).
+  std::string waitForFrontEndState(std::unique_lock<std::mutex>& lock, std::size_t keyframes, std::uint64_t loops);
   void onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   void takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   /// Applies one loop whose keyframes exist; publishes its record.
@@ -107,7 +113,7 @@ class EsdfBackendRos {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Subscriber keyframe_sub_, loop_sub_;
   ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
-  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_;
+  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_, nearby_srv_;
   // The place check has its own queue and thread: it waits for keyframes the main queue brings.
   CallbackThread place_thread_;
   // The services have their own queue and thread: they answer while keyframes queue up and
@@ -128,6 +134,7 @@ class EsdfBackendRos {
   static constexpr std::size_t kMostHeldKeyframes = 3;
   std::uint64_t loops_taken_ = 0;  ///< LoopClosure messages received (applied, pending or refused)
   std::size_t loop_order_resyncs_ = 0, place_checks_ = 0, place_checks_unanswered_ = 0;
+  std::size_t nearby_asked_ = 0, nearby_unanswered_ = 0;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
   std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
   /// Each keyframe's scan, shared with the map rebuild, which runs outside mutex_.

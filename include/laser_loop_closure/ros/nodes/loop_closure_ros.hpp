@@ -30,6 +30,7 @@
 #include <thread>
 #include <vector>
 
+#include "laser_loop_closure/NearbyKeyframes.h"
 #include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/Scan360.h"
 #include "laser_loop_closure/Session.h"
@@ -65,6 +66,9 @@ struct LoopClosureNodeOptions {
   /// The back end's place check (PlaceCheck.srv), asked for every candidate when
   /// place_gate/enabled (as `llc slam` asks its back end); unanswered: the candidate is aligned.
   std::string place_check_service = "esdf_backend/place_check";
+  /// The back end's nearby keyframes (NearbyKeyframes.srv), asked when loops/nearby_candidates
+  /// and the classifier's candidates gave no loop (as `llc slam` asks its back end); unanswered: none.
+  std::string nearby_service = "esdf_backend/nearby_keyframes";
   std::string validate() const;
 };
 
@@ -80,6 +84,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("max_lag", o.max_lag);
   visit("trained_model_path", o.trained_model_path);
   visit("place_check_service", o.place_check_service);
+  visit("nearby_service", o.nearby_service);
 }
 
 class LoopClosureRos {
@@ -119,6 +124,15 @@ class LoopClosureRos {
   /// The place gate for keyframe `keyframe`'s candidates: the back end's verdict through
   /// place_check_service, or none (align) when it does not answer. Worker thread, under mutex_.
   std::string placeCheck(std::size_t from, std::size_t to, std::size_t keyframe);
+  /// The nearby candidates of keyframe `keyframe`: the back end's through nearby_service, or
+  /// none when it does not answer. Worker thread, under mutex_.
+  std::vector<std::size_t> nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance, double max_std,
+                                           std::size_t count);
+  /// Calls a back-end service over `client` (persistent; made again after a failure, at most
+  /// every 5 s, at `retry`): "" when it answered, else why not (then `client` is shut down
+  /// when the connection is at fault).
+  template <class Service>
+  std::string callBackEnd(ros::ServiceClient& client, ros::WallTime& retry, const std::string& name, Service& service);
   /// publish_odometry_tf: broadcasts odom_frame -> the scan's frame for this scan and, for a
   /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
   void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);
@@ -178,10 +192,11 @@ class LoopClosureRos {
   std::string last_problem_;
   // The place gate through the back end (worker thread only).
   ros::NodeHandle nh_;
-  ros::ServiceClient place_client_;  ///< persistent; made again after a failure, at most every 5 s
-  ros::WallTime place_client_retry_;
+  ros::ServiceClient place_client_, nearby_client_;  ///< see callBackEnd
+  ros::WallTime place_client_retry_, nearby_client_retry_;
   std::uint64_t loops_published_ = 0;  ///< LoopClosure messages so far (Keyframe.loops_before)
   std::size_t place_checks_ = 0, place_checks_unanswered_ = 0;
+  std::size_t nearby_asked_ = 0, nearby_unanswered_ = 0;
 };
 
 }  // namespace llc_ros
