@@ -370,6 +370,8 @@ int runSlam(const Args& args) {
          << "calibration_pairs=" << c.calibration_pairs << "\n"
          << "candidates_not_aligned=" << c.not_aligned << "  (the place gate: the back end says not one place)\n"
          << "aligned=" << c.aligned << "\n"
+         << "nearby_aligned=" << c.nearby_aligned << "  (of those, keyframes the map put near: loops/nearby_candidates)\n"
+         << "nearby_found=" << c.nearby_found << "  (of those, aligned and shape-validated)\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
          << "loops_refused_by_gate=" << c.refused_by_gate << "\n";

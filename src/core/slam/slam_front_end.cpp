@@ -225,6 +225,9 @@ LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const 
   counters_.seconds_classify += loops.classify_seconds;
   counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;
   for (const LoopClosure& loop : loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
+  // The nearby ones are aligned last.
+  for (std::size_t i = loops.aligned.size() - loops.nearby; i < loops.aligned.size(); ++i)
+    counters_.nearby_found += loops.aligned[i].accepted;
   return loops;
 }
 

@@ -497,6 +497,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("nearby keyframes unanswered (none aligned)", nearby_unanswered_);
   status.add("threshold calibration pairs", c.calibration_pairs);
   status.add("loops found", c.loops_found);
+  status.add("nearby candidates aligned (the map's, not the classifier's)", c.nearby_aligned);
+  status.add("nearby candidates found (aligned and validated)", c.nearby_found);
   status.add("refused by alignment", c.refused_by_alignment);
   status.add("seconds classifying", c.seconds_classify);
   status.add("seconds aligning", c.seconds_align);

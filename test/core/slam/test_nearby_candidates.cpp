@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <set>
 #include <stdexcept>
@@ -15,6 +16,8 @@
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 #include "laser_loop_closure/core/slam/loop_detector.hpp"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "laser_loop_closure/core/slam/slam_evaluation.hpp"
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 #include "../test_util.hpp"
 
 namespace {
@@ -175,4 +178,39 @@ TEST(NearbyCandidates, TheBackEndOffersTheNearestOlderKeyframesWhoseRelativePosi
   EXPECT_TRUE(back.nearbyKeyframes(9, 5, 10.0, 0.02, 10).empty());
   EXPECT_THROW(back.nearbyKeyframes(10, 5, 10.0, any, 1), std::out_of_range);
   EXPECT_THROW(llc::SlamBackEnd().nearbyKeyframes(0, 0, 10.0, any, 1), std::out_of_range);
+}
+
+TEST(NearbyCandidates, CloseMoreRevisitsOfASimulatedDriveAndNoneWrongly) {
+  const llc::SimDrive drive = simulatedDrive(500.0);
+  struct Run {
+    llc::SlamCounters counters;
+    llc::LoopTruthCheck loops;
+    std::size_t nearby_aligned = 0;  ///< summed over the steps' detection results
+  };
+  auto run = [&](std::size_t nearby_candidates) {
+    llc::SlamOptions options;
+    options.loops.nearby_candidates = nearby_candidates;
+    llc::SlamPipeline slam(defaultModel(), options);
+    std::vector<llc::Pose2> truth;
+    Run r;
+    for (std::size_t i = 0; i < drive.frames.size(); ++i) {
+      const llc::SlamStepResult step = slam.addScan(frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+      r.nearby_aligned += step.loops.nearby;
+      if (step.keyframe) truth.push_back(drive.frames[i].truth);
+    }
+    r.counters = slam.counters();
+    r.loops = llc::checkLoopsAgainstTruth(truth, std::vector<bool>(truth.size(), true), slam.loops());
+    return r;
+  };
+  const Run off = run(0), on = run(2);
+  ASSERT_GT(off.loops.closed, 5u) << "the drive must close loops";
+  EXPECT_EQ(off.counters.nearby_aligned, 0u);
+  EXPECT_GT(on.counters.nearby_aligned, 0u);
+  EXPECT_EQ(on.counters.nearby_aligned, on.nearby_aligned);
+  EXPECT_GT(on.counters.nearby_found, 0u);
+  EXPECT_LE(on.counters.nearby_found, on.counters.nearby_aligned);
+  EXPECT_GE(on.loops.closed, off.loops.closed);
+  EXPECT_EQ(on.loops.wrong_loops, 0u);
+  std::cout << "revisit keyframes closed " << on.loops.closed << " (classifier alone " << off.loops.closed << "), nearby aligned "
+            << on.counters.nearby_aligned << ", found " << on.counters.nearby_found << "\n";
 }

@@ -29,6 +29,7 @@ struct FrontEndCounters {
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0;        ///< of `aligned`, keyframes the map put near (not the classifier)
+  std::size_t nearby_found = 0;          ///< of those, aligned and shape-validated
   std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment

@@ -51,6 +51,7 @@ struct SlamCounters {
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
+  std::size_t nearby_aligned = 0, nearby_found = 0;  ///< of aligned / of those accepted by alignment: nearby candidates
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
