@@ -171,7 +171,7 @@ for sub in pairs features train evaluate score simulate align graph slam train-c
 done
 check "slam --help lists defaults" 0 "\[--drift-noise-m 0\.01\]" -- "$LLC" slam --help
 check "align --help lists the aligner's parameters with defaults" 0 "^  --aligner/max_range 40   # " -- "$LLC" align --help
-check "graph --help lists the ESDF's parameters with defaults" 0 "^  --esdf/loop_chi2_threshold 11.34   # " -- "$LLC" graph --help
+check "graph --help lists the ESDF's parameters with defaults" 0 "^  --esdf/loop_chi2_threshold 16.27   # " -- "$LLC" graph --help
 check "align: a bool parameter flag takes true/false" 2 "aligner/validation/only_in_view': bad value" -- "$LLC" align --aligner/validation/only_in_view maybe --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a8.csv"
 # Flags and outputs are checked before the run: nothing is written, no folder made.
 check "slam: a NaN flag is refused before the run" 2 "positive-distance must be a number, not 'nan'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nan" --positive-distance nan

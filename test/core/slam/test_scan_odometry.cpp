@@ -389,7 +389,7 @@ TEST(OdometryPriorGate, TestsALoopAgainstTheChainAsTheBackEndWould) {
   // ... 0.3 m more: 0.09 / (0.01 + 0.01 + 0.01) = 3 (two steps and the loop).
   EXPECT_NEAR(gate.chi2(0, 20, {2.3, 0.0, 0.0}, loop_covariance), 3.0, 1e-3);
   EXPECT_FALSE(gate.refuses(0, 20, {2.3, 0.0, 0.0}, loop_covariance));
-  EXPECT_TRUE(gate.refuses(0, 20, {3.0, 0.0, 0.0}, loop_covariance));  // 1 / 0.03 = 33, beyond the gate
+  EXPECT_TRUE(gate.refuses(0, 20, {3.0, 0.0, 0.0}, loop_covariance));  // 1 / 0.03 = 33 > 16.27
   // Scan 5 lies 0.5 m past keyframe 0 by the wheels: 1.5 m on from it is the same prediction.
   EXPECT_NEAR(gate.chi2(5, 20, {1.5, 0.0, 0.0}, loop_covariance), 0.0, 1e-6);
   // Within one keyframe only the loop is uncertain: 0.2 m off is 0.04 / 0.01 = 4.

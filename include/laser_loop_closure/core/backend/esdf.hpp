@@ -30,9 +30,8 @@ struct EsdfOptions {
   /// Rank updates add fill to L under the ordering chosen before them; once L has grown past
   /// this many times its size when last factorised, the next update reorders and refactors.
   double reorder_fill_ratio = 1.5;
-  /// 3-DoF chi-square threshold of a loop closure's innovation (99%); larger is refused. 99.9%
-  /// (16.27) let a look-alike place along a corridor in on the drifted logs (docs/mapping.md).
-  double loop_chi2_threshold = 11.34;
+  /// 3-DoF chi-square threshold of a loop closure's innovation (99.9%: 16.27); larger is refused.
+  double loop_chi2_threshold = 16.27;
   double prior_information = 1e8;         ///< anchors the first pose (information per unit)
   /// Largest eigenvalue a constraint's information may have (per m^2 or rad^2; 1e12: a standard
   /// deviation of 1 um or 1 urad). More is refused: beside the others, double precision cannot
