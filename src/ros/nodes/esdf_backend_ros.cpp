@@ -186,55 +186,46 @@ void EsdfBackendRos::takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& m
   pending_loops_.push_back(*msg);
 }
 
-std::string EsdfBackendRos::waitForFrontEndState(std::unique_lock<std::mutex>& lock, std::size_t keyframes,
-                                                 std::uint64_t loops) {
+template <class Response, class Answer>
+void EsdfBackendRos::answerFromFrontEndState(std::size_t keyframes, std::uint64_t loops, std::size_t& asked,
+                                             std::size_t& unanswered, Response& response, Answer&& answer) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  ++asked;
   // Wall time: the front end waits on this answer, and the clock may stand still.
   const bool reached = state_changed_.wait_for(lock, std::chrono::seconds(2), [&] {
     return back_->keyframes().size() >= keyframes && loops_taken_ >= loops;
   });
-  if (reached) return "";
-  return "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
-         std::to_string(loops_taken_) + " loop messages, not " + std::to_string(keyframes) + " and " +
-         std::to_string(loops) + ", after 2 s";
+  if (!reached) {
+    ++unanswered;
+    response.message = "the back end holds " + std::to_string(back_->keyframes().size()) + " keyframes and " +
+                       std::to_string(loops_taken_) + " loop messages, not " + std::to_string(keyframes) + " and " +
+                       std::to_string(loops) + ", after 2 s";
+    return;
+  }
+  try {
+    answer();
+    response.answered = true;
+  } catch (const std::exception& e) {
+    ++unanswered;
+    response.message = e.what();
+  }
 }
 
 bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request,
                                 laser_loop_closure::PlaceCheck::Response& response) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  ++place_checks_;
-  response.message = waitForFrontEndState(lock, request.keyframes, request.loops);
-  if (!response.message.empty()) {
-    ++place_checks_unanswered_;
-    return true;
-  }
-  try {
+  answerFromFrontEndState(request.keyframes, request.loops, place_checks_, place_checks_unanswered_, response, [&] {
     response.chi2 = back_->placeChi2(request.from_keyframe, request.to_keyframe, request.radius);
-    response.answered = true;
-  } catch (const std::exception& e) {
-    ++place_checks_unanswered_;
-    response.message = e.what();
-  }
+  });
   return true;
 }
 
 bool EsdfBackendRos::nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Request& request,
                                      laser_loop_closure::NearbyKeyframes::Response& response) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  ++nearby_asked_;
-  response.message = waitForFrontEndState(lock, request.keyframes, request.loops);
-  if (!response.message.empty()) {
-    ++nearby_unanswered_;
-    return true;
-  }
-  try {
+  answerFromFrontEndState(request.keyframes, request.loops, nearby_asked_, nearby_unanswered_, response, [&] {
     for (std::size_t k : back_->nearbyKeyframes(request.keyframe, request.before, request.max_distance, request.max_std,
                                                 request.count))
       response.nearby.push_back(std::uint32_t(k));
-    response.answered = true;
-  } catch (const std::exception& e) {
-    ++nearby_unanswered_;
-    response.message = e.what();
-  }
+  });
   return true;
 }
 

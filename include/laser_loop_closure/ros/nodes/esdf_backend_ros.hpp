@@ -89,9 +89,14 @@ class EsdfBackendRos {
   bool placeCheck(laser_loop_closure::PlaceCheck::Request& request, laser_loop_closure::PlaceCheck::Response& response);
   bool nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Request& request,
                        laser_loop_closure::NearbyKeyframes::Response& response);
-  /// Waits (wall time, bounded) until the back end holds `keyframes` keyframes and has taken
-  /// `loops` loop messages: "" then, else why not. Under `lock` (on mutex_).
-  std::string waitForFrontEndState(std::unique_lock<std::mutex>& lock, std::size_t keyframes, std::uint64_t loops);
+  /// A front end's question (~place_check, ~nearby_keyframes), answered from the state it names:
+  /// under mutex_, counts it in `asked`, waits (wall time, bounded) until the back end holds
+  /// `keyframes` keyframes and has taken `loops` loop messages, then runs `answer` and sets
+  /// response.answered; else (or when `answer` throws) counts it in `unanswered` and says why
+  /// in response.message.
+  template <class Response, class Answer>
+  void answerFromFrontEndState(std::size_t keyframes, std::uint64_t loops, std::size_t& asked, std::size_t& unanswered,
+                               Response& response, Answer&& answer);
   void onLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   void takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& msg);
   /// Applies one loop whose keyframes exist; publishes its record.
