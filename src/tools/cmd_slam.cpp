@@ -372,6 +372,9 @@ int runSlam(const Args& args) {
          << "aligned=" << c.aligned << "\n"
          << "nearby_aligned=" << c.nearby_aligned << "  (of those, keyframes the map put near: loops/nearby_candidates)\n"
          << "nearby_found=" << c.nearby_found << "  (of those, aligned and shape-validated)\n"
+         << "context_checked=" << c.context_checked << "  (shape-validated loops checked against the keyframes around them: loops/context)\n"
+         << "context_unchecked=" << c.context_unchecked << "  (their context too small to check, e.g. restored keyframes)\n"
+         << "loops_refused_by_context=" << c.refused_by_context << "  (shape-validated, then the context fitted better elsewhere)\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
          << "loops_refused_by_gate=" << c.refused_by_gate << "\n";
@@ -388,6 +391,7 @@ int runSlam(const Args& args) {
   report << "seconds_odometry=" << c.seconds_odometry << "\n"
          << "seconds_classify=" << c.seconds_classify << "\n"
          << "seconds_align=" << c.seconds_align << "\n"
+         << "seconds_context=" << c.seconds_context << "  (of seconds_align, in the context check)\n"
          << "seconds_backend=" << c.seconds_backend << "\n"
          << "input_seconds=" << duration << "\n"
          << "faster_than_real_time=" << (seconds > 0 ? duration / seconds : 0.0) << "\n";

@@ -56,7 +56,9 @@ check "slam: every refusal counted by its stage's name, and the counts add up" 0
     {v[$1] = $2} END {stages = v["candidates_refused_crf_match"] + v["candidates_refused_icp"] + v["candidates_refused_validation"];
                       back = v["candidates_refused_back_end_gate"] + v["candidates_refused_back_end_unsolvable"] + v["candidates_refused_back_end_malformed"];
        print (("candidates_refused_other" in v) && v["candidates_refused_other"] == 0 && v["candidates_refused_place_gate"] == v["candidates_not_aligned"] &&
-              stages == v["loops_refused_by_alignment"] && back == v["loops_refused_by_gate"] ? "ok" : "not ok")}' "$TMP/slam/report.txt"
+              stages == v["loops_refused_by_alignment"] && back == v["loops_refused_by_gate"] &&
+              ("loops_refused_by_context" in v) && v["candidates_refused_context"] == v["loops_refused_by_context"] &&
+              v["context_checked"] >= v["loops_refused_by_context"] ? "ok" : "not ok")}' "$TMP/slam/report.txt"
 check "slam: the place gate spared alignments but skipped no true revisit" 0 "^ok$" -- awk -F= '
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
 # Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.

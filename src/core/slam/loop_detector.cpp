@@ -27,6 +27,8 @@ std::string LoopDetectorOptions::validate() const {
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
   if (!(nearby_distance > 0.0) || !std::isfinite(nearby_distance)) return "nearby_distance must be > 0 m";
   if (!(nearby_max_std > 0.0) || !std::isfinite(nearby_max_std)) return "nearby_max_std must be > 0 m";
+  const std::string context_error = context.validate();
+  if (!context_error.empty()) return "context: " + context_error;
   return calibration.validate();
 }
 
@@ -115,7 +117,27 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   return loop;
 }
 
-LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check, const NearbyKeyframes& nearby) const {
+ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const {
+  auto scans = [&](std::size_t keyframe, std::size_t older_than) {
+    std::vector<ContextScan> found;
+    for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing))
+      if (k.keyframe < prepared_.size() && isFinite(k.pose)) found.push_back({&prepared_[k.keyframe]->points, k.pose});
+    return found;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<ContextScan> old_context = scans(loop.from, before), new_context = scans(loop.to, loop.to + 1);
+  ContextCheckResult checked =
+      checkLoopContext(old_context, new_context, loop.pose, loop.covariance, options_.context, aligner_.options().icp);
+  loop.seconds += secondsSince(start);
+  if (!checked.accepted) {
+    loop.accepted = false;
+    loop.reject_reason = checked.reject_reason;
+  }
+  return checked;
+}
+
+LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck& check, const NearbyKeyframes& nearby,
+                                         const KeyframeContext& context) const {
   const auto start = std::chrono::steady_clock::now();
   if (index >= prepared_.size()) throw std::out_of_range("detect: no keyframe " + std::to_string(index));
   LoopDetectionResult result;
@@ -143,7 +165,13 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
       return false;
     }
     result.aligned.push_back(verify(keyframe, index, score));
-    return result.aligned.back().accepted;
+    LoopClosure& loop = result.aligned.back();
+    if (loop.accepted && context && options_.context.enabled) {
+      const auto context_start = std::chrono::steady_clock::now();
+      ++(checkContext(loop, result.compared, context).checked ? result.context_checked : result.context_unchecked);
+      result.context_seconds += secondsSince(context_start);
+    }
+    return loop.accepted;
   };
   const std::vector<double> query = store_.features(index);
   // Without a check, only max_candidates can ever be aligned: no need to rank more.

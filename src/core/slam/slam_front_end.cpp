@@ -37,6 +37,8 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   keyframes_full_circle_ = allFullCircle(keyframes);
   chain_.assign(keyframes.size(), Pose2{});
   path_.assign(keyframes.size(), 0.0);
+  chain_first_.resize(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) chain_first_[k] = k;  // their chains are not known here
   chain_start_ = keyframes.size();
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
@@ -182,6 +184,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain
   chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
   path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
+  chain_first_.push_back(chain_start_);
   // The own odometry frame goes on through a new chain (whose motion is the identity).
   const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
   keyframe_in_odometry_ = has_keyframe_in_odometry_ ? compose(keyframe_in_odometry_, motion) : Pose2{};
@@ -211,12 +214,34 @@ std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
   return found;
 }
 
+std::vector<ContextKeyframe> SlamFrontEnd::context(std::size_t index, std::size_t before, double distance,
+                                                  double spacing) const {
+  std::vector<ContextKeyframe> found;
+  if (index >= chain_.size()) return found;
+  const std::size_t first = chain_first_[index];
+  auto take = [&](std::size_t k) { found.push_back({k, between(chain_[index], chain_[k])}); };
+  take(index);
+  double last = path_[index];
+  for (std::size_t k = index; k-- > first && path_[index] - path_[k] <= distance;)
+    if (last - path_[k] >= spacing) take(k), last = path_[k];
+  last = path_[index];
+  for (std::size_t k = index + 1; k < std::min(before, chain_.size()) && chain_first_[k] == first; ++k) {
+    if (path_[k] - path_[index] > distance) break;
+    if (path_[k] - last >= spacing) take(k), last = path_[k];
+  }
+  return found;
+}
+
 LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const CandidateCheck& check,
                                               const NearbyKeyframes& nearby) {
   const auto start = std::chrono::steady_clock::now();
   counters_.calibration_pairs += detector_.calibrate(keyframe_index, surelyElsewhere(keyframe_index));
   counters_.seconds_classify += secondsSince(start);
-  LoopDetectionResult loops = detector_.detect(keyframe_index, check, nearby);
+  LoopDetectionResult loops = detector_.detect(
+      keyframe_index, check, nearby,
+      [this](std::size_t index, std::size_t before, double distance, double spacing) {
+        return context(index, before, distance, spacing);
+      });
   counters_.pairs_classified += loops.compared;
   counters_.candidates += loops.candidates;
   counters_.aligned += loops.aligned.size();
@@ -224,7 +249,14 @@ LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const 
   counters_.not_aligned += loops.not_aligned.size();
   counters_.seconds_classify += loops.classify_seconds;
   counters_.seconds_align += loops.seconds - loops.classify_seconds - loops.check_seconds;
-  for (const LoopClosure& loop : loops.aligned) ++(loop.accepted ? counters_.loops_found : counters_.refused_by_alignment);
+  counters_.context_checked += loops.context_checked;
+  counters_.context_unchecked += loops.context_unchecked;
+  counters_.seconds_context += loops.context_seconds;
+  for (const LoopClosure& loop : loops.aligned) {
+    if (loop.accepted) ++counters_.loops_found;
+    else if (loopRefusalOf(loop.reject_reason) == LoopRefusal::kContext) ++counters_.refused_by_context;
+    else ++counters_.refused_by_alignment;
+  }
   // The nearby ones are aligned last.
   for (std::size_t i = loops.aligned.size() - loops.nearby; i < loops.aligned.size(); ++i)
     counters_.nearby_found += loops.aligned[i].accepted;

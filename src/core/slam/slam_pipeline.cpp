@@ -58,6 +58,8 @@ SlamCounters SlamPipeline::counters() const {
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.nearby_aligned = f.nearby_aligned, c.nearby_found = f.nearby_found;
+  c.context_checked = f.context_checked, c.context_unchecked = f.context_unchecked;
+  c.refused_by_context = f.refused_by_context, c.seconds_context = f.seconds_context;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
   c.calibration_pairs = f.calibration_pairs, c.classifier_threshold = front_.detector().threshold();

@@ -9,6 +9,7 @@ const char* loopRefusalName(LoopRefusal refusal) {
     case LoopRefusal::kCrfMatch: return "crf_match";
     case LoopRefusal::kIcp: return "icp";
     case LoopRefusal::kValidation: return "validation";
+    case LoopRefusal::kContext: return "context";
     case LoopRefusal::kBackEndGate: return "back_end_gate";
     case LoopRefusal::kBackEndUnsolvable: return "back_end_unsolvable";
     case LoopRefusal::kBackEndMalformed: return "back_end_malformed";
@@ -42,12 +43,13 @@ const char* scanRefusalName(ScanRefusal refusal) {
 LoopRefusal loopRefusalOf(const std::string& reason) {
   auto starts = [&](const char* prefix) { return reason.rfind(prefix, 0) == 0; };
   if (reason.empty()) return LoopRefusal::kNone;
-  // The prefixes are written by placeGateVerdict, ScanAligner::align, SlamBackEnd::addLoop and
+  // The prefixes are written by placeGateVerdict, ScanAligner::align, checkLoopContext, SlamBackEnd::addLoop and
   // Esdf::update; test_slam's LoopRefusal test makes each of them refuse for real.
   if (starts("place gate: ")) return LoopRefusal::kPlaceGate;
   if (starts("crf: ")) return LoopRefusal::kCrfMatch;
   if (starts("icp: ")) return LoopRefusal::kIcp;
   if (starts("validation: ")) return LoopRefusal::kValidation;
+  if (starts("context: ")) return LoopRefusal::kContext;
   if (starts("backend: innovation chi2 ")) return LoopRefusal::kBackEndGate;
   if (starts("backend: the system could not be solved")) return LoopRefusal::kBackEndUnsolvable;
   if (starts("backend: ")) return LoopRefusal::kBackEndMalformed;

@@ -499,6 +499,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops found", c.loops_found);
   status.add("nearby candidates aligned (the map's, not the classifier's)", c.nearby_aligned);
   status.add("nearby candidates found (aligned and validated)", c.nearby_found);
+  status.add("loops checked against their context", c.context_checked);
+  status.add("loops whose context was too small to check", c.context_unchecked);
   status.add("refused by alignment", c.refused_by_alignment);
   status.add("seconds classifying", c.seconds_classify);
   status.add("seconds aligning", c.seconds_align);

@@ -289,6 +289,8 @@ TEST(LoopRefusal, EveryStageThatRefusesIsNamedByItsOwnReason) {
   // ICP's and validation's reasons as ScanAligner::align composes them.
   EXPECT_EQ(llc::loopRefusalOf("icp: not converged from any start"), LoopRefusal::kIcp);
   EXPECT_EQ(llc::loopRefusalOf("validation: inlier share 0.41 below 0.9"), LoopRefusal::kValidation);
+  // The context check's (test_context_check makes it refuse for real with this prefix).
+  EXPECT_EQ(llc::loopRefusalOf("context: fits 0.905 at (1.00, 0.00) m against 0.801"), LoopRefusal::kContext);
   // The back end: an unknown keyframe, then a loop that contradicts a certain odometry chain.
   llc::SlamBackEnd back;
   const Eigen::Matrix3d certain = Eigen::Matrix3d::Identity() * 1e-6;

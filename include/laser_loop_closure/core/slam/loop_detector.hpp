@@ -12,6 +12,7 @@
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
 #include "laser_loop_closure/core/features/features.hpp"
 #include "laser_loop_closure/core/classifier/keyframe_store.hpp"
+#include "laser_loop_closure/core/alignment/context_check.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/classifier/threshold_calibration.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
@@ -43,6 +44,9 @@ struct LoopDetectorOptions {
   /// K fitted again in this building from surely-different keyframe pairs (used only when
   /// score_threshold is 0, i.e. the model's K would be used).
   ThresholdCalibrationOptions calibration{};
+  /// A shape-validated loop is refused when the keyframes around its two keyframes fit
+  /// clearly better at a look-alike pose (detect() with a KeyframeContext source).
+  ContextCheckOptions context{};
   std::string validate() const;
 };
 
@@ -51,6 +55,9 @@ struct LoopDetectionResult {
   std::size_t compared = 0;    ///< stored keyframes the classifier saw
   std::size_t candidates = 0;  ///< of those, at or above the threshold (at most checked_candidates kept)
   std::size_t nearby = 0;      ///< of `aligned`, the keyframes a NearbyKeyframes source offered
+  std::size_t context_checked = 0;    ///< shape-validated loops checked against their context
+  std::size_t context_unchecked = 0;  ///< shape-validated loops whose context was too small to check
+  double context_seconds = 0.0;       ///< of seconds, in the context check
   std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
   /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
   std::vector<LoopClosure> not_aligned;
@@ -66,6 +73,17 @@ using CandidateCheck = std::function<std::string(std::size_t from, std::size_t t
 /// SlamBackEnd::nearbyKeyframes).
 using NearbyKeyframes = std::function<std::vector<std::size_t>(std::size_t index, std::size_t before, double max_distance,
                                                                double max_std, std::size_t count)>;
+
+/// A keyframe of a context and its pose in the frame of the keyframe it surrounds.
+struct ContextKeyframe {
+  std::size_t keyframe = 0;
+  Pose2 pose;
+};
+/// Asked for the context of keyframe `index`: itself (first, at the identity) and the
+/// keyframes of its odometry chain older than `before` within `distance` m of driven path,
+/// at least `spacing` m of path apart, each placed by that chain (SlamFrontEnd's).
+using KeyframeContext =
+    std::function<std::vector<ContextKeyframe>(std::size_t index, std::size_t before, double distance, double spacing)>;
 
 class LoopDetector {
  public:
@@ -87,9 +105,15 @@ class LoopDetector {
   /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
   /// the best candidates, each after `check` (when given) let it through. When none gave a
   /// loop, the keyframes `nearby` (when given) offers are checked and aligned the same way
-  /// (nearby_candidates of them, not aligned twice). Throws std::out_of_range for an unknown
-  /// keyframe.
-  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}, const NearbyKeyframes& nearby = {}) const;
+  /// (nearby_candidates of them, not aligned twice). With `context` (and options().context
+  /// enabled) a shape-validated loop is then checked against the keyframes around it
+  /// (checkLoopContext); a refused one reads "context: ...". Throws std::out_of_range for an
+  /// unknown keyframe.
+  LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}, const NearbyKeyframes& nearby = {},
+                             const KeyframeContext& context = {}) const;
+  /// The context check of a shape-validated loop (from older than `before`, to the newer);
+  /// refuses it in place when the context fits better elsewhere.
+  ContextCheckResult checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
 

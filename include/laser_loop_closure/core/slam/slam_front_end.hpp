@@ -30,11 +30,15 @@ struct FrontEndCounters {
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0;        ///< of `aligned`, keyframes the map put near (not the classifier)
   std::size_t nearby_found = 0;          ///< of those, aligned and shape-validated
-  std::size_t loops_found = 0;           ///< aligned and shape-validated: sent to the back end
+  std::size_t context_checked = 0;       ///< shape-validated loops checked against their context
+  std::size_t context_unchecked = 0;     ///< ... whose context was too small (e.g. a restored keyframe)
+  std::size_t refused_by_context = 0;    ///< shape-validated, then refused by the context check
+  std::size_t loops_found = 0;           ///< aligned, shape-validated and context-checked: sent to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t not_aligned = 0;           ///< candidates a CandidateCheck kept from alignment
   std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0;
+  double seconds_context = 0.0;  ///< of seconds_align, in the context check
 };
 
 /// What one scan did in the front end.
@@ -136,7 +140,10 @@ class SlamFrontEnd {
   // session) have no place in this chain.
   std::vector<Pose2> chain_;
   std::vector<double> path_;
+  std::vector<std::size_t> chain_first_;  ///< per keyframe, the first keyframe of its chain (restored ones: itself)
   std::size_t chain_start_ = 0;
+  /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
+  std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
   Random calibration_random_{1};
   /// Older keyframes of this chain that the odometry puts surely elsewhere than `index` (at
   /// most calibration.pairs_per_keyframe, drawn at random when there are more).

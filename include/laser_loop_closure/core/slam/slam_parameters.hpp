@@ -99,6 +99,17 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/calibration/min_pairs", loops.calibration.min_pairs);
   visit("loops/calibration/max_pairs", loops.calibration.max_pairs);
   visit("loops/calibration/pairs_per_keyframe", loops.calibration.pairs_per_keyframe);
+  visit("loops/context/enabled", loops.context.enabled);
+  visit("loops/context/distance", loops.context.distance);
+  visit("loops/context/spacing", loops.context.spacing);
+  visit("loops/context/min_scans", loops.context.min_scans);
+  visit("loops/context/search_shift", loops.context.search_shift);
+  visit("loops/context/search_restarts", loops.context.search_restarts);
+  visit("loops/context/fit_distance", loops.context.fit_distance);
+  visit("loops/context/max_alternative_gain", loops.context.max_alternative_gain);
+  visit("loops/context/alternative_distance", loops.context.alternative_distance);
+  visit("loops/context/max_points", loops.context.max_points);
+  visit("loops/context/cell", loops.context.cell);
 
   ScanAlignerOptions& aligner = options.slam.aligner;
   visit("aligner/max_range", aligner.max_range);

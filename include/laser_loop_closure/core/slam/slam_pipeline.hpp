@@ -52,6 +52,8 @@ struct SlamCounters {
   std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0, nearby_found = 0;  ///< of aligned / of those accepted by alignment: nearby candidates
+  std::size_t context_checked = 0, context_unchecked = 0;  ///< shape-validated loops checked against their context / too small to
+  std::size_t refused_by_context = 0;    ///< shape-validated, then the context check said no
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
   std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
@@ -59,6 +61,7 @@ struct SlamCounters {
   std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
   double classifier_threshold = 0.0;     ///< the K candidates must reach now (calibrated or not)
   double seconds_odometry = 0.0, seconds_classify = 0.0, seconds_align = 0.0, seconds_backend = 0.0;
+  double seconds_context = 0.0;  ///< of seconds_align, in the context check
 };
 
 /// What one scan did.

@@ -100,13 +100,14 @@ enum class LoopRefusal {
   kCrfMatch,           ///< no start for ICP: CRF-match and the global search found none ("crf: ...")
   kIcp,                ///< ICP did not converge from any start ("icp: ...")
   kValidation,         ///< aligned, but shape validation refused it ("validation: ...")
+  kContext,            ///< shape-validated, but the keyframes around it fit better elsewhere ("context: ...")
   kBackEndGate,        ///< the back end's chi-square gate ("backend: innovation chi2 ...")
   kBackEndUnsolvable,  ///< the filter could not be solved with it, taken back ("backend: the system could not be solved ...")
   kBackEndMalformed,   ///< unknown keyframes, a non-finite pose or an unusable covariance ("backend: ...")
   kOther,              ///< a reason none of the stages above writes
 };
-constexpr std::size_t kLoopRefusalKinds = 9;
-/// "none", "place_gate", "crf_match", "icp", "validation", "back_end_gate",
+constexpr std::size_t kLoopRefusalKinds = 10;
+/// "none", "place_gate", "crf_match", "icp", "validation", "context", "back_end_gate",
 /// "back_end_unsolvable", "back_end_malformed", "other".
 const char* loopRefusalName(LoopRefusal refusal);
 /// The stage that wrote a reject_reason, by the prefix each stage gives its reasons; empty: kNone.
