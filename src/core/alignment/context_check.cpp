@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/alignment/context_check.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -23,14 +24,19 @@ std::string ContextCheckOptions::validate() const {
   return "";
 }
 
-Points2 contextCloud(const std::vector<ContextScan>& context, double cell) {
+Points2 contextCloud(const std::vector<ContextScan>& context, double cell, Points2* normals) {
   Points2 cloud;
   std::unordered_set<std::uint64_t> taken;
+  bool all_normals = normals != nullptr;
+  if (normals) normals->clear();
   for (const ContextScan& scan : context) {
     if (!scan.points) continue;
     const RigidMotion2 motion(scan.pose);
-    for (const Point2& p : *scan.points) {
-      const Point2 moved = motion(p);
+    const bool has_normals = scan.normals && scan.normals->size() == scan.points->size();
+    all_normals = all_normals && has_normals;
+    const Eigen::Rotation2Dd turn(scan.pose.theta);
+    for (std::size_t i = 0; i < scan.points->size(); ++i) {
+      const Point2 moved = motion((*scan.points)[i]);
       if (!std::isfinite(moved.x()) || !std::isfinite(moved.y())) continue;
       if (cell > 0.0) {
         // Cells of a 2^32 x 2^32 grid (wraps beyond 2e8 m at 5 cm: contexts span metres).
@@ -39,8 +45,10 @@ Points2 contextCloud(const std::vector<ContextScan>& context, double cell) {
         if (!taken.insert((std::uint64_t(ix) << 32) | iy).second) continue;
       }
       cloud.push_back(moved);
+      if (all_normals) normals->push_back(turn * (*scan.normals)[i]);
     }
   }
+  if (normals && !all_normals) normals->clear();
   return cloud;
 }
 
@@ -67,10 +75,15 @@ ContextCheckResult checkLoopContext(const std::vector<ContextScan>& old_context,
   result.new_scans = new_context.size();
   if (old_context.size() < options.min_scans || new_context.size() < options.min_scans) return result;
   const Points2 source = contextCloud(new_context, options.cell);
-  Points2 target_points = contextCloud(old_context, options.cell);
+  Points2 target_normals;
+  Points2 target_points = contextCloud(old_context, options.cell, &target_normals);
   if (source.size() < std::size_t(icp.min_correspondences) || target_points.size() < std::size_t(icp.min_correspondences))
     return result;
-  const IcpTarget target(std::move(target_points), icp);
+  // The scans' own normals where they came with them: estimating them again on the merged
+  // points costs most of the check.
+  const IcpTarget target = target_normals.size() == target_points.size()
+                               ? IcpTarget(std::move(target_points), std::move(target_normals))
+                               : IcpTarget(std::move(target_points), icp);
   // ICP from a start; where it does not converge (a degenerate context), the start itself.
   auto refine = [&](const Pose2& start, double* fit) {
     const IcpResult refined = alignIcp(source, target, start, icp);
@@ -80,6 +93,8 @@ ContextCheckResult checkLoopContext(const std::vector<ContextScan>& old_context,
   };
   result.checked = true;
   const Pose2 at_loop = refine(loop_pose, &result.fit);
+  // No share exceeds 1: a context that fits this well cannot fit better enough elsewhere.
+  if (result.fit + options.max_alternative_gain > 1.0) return result;
   for (const Pose2& start : weakDirectionStarts(at_loop, loop_covariance, options.search_shift, options.search_restarts)) {
     double fit = 0.0;
     const Pose2 pose = refine(start, &fit);

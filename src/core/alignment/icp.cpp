@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 namespace llc {
 
@@ -27,6 +28,10 @@ std::string IcpOptions::validate() const {
 
 IcpTarget::IcpTarget(Points2 points, const IcpOptions& options)
     : tree(std::move(points)), normals(estimateNormals(tree, std::size_t(options.normal_neighbours), options.normal_radius)) {}
+
+IcpTarget::IcpTarget(Points2 points, Points2 known_normals) : tree(std::move(points)), normals(std::move(known_normals)) {
+  if (normals.size() != tree.size()) throw std::invalid_argument("IcpTarget: one normal per point is needed");
+}
 
 namespace {
 struct Pair {

@@ -121,7 +121,7 @@ ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t bef
   auto scans = [&](std::size_t keyframe, std::size_t older_than) {
     std::vector<ContextScan> found;
     for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing))
-      if (k.keyframe < prepared_.size() && isFinite(k.pose)) found.push_back({&prepared_[k.keyframe]->points, k.pose});
+      if (k.keyframe < prepared_.size() && isFinite(k.pose)) found.push_back({&prepared_[k.keyframe]->points, k.pose, &prepared_[k.keyframe]->icp_target.normals});
     return found;
   };
   const auto start = std::chrono::steady_clock::now();

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "laser_loop_closure/core/alignment/context_check.hpp"
 
@@ -153,6 +154,34 @@ TEST(ContextCheck, CloudsAreThinnedToOnePointPerCell) {
   const Points2 cloud = llc::contextCloud(moved, 0.0);
   EXPECT_NEAR(cloud[2].x(), 1.0 - 0.01, 1e-12);
   EXPECT_NEAR(cloud[2].y(), 0.06, 1e-12);
+  // Normals come along, turned with their scan; one scan without them: none at all.
+  const Points2 normals{{1.0, 0.0}, {0.0, 1.0}, {1.0, 0.0}, {0.0, -1.0}};
+  Points2 moved_normals;
+  llc::contextCloud({{&points, Pose2{1.0, 0.0, M_PI / 2}, &normals}}, 0.0, &moved_normals);
+  ASSERT_EQ(moved_normals.size(), 4u);
+  EXPECT_NEAR(moved_normals[0].x(), 0.0, 1e-12);
+  EXPECT_NEAR(moved_normals[0].y(), 1.0, 1e-12);
+  EXPECT_NEAR(moved_normals[1].x(), -1.0, 1e-12);
+  llc::contextCloud({{&points, Pose2{}, &normals}, {&points, Pose2{}, nullptr}}, 0.0, &moved_normals);
+  EXPECT_TRUE(moved_normals.empty());
+  EXPECT_THROW(llc::IcpTarget(points, Points2(3)), std::invalid_argument);
+}
+
+TEST(ContextCheck, TheScansOwnNormalsGiveTheSameVerdictAsNormalsEstimatedOnTheMergedPoints) {
+  Contexts c = contextsAtTheOrigin();
+  const llc::IcpOptions icp;
+  std::vector<Points2> normals;
+  normals.reserve(c.old_context.size());
+  for (ContextScan& scan : c.old_context) {
+    normals.push_back(llc::IcpTarget(*scan.points, icp).normals);
+    scan.normals = &normals.back();
+  }
+  const ContextCheckOptions options;
+  const llc::ContextCheckResult wrong =
+      llc::checkLoopContext(c.old_context, c.new_context, Pose2{3.0, 0.0, 0.0}, alongTheCorridor(), options, icp);
+  EXPECT_FALSE(wrong.accepted);
+  EXPECT_NEAR(wrong.alternative.x, 0.0, 0.05);
+  EXPECT_TRUE(llc::checkLoopContext(c.old_context, c.new_context, Pose2{}, alongTheCorridor(), options, icp).accepted);
 }
 
 TEST(ContextCheck, FitCountsTheShareOfPointsNearTheOtherCloud) {

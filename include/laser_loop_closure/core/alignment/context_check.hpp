@@ -42,13 +42,18 @@ struct ContextCheckOptions {
 struct ContextScan {
   const Points2* points = nullptr;
   Pose2 pose;
+  /// Its points' unit normals in its own frame, one per point (a PreparedScan's ICP target has
+  /// them), or nullptr: then the old context's normals are estimated from its merged points.
+  const Points2* normals = nullptr;
 };
 
 struct ContextCheckResult {
   bool checked = false;   ///< false: a context had fewer than min_scans keyframes (accepted unchecked)
   bool accepted = true;
   double fit = 0.0;              ///< share of the new context's points that fit at the loop's pose (refined by ICP)
-  double alternative_fit = 0.0;  ///< the best share elsewhere (0 when no restart ended elsewhere)
+  /// The best share elsewhere (0 when no restart ended elsewhere, or when fit is within
+  /// max_alternative_gain of 1 and so nothing was searched: no share can beat it by that much)
+  double alternative_fit = 0.0;
   Pose2 alternative;             ///< where (new keyframe in the old one's frame)
   std::size_t old_scans = 0, new_scans = 0;
   std::string reject_reason;  ///< "context: ..." when refused
@@ -56,7 +61,9 @@ struct ContextCheckResult {
 
 /// The points of a context in the frame its poses are given in, thinned to the first point in
 /// each square cell of side `cell` (0: all).
-Points2 contextCloud(const std::vector<ContextScan>& context, double cell);
+/// With `normals`, also the normals of the points kept (turned into that frame), or an empty
+/// list when a scan has none.
+Points2 contextCloud(const std::vector<ContextScan>& context, double cell, Points2* normals = nullptr);
 
 /// The share of `source` points (every k-th, at most max_points) that lie within fit_distance
 /// of a point of `target` once moved by `pose`.

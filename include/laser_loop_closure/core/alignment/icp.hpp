@@ -35,6 +35,9 @@ struct IcpOptions {
 /// The target scan with what ICP needs of it, built once and reusable for many sources.
 struct IcpTarget {
   IcpTarget(Points2 points, const IcpOptions& options);
+  /// With the points' normals already known (one per point, e.g. moved from the scans they
+  /// came from); throws std::invalid_argument when the counts differ.
+  IcpTarget(Points2 points, Points2 known_normals);
   KdTree2 tree;
   Points2 normals;  ///< unit, or zero where the point has no surface around it
 };
