@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <future>
+#include <system_error>
 #include <unordered_set>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
@@ -95,14 +97,30 @@ ContextCheckResult checkLoopContext(const std::vector<ContextScan>& old_context,
   const Pose2 at_loop = refine(loop_pose, &result.fit);
   // No share exceeds 1: a context that fits this well cannot fit better enough elsewhere.
   if (result.fit + options.max_alternative_gain > 1.0) return result;
-  for (const Pose2& start : weakDirectionStarts(at_loop, loop_covariance, options.search_shift, options.search_restarts)) {
-    double fit = 0.0;
-    const Pose2 pose = refine(start, &fit);
-    if (std::hypot(pose.x - at_loop.x, pose.y - at_loop.y) > options.alternative_distance && fit > result.alternative_fit) {
-      result.alternative_fit = fit;
-      result.alternative = pose;
+  const std::vector<Pose2> starts =
+      weakDirectionStarts(at_loop, loop_covariance, options.search_shift, options.search_restarts);
+  std::vector<Pose2> ends(starts.size());
+  std::vector<double> fits(starts.size(), 0.0);
+  auto search = [&](std::size_t first, std::size_t step) {
+    for (std::size_t i = first; i < starts.size(); i += step) ends[i] = refine(starts[i], &fits[i]);
+  };
+  bool searched = false;
+  if (options.parallel && starts.size() > 1) {
+    try {  // every other start on a second thread: each ICP is independent, the verdict the same
+      std::future<void> other = std::async(std::launch::async, search, 1, 2);
+      search(0, 2);
+      other.get();
+      searched = true;
+    } catch (const std::system_error&) {  // no thread to be had: all on this one
     }
   }
+  if (!searched) search(0, 1);
+  for (std::size_t i = 0; i < starts.size(); ++i)  // in the starts' order, as one thread would
+    if (std::hypot(ends[i].x - at_loop.x, ends[i].y - at_loop.y) > options.alternative_distance &&
+        fits[i] > result.alternative_fit) {
+      result.alternative_fit = fits[i];
+      result.alternative = ends[i];
+    }
   if (result.alternative_fit >= result.fit + options.max_alternative_gain) {
     result.accepted = false;
     char text[160];

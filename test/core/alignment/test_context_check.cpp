@@ -109,6 +109,23 @@ TEST(ContextCheck, ALookAlikeDoorFurtherAlongIsRefusedAndTheTruePlaceAccepted) {
   EXPECT_EQ(right.new_scans, 9u);
 }
 
+TEST(ContextCheck, OneThreadOrTwoGiveTheSameResult) {
+  const Contexts c = contextsAtTheOrigin();
+  ContextCheckOptions options;
+  const llc::IcpOptions icp;
+  for (const Pose2& loop : {Pose2{3.0, 0.0, 0.0}, Pose2{0.1, 0.05, 0.01}, Pose2{-2.5, 0.1, 0.0}}) {
+    options.parallel = true;
+    const llc::ContextCheckResult two = llc::checkLoopContext(c.old_context, c.new_context, loop, alongTheCorridor(), options, icp);
+    options.parallel = false;
+    const llc::ContextCheckResult one = llc::checkLoopContext(c.old_context, c.new_context, loop, alongTheCorridor(), options, icp);
+    EXPECT_EQ(two.accepted, one.accepted);
+    EXPECT_EQ(two.fit, one.fit);
+    EXPECT_EQ(two.alternative_fit, one.alternative_fit);
+    EXPECT_EQ(two.alternative.x, one.alternative.x);
+    EXPECT_EQ(two.reject_reason, one.reject_reason);
+  }
+}
+
 TEST(ContextCheck, TheGainLimitDecides) {
   const Contexts c = contextsAtTheOrigin();
   ContextCheckOptions options;

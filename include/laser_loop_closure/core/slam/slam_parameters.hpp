@@ -110,6 +110,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/context/alternative_distance", loops.context.alternative_distance);
   visit("loops/context/max_points", loops.context.max_points);
   visit("loops/context/cell", loops.context.cell);
+  visit("loops/context/parallel", loops.context.parallel);
 
   ScanAlignerOptions& aligner = options.slam.aligner;
   visit("aligner/max_range", aligner.max_range);
