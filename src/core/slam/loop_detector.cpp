@@ -120,15 +120,16 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
 ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const {
   auto scans = [&](std::size_t keyframe, std::size_t older_than) {
     std::vector<ContextScan> found;
-    for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing))
-      if (k.keyframe < prepared_.size() && isFinite(k.pose)) found.push_back({&prepared_[k.keyframe]->points, k.pose, &prepared_[k.keyframe]->icp_target.normals});
+    for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing)) {
+      if (k.keyframe >= prepared_.size() || !isFinite(k.pose)) continue;
+      const PreparedScan& scan = *prepared_[k.keyframe];
+      found.push_back({&scan.points, k.pose, &scan.icp_target.normals});
+    }
     return found;
   };
-  const auto start = std::chrono::steady_clock::now();
   const std::vector<ContextScan> old_context = scans(loop.from, before), new_context = scans(loop.to, loop.to + 1);
   ContextCheckResult checked =
       checkLoopContext(old_context, new_context, loop.pose, loop.covariance, options_.context, aligner_.options().icp);
-  loop.seconds += secondsSince(start);
   if (!checked.accepted) {
     loop.accepted = false;
     loop.reject_reason = checked.reject_reason;
@@ -169,7 +170,9 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
     if (loop.accepted && context && options_.context.enabled) {
       const auto context_start = std::chrono::steady_clock::now();
       ++(checkContext(loop, result.compared, context).checked ? result.context_checked : result.context_unchecked);
-      result.context_seconds += secondsSince(context_start);
+      const double seconds = secondsSince(context_start);  // one clock for the loop's time and the detection's
+      loop.seconds += seconds;
+      result.context_seconds += seconds;
     }
     return loop.accepted;
   };

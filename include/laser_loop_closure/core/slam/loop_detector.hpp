@@ -111,9 +111,6 @@ class LoopDetector {
   /// unknown keyframe.
   LoopDetectionResult detect(std::size_t index, const CandidateCheck& check = {}, const NearbyKeyframes& nearby = {},
                              const KeyframeContext& context = {}) const;
-  /// The context check of a shape-validated loop (from older than `before`, to the newer);
-  /// refuses it in place when the context fits better elsewhere.
-  ContextCheckResult checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
 
@@ -137,6 +134,10 @@ class LoopDetector {
   const ThresholdCalibrator& calibrator() const { return calibrator_; }
 
  private:
+  /// The context check of a shape-validated loop (from older than `before`, to the newer);
+  /// refuses it in place when the context fits better elsewhere.
+  ContextCheckResult checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const;
+
   ClassifierModel model_;
   StrongClassifier classifier_;  ///< the model's, with score_threshold applied
   LoopDetectorOptions options_;
