@@ -364,6 +364,7 @@ int runSlam(const Args& args) {
          << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "odometry_steps_recovered=" << c.recovered_steps << "  (the wheels doubted, the laser's motion from a correlative search taken)\n"
+         << "odometry_steps_tracked=" << c.tracked_steps << "  (ICP from the tracked scans' pose fitted better than from the wheels', or both agreed: track_scans)\n"
          << "pairs_tested=" << c.pairs_classified << "\n"
          << "candidates=" << c.candidates << "\n"
          << "classifier_threshold=" << c.classifier_threshold << "  (K at the end; loops/calibration moves it)\n"

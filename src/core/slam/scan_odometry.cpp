@@ -32,6 +32,7 @@ std::string ScanOdometryOptions::validate() const {
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
     return "min_velocity_interval must be finite and >= 0";
   if (!(restart_after_jump_back > 0.0)) return "restart_after_jump_back must be > 0";
+  if (!(track_min_fit_gain >= 0.0 && track_min_fit_gain <= 1.0)) return "track_min_fit_gain must be in [0, 1]";
   if (!(correlative_min_score_gain >= 0.0 && correlative_min_score_gain <= 1.0))
     return "correlative_min_score_gain must be in [0, 1]";
   const std::string correlative_error = correlative.validate();
@@ -77,7 +78,7 @@ double WheelNoiseScale::scale() const {
 }
 
 OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
-                                 bool guess_from_wheels, double wheel_noise_scale) const {
+                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked) const {
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
   step.motion = guess;
@@ -91,10 +92,33 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     return step;
   };
   if (!options_.scan_matching) return finish("", OdometryRefusal::kNone);
-  const IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
+  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;
+  // ICP from the wheels' guess, or from the tracked one when ICP from there fits the scans
+  // clearly better (wheels that slipped over the last scans); not on a tie (a corridor, where
+  // ICP slides: the wheels' guess stands there). How far ICP went is judged from its seed; how
+  // much it disagrees with the wheels (a disputed step's covariance holds both) from theirs.
+  Pose2 seed = guess;
+  // Two poses this close are one (a second ICP from there would find what the first did).
+  auto same = [](const Pose2& a, const Pose2& b) {
+    const Pose2 apart = between(a, b);
+    return std::hypot(apart.x, apart.y) <= 0.05 && std::abs(apart.theta) <= 0.02;
+  };
+  if (tracked && guess_from_wheels && isFinite(*tracked) && !same(guess, *tracked)) {
+    const IcpResult from_tracked = alignIcp(current.points, previous.icp_target, *tracked, options_.icp, &current.icp_target.normals);
+    auto fit = [&](const IcpResult& r) {
+      return r.converged ? validateShape(current.points, previous.icp_target.tree, r.pose, overlap, &previous.view).inlier_share : -1.0;
+    };
+    // Both reached one pose: the tracked seed is the one that explains it (the wheels slipped).
+    const bool agree = icp.converged && same(icp.pose, from_tracked.pose);
+    if (from_tracked.converged && (agree || fit(from_tracked) >= fit(icp) + options_.track_min_fit_gain)) {
+      icp = from_tracked;
+      seed = *tracked;
+      step.tracked = true;
+    }
+  }
   // The wheels were doubted (ICP failed, went far, overlapped little or disagreed): does the
   // laser clearly place the scan elsewhere? Then its motion is matched, as any other.
   auto recover = [&]() {
@@ -117,7 +141,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     if (recover()) return step;
     return finish("icp: " + icp.reject_reason, OdometryRefusal::kIcp);
   }
-  const Pose2 correction = between(guess, icp.pose);
+  const Pose2 correction = between(seed, icp.pose);
   if (guess_from_wheels && (std::hypot(correction.x, correction.y) > options_.max_correction_translation ||
                             std::abs(correction.theta) > options_.max_correction_rotation))
     return recover() ? step : finish("icp moved too far from wheel odometry", OdometryRefusal::kTooFarFromWheels);
@@ -136,7 +160,8 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     if (recover()) return step;
     return finish("overlap " + std::to_string(check.inlier_share) + " below min_overlap_share", OdometryRefusal::kLowOverlap);
   }
-  if (disputed && recover()) return step;
+  // (A tracked result already overruled the wheels: no search around their guess overrules it.)
+  if (disputed && !step.tracked && recover()) return step;
   step.motion = icp.pose;
   step.matched = true;
   finish("", OdometryRefusal::kNone);

@@ -43,6 +43,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
+  has_wheel_track_ = false;
   velocity_ = Pose2{};
   has_keyframe_ = continue_odometry && !keyframes.empty();
   restart_pending_ = !continue_odometry && !keyframes.empty();
@@ -82,7 +83,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     restart_pending_ = true;
     restart_reason_ = "a new chain after time jumped back";
     tracked_motion_ = velocity_ = Pose2{};
-    has_last_wheels_ = has_jump_ = false;
+    has_last_wheels_ = has_jump_ = has_wheel_track_ = false;
   }
 
   const auto start = std::chrono::steady_clock::now();
@@ -110,6 +111,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
             before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
             last_keyframe_wheels_ = compose(*wheel_odometry, inverse(between(last_keyframe_wheels_, last_wheels_)));
           }
+          has_wheel_track_ = false;  // its wheel reference holds the jump
           ++counters_.wheel_jumps;
           step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
                             std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
@@ -117,7 +119,11 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
         }
       }
       last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
+      // The wheels' guess, and (track_scans) the tracked one: from the last scan ICP placed, on
+      // by the wheels' motion since. FR079 turned left while its wheels, slipping for 4 s, said
+      // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
       const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
+      const Pose2 tracked = compose(tracked_motion_, between(tracked_wheels_, *wheel_odometry));
       const bool keyframe = odometry_.movedEnough(guess);
       if (!keyframe && !odometry_.options().match_every_scan) {  // not a keyframe: nothing more to do
         step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
@@ -125,8 +131,14 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
         return step;
       }
       prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale());
+      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale(),
+                                      has_wheel_track_ ? &tracked : nullptr);
       if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
+        // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
+        if (odometry_.options().track_scans && step.odometry.matched && !step.odometry.disputed) {
+          tracked_motion_ = step.odometry.motion, tracked_wheels_ = *wheel_odometry;
+          has_wheel_track_ = true;
+        }
         counters_.seconds_odometry += secondsSince(start);
         setOdometryPose(step);
         return step;
@@ -160,6 +172,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
     counters_.disputed_steps += step.odometry.disputed;
     counters_.recovered_steps += step.odometry.recovered;
+    counters_.tracked_steps += step.odometry.tracked;
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
     step.odometry.reject_reason = restart_reason_;
@@ -176,6 +189,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   if (wheel_odometry) last_keyframe_wheels_ = *wheel_odometry;
   has_jump_ = false;  // a new reference: a jump before it is history
   tracked_motion_ = Pose2{};
+  has_wheel_track_ = false;
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
   ++counters_.steps_not_matched[std::size_t(step.odometry.refusal)];

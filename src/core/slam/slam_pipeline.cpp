@@ -55,6 +55,7 @@ SlamCounters SlamPipeline::counters() const {
   c.scans_skipped = f.scans_skipped, c.steps_not_matched = f.steps_not_matched;
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
   c.recovered_steps = f.recovered_steps;
+  c.tracked_steps = f.tracked_steps;
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.nearby_aligned = f.nearby_aligned, c.nearby_found = f.nearby_found;

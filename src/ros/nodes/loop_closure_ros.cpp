@@ -482,6 +482,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("steps from wheel odometry alone", c.wheel_steps);
   status.add("steps where ICP and wheels disagreed", c.disputed_steps);
   status.add("steps where the laser overruled the wheels", c.recovered_steps);
+  status.add("keyframe steps matched from the tracked scans", c.tracked_steps);
   for (std::size_t kind = 1; kind < llc::kOdometryRefusalKinds; ++kind)  // llc::OdometryRefusal's names
     status.add(std::string("steps not matched: ") + llc::odometryRefusalName(llc::OdometryRefusal(kind)),
                c.steps_not_matched[kind]);

@@ -186,6 +186,81 @@ TEST(ScanOdometry, MatchEveryScanGivesAScanBetweenKeyframesItsOwnPose) {
   }
 }
 
+/// The corridor's niche section seen from (x, y) heading theta: 360 beams.
+llc::Scan scanAt(const std::vector<Wall>& walls, double x, double y, double theta, double stamp) {
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, y, theta + scan.bearings[i]);
+  scan.stamp = stamp;
+  return scan;
+}
+
+TEST(ScanOdometry, TrackedScansFollowATurnTheWheelsGetWrong) {
+  // Turning on the spot, 0.03 rad a scan to the left, while the wheels slip and say 0.02 to the
+  // right: at the next keyframe (the wheels' 0.35 rad) they are 0.9 rad off, beyond one ICP and
+  // the correlative recovery's window. Tracked from scan to scan (each 0.05 rad off), ICP
+  // follows the truth; without tracking the step is the wheels' or a wrong minimum.
+  const std::vector<Wall> walls = corridor();
+  for (const bool track : {true, false}) {
+    llc::ScanOdometryOptions odometry;
+    odometry.match_every_scan = true;
+    odometry.track_scans = track;
+    llc::SlamFrontEnd front(llc_test::defaultModel(), odometry, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+    std::size_t keyframes = 0;
+    for (int k = 0; k <= 18; ++k) {
+      const llc::Pose2 wheels{0.0, 0.0, -0.02 * k};
+      const llc::FrontEndStep step = front.addScan(scanAt(walls, 4.0, 0.5, 0.03 * k, 100.0 + 0.1 * k), &wheels);
+      ASSERT_EQ(step.keyframe, k == 0 || k == 18) << k;
+      if (!step.keyframe) continue;
+      ++keyframes;
+      if (k == 0) continue;
+      if (track) {
+        EXPECT_TRUE(step.odometry.matched);
+        EXPECT_TRUE(step.odometry.tracked);
+        EXPECT_NEAR(step.odometry.motion.theta, 0.03 * k, 0.01);
+        EXPECT_NEAR(std::hypot(step.odometry.motion.x, step.odometry.motion.y), 0.0, 0.03);
+      } else {
+        EXPECT_FALSE(step.odometry.tracked);
+        EXPECT_GT(std::abs(step.odometry.motion.theta - 0.03 * k), 0.3) << "the wheels' turn, or ICP's wrong minimum";
+      }
+    }
+    EXPECT_EQ(keyframes, 2u);
+    EXPECT_EQ(front.counters().tracked_steps, track ? 1u : 0u);
+  }
+}
+
+TEST(ScanOdometry, TrackingDoesNotCountTheMotionOfStalledWheelsTwice) {
+  // Turning 0.06 rad a scan while the wheels stall for fourteen scans, then catch up at once:
+  // the tracked guess (ICP's pose before, plus the wheels' catch-up) is 0.84 rad ahead, the
+  // wheels' own guess right. The keyframe's step is the truth (MIT CSAIL's odometry stalls so).
+  const std::vector<Wall> walls = corridor();
+  llc::ScanOdometryOptions odometry;
+  odometry.match_every_scan = true;
+  llc::SlamFrontEnd front(llc_test::defaultModel(), odometry, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+  std::size_t keyframes = 0;
+  for (int k = 0; k <= 17; ++k) {
+    const double true_theta = 0.06 * k;
+    const llc::Pose2 wheels{0.0, 0.0, 0.06 * ((k >= 3 && k <= 16) ? 2 : k)};
+    const llc::FrontEndStep step = front.addScan(scanAt(walls, 4.0, 0.5, true_theta, 100.0 + 0.1 * k), &wheels);
+    ASSERT_EQ(step.keyframe, k == 0 || k == 17) << k;
+    if (k == 0) continue;
+    ASSERT_TRUE(step.odometry.matched) << k;
+    EXPECT_NEAR(step.odometry.motion.theta, true_theta, 0.01) << "scan " << k << (step.keyframe ? " (keyframe)" : "");
+    EXPECT_NEAR(std::hypot(step.odometry.motion.x, step.odometry.motion.y), 0.0, 0.03) << k;
+    keyframes += step.keyframe;
+  }
+  EXPECT_EQ(keyframes, 1u);
+}
+
+TEST(ScanOdometry, TrackingOptionsAreValidated) {
+  llc::ScanOdometryOptions options;
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    options.track_min_fit_gain = bad;
+    EXPECT_NE(options.validate().find("track_min_fit_gain"), std::string::npos) << bad;
+  }
+  options.track_min_fit_gain = 0.0;
+  EXPECT_EQ(options.validate(), "");
+}
+
 TEST(ScanOdometry, PredictionOptionsAreValidated) {
   llc::ScanOdometryOptions options;
   for (const double bad : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {

@@ -49,6 +49,14 @@ struct ScanOdometryOptions {
   /// relations metric, odom from publish_odometry_tf); one ICP per scan. Keyframes are chosen
   /// by the wheels either way. (Without wheels every scan is matched anyway.)
   bool match_every_scan = false;
+  /// With match_every_scan: each scan's ICP is also seeded from the last matched scan's pose
+  /// carried on by the wheels' motion since (tracking), and that result is taken when it fits
+  /// the scans better by track_min_fit_gain (share of points within overlap_distance) or both
+  /// seeds reach one pose. Wheels that slip over many scans are so corrected scan by scan, not
+  /// all at once at the next keyframe, where one ICP from their guess may be too far off
+  /// (FR079); on a tie (a corridor, where ICP slides) the wheels' guess stands.
+  bool track_scans = true;
+  double track_min_fit_gain = 0.05;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
@@ -108,7 +116,7 @@ class ScanOdometry {
   /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
   /// max_wheel_disagreement and for a disputed step.
   OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
-                     bool guess_from_wheels, double wheel_noise_scale = 1.0) const;
+                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
 

@@ -25,6 +25,7 @@ struct FrontEndCounters {
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
   std::size_t recovered_steps = 0;  ///< of the matched ones, by correlative_recovery (the laser over the wheels)
+  std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
@@ -130,7 +131,12 @@ class SlamFrontEnd {
   bool has_keyframe_in_odometry_ = false;
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
-  Pose2 tracked_motion_;  ///< without wheel odometry: the last scan's motion from the newest keyframe
+  /// The last matched scan's motion from the newest keyframe: without wheel odometry every
+  /// scan's; with wheels and match_every_scan the last scan ICP placed (has_wheel_track_),
+  /// with its wheel reading (the next guess goes on from there by the wheels).
+  Pose2 tracked_motion_;
+  Pose2 tracked_wheels_;
+  bool has_wheel_track_ = false;
   // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
   // the robot's frame; zero after a restore) and the stamp of the last scan used.
   Pose2 velocity_;

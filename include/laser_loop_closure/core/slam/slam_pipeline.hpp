@@ -48,6 +48,7 @@ struct SlamCounters {
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
   std::size_t recovered_steps = 0;  ///< of the matched ones, the laser's motion from a correlative search over the wheels
+  std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;

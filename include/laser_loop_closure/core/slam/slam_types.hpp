@@ -78,6 +78,7 @@ struct OdometryStep {
   bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
   /// matched from the correlative search's start, over the wheels (correlative_recovery)
   bool recovered = false;
+  bool tracked = false;  ///< ICP seeded by the tracked guess (match_every_scan), not the wheels'
 };
 
 /// One aligned candidate pair and its verdict.
