@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <stdexcept>
 
@@ -27,6 +28,7 @@ std::string LoopDetectorOptions::validate() const {
   if (!(translation_sigma > 0.0) || !(rotation_sigma > 0.0)) return "translation_sigma and rotation_sigma must be > 0";
   if (!(nearby_distance > 0.0) || !std::isfinite(nearby_distance)) return "nearby_distance must be > 0 m";
   if (!(nearby_max_std > 0.0) || !std::isfinite(nearby_max_std)) return "nearby_max_std must be > 0 m";
+  if (!(nearby_min_predicted_fit >= 0.0 && nearby_min_predicted_fit <= 1.0)) return "nearby_min_predicted_fit must be in [0, 1]";
   const std::string context_error = context.validate();
   if (!context_error.empty()) return "context: " + context_error;
   return calibration.validate();
@@ -117,6 +119,30 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   return loop;
 }
 
+LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const {
+  const auto start = std::chrono::steady_clock::now();
+  const PreparedScan& a = *prepared_.at(from);
+  const PreparedScan& b = *prepared_.at(to);
+  const IcpResult icp = aligner_.refine(a, b, predicted);
+  const double fit = icp.converged ? aligner_.fit(a, b, icp.pose) : 0.0;
+  if (fit >= options_.nearby_min_predicted_fit) {  // searched as any candidate
+    LoopClosure loop = verify(from, to, score);
+    loop.seconds = secondsSince(start);
+    return loop;
+  }
+  LoopClosure loop;
+  loop.from = from;
+  loop.to = to;
+  loop.score = score;
+  loop.pose = icp.converged ? icp.pose : predicted;
+  char text[128];
+  std::snprintf(text, sizeof text, "validation: from the map's pose ICP fits %.3f, below nearby_min_predicted_fit %.3f", fit,
+                options_.nearby_min_predicted_fit);
+  loop.reject_reason = text;
+  loop.seconds = secondsSince(start);
+  return loop;
+}
+
 ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const {
   auto scans = [&](std::size_t keyframe, std::size_t older_than) {
     std::vector<ContextScan> found;
@@ -149,7 +175,7 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
     return result;
   }
   // Checks one candidate and aligns it when let through; true once a loop is found.
-  auto tryCandidate = [&](std::size_t keyframe, double score) {
+  auto tryCandidate = [&](std::size_t keyframe, double score, const Pose2* predicted = nullptr) {
     std::string refused;
     if (check) {
       const auto check_start = std::chrono::steady_clock::now();
@@ -165,7 +191,9 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
       result.not_aligned.push_back(std::move(skipped));
       return false;
     }
-    result.aligned.push_back(verify(keyframe, index, score));
+    result.aligned.push_back(predicted && options_.nearby_min_predicted_fit > 0.0
+                                 ? verifyFromPrediction(keyframe, index, score, *predicted)
+                                 : verify(keyframe, index, score));
     LoopClosure& loop = result.aligned.back();
     if (loop.accepted && context && options_.context.enabled) {
       const auto context_start = std::chrono::steady_clock::now();
@@ -198,11 +226,12 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
     };
     // A few more than wanted: the check may refuse some, and classifier candidates come back.
     const std::size_t before_nearby = result.aligned.size();
-    for (std::size_t keyframe : nearby(index, result.compared, options_.nearby_distance, options_.nearby_max_std,
-                                         2 * options_.nearby_candidates + 3)) {
+    for (const NearbyKeyframe& near : nearby(index, result.compared, options_.nearby_distance, options_.nearby_max_std,
+                                             2 * options_.nearby_candidates + 3)) {
       if (result.nearby == options_.nearby_candidates) break;
+      const std::size_t keyframe = near.keyframe;
       if (keyframe >= result.compared || seen(keyframe)) continue;
-      const bool accepted = tryCandidate(keyframe, pairScore(keyframe, index));
+      const bool accepted = tryCandidate(keyframe, pairScore(keyframe, index), near.has_pose && isFinite(near.pose) ? &near.pose : nullptr);
       result.nearby = result.aligned.size() - before_nearby;
       if (accepted && options_.stop_at_first_accepted) break;
     }

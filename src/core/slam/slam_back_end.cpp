@@ -54,7 +54,7 @@ double SlamBackEnd::placeChi2(std::size_t from, std::size_t to, double radius) {
   return chi2;
 }
 
-std::vector<std::size_t> SlamBackEnd::nearbyKeyframes(std::size_t index, std::size_t before, double max_distance,
+std::vector<NearbyKeyframe> SlamBackEnd::nearbyKeyframes(std::size_t index, std::size_t before, double max_distance,
                                                       double max_std, std::size_t count) {
   if (!esdf_ || index >= esdf_->size()) throw std::out_of_range("nearbyKeyframes: no keyframe " + std::to_string(index));
   const auto start = std::chrono::steady_clock::now();
@@ -65,7 +65,7 @@ std::vector<std::size_t> SlamBackEnd::nearbyKeyframes(std::size_t index, std::si
     if (distance <= max_distance) near.emplace_back(distance, k);
   }
   std::sort(near.begin(), near.end());
-  std::vector<std::size_t> keyframes;
+  std::vector<NearbyKeyframe> keyframes;
   // The uncertainty costs a covariance recovery each: only the nearest few are asked.
   for (std::size_t i = 0; i < near.size() && i < 4 * count && keyframes.size() < count; ++i) {
     Pose2 relative;
@@ -74,7 +74,7 @@ std::vector<std::size_t> SlamBackEnd::nearbyKeyframes(std::size_t index, std::si
     // The larger eigenvalue of the 2x2 translation block, in closed form.
     const double a = covariance(0, 0), b = covariance(0, 1), c = covariance(1, 1);
     const double largest = 0.5 * (a + c) + std::hypot(0.5 * (a - c), b);
-    if (std::sqrt(std::max(largest, 0.0)) <= max_std) keyframes.push_back(near[i].second);
+    if (std::sqrt(std::max(largest, 0.0)) <= max_std) keyframes.push_back({near[i].second, true, relative});
   }
   counters_.seconds += secondsSince(start);
   return keyframes;

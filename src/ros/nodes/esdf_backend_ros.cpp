@@ -222,9 +222,13 @@ bool EsdfBackendRos::placeCheck(laser_loop_closure::PlaceCheck::Request& request
 bool EsdfBackendRos::nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Request& request,
                                      laser_loop_closure::NearbyKeyframes::Response& response) {
   answerFromFrontEndState(request.keyframes, request.loops, nearby_asked_, nearby_unanswered_, response, [&] {
-    for (std::size_t k : back_->nearbyKeyframes(request.keyframe, request.before, request.max_distance, request.max_std,
-                                                request.count))
-      response.nearby.push_back(std::uint32_t(k));
+    for (const llc::NearbyKeyframe& near : back_->nearbyKeyframes(request.keyframe, request.before, request.max_distance,
+                                                                  request.max_std, request.count)) {
+      response.nearby.push_back(std::uint32_t(near.keyframe));
+      geometry_msgs::Pose2D pose;
+      pose.x = near.pose.x, pose.y = near.pose.y, pose.theta = near.pose.theta;
+      response.poses.push_back(pose);
+    }
   });
   return true;
 }

@@ -308,7 +308,7 @@ std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::si
   return llc::placeGateVerdict(system_.slam.place_gate, check.response.chi2);
 }
 
-std::vector<std::size_t> LoopClosureRos::nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance,
+std::vector<llc::NearbyKeyframe> LoopClosureRos::nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance,
                                                          double max_std, std::size_t count) {
   ++nearby_asked_;
   laser_loop_closure::NearbyKeyframes ask;
@@ -326,7 +326,16 @@ std::vector<std::size_t> LoopClosureRos::nearbyKeyframes(std::size_t keyframe, s
                       options_.nearby_service.c_str(), why.c_str());
     return {};
   }
-  return std::vector<std::size_t>(ask.response.nearby.begin(), ask.response.nearby.end());
+  // Without a pose for each (an older back end), each is searched with no guess.
+  const bool posed = ask.response.poses.size() == ask.response.nearby.size();
+  std::vector<llc::NearbyKeyframe> nearby;
+  for (std::size_t i = 0; i < ask.response.nearby.size(); ++i) {
+    llc::NearbyKeyframe near;
+    near.keyframe = ask.response.nearby[i];
+    if (posed) near.has_pose = true, near.pose = {ask.response.poses[i].x, ask.response.poses[i].y, ask.response.poses[i].theta};
+    nearby.push_back(near);
+  }
+  return nearby;
 }
 
 void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe) {

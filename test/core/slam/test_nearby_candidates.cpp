@@ -35,7 +35,9 @@ struct RecordingSource {
   llc::NearbyKeyframes source() {
     return [this](std::size_t i, std::size_t b, double distance, double std, std::size_t c) {
       ++calls, index = i, before = b, max_distance = distance, max_std = std, count = c;
-      return offered;
+      std::vector<llc::NearbyKeyframe> nearby;
+      for (std::size_t k : offered) nearby.push_back({k, false, llc::Pose2{}});  // no pose: searched as before
+      return nearby;
     };
   }
 };
@@ -109,6 +111,52 @@ TEST(NearbyCandidates, TheMapsNearbyKeyframesAreAlignedWhenTheClassifierOffersNo
   EXPECT_EQ(unasked.calls, 0u);
 }
 
+
+TEST(NearbyCandidates, ANearbyKeyframeWhoseMapPoseFitsNothingIsRefusedWithoutTheSearch) {
+  const llc::SimDrive drive = simulatedDrive(80.0);
+  llc::LoopDetectorOptions options;
+  options.min_keyframe_gap = 5;
+  options.score_threshold = 1.0;  // the classifier offers nothing
+  options.nearby_candidates = 1;
+  const llc::Pose2 truth = llc::between(drive.frames[0].truth, llc::compose(drive.frames[1].truth, llc::Pose2{0.0, 0.0, 2.0}));
+  for (const double min_fit : {0.3, 0.0}) {
+    options.nearby_min_predicted_fit = min_fit;
+    llc::LoopDetector detector(defaultModel(), llc::ScanAlignerOptions{}, options);
+    for (std::size_t i = 0; i < drive.frames.size(); i += 3) detector.add(frameScan(drive, drive.frames[i]));
+    const std::size_t query = detector.add(llc::rotateScan(frameScan(drive, drive.frames[1]), 2.0));
+    auto offering = [](llc::Pose2 pose) -> llc::NearbyKeyframes {
+      return [pose](std::size_t, std::size_t, double, double, std::size_t) {
+        return std::vector<llc::NearbyKeyframe>{{0, true, pose}};
+      };
+    };
+    // Where the map puts it right (0.3 m and 0.05 rad off): ICP fits, the pair is searched
+    // as any candidate and the loop found.
+    const llc::LoopDetectionResult right = detector.detect(query, {}, offering(llc::compose(truth, llc::Pose2{0.3, 0.0, 0.05})));
+    ASSERT_EQ(right.aligned.size(), 1u);
+    EXPECT_TRUE(right.aligned.front().accepted) << right.aligned.front().reject_reason;
+    // Where it fits nothing (turned half round, 6 m off): refused by the cheap ICP alone,
+    // unless the prefilter is off (then the search with no guess finds the truth).
+    const llc::LoopDetectionResult wrong = detector.detect(query, {}, offering(llc::compose(truth, llc::Pose2{6.0, 0.0, 3.0})));
+    ASSERT_EQ(wrong.aligned.size(), 1u);
+    EXPECT_EQ(wrong.nearby, 1u);
+    const llc::LoopClosure& loop = wrong.aligned.front();
+    if (min_fit > 0.0) {
+      EXPECT_FALSE(loop.accepted);
+      EXPECT_NE(loop.reject_reason.find("nearby_min_predicted_fit"), std::string::npos) << loop.reject_reason;
+      EXPECT_EQ(llc::loopRefusalOf(loop.reject_reason), llc::LoopRefusal::kValidation);
+    } else {
+      ASSERT_TRUE(loop.accepted) << loop.reject_reason;
+      const llc::Pose2 error = llc::between(truth, loop.pose);
+      EXPECT_LT(std::hypot(error.x, error.y), 0.1);
+    }
+  }
+  llc::LoopDetectorOptions bad;
+  for (const double value : {-0.1, 1.5, std::nan("")}) {
+    bad.nearby_min_predicted_fit = value;
+    EXPECT_NE(bad.validate().find("nearby_min_predicted_fit"), std::string::npos) << value;
+  }
+}
+
 TEST(NearbyCandidates, AreNotAskedForOnceTheClassifiersGaveALoopAndNeverAlignedTwice) {
   const llc::SimDrive drive = simulatedDrive(80.0);
   llc::LoopDetectorOptions options;
@@ -168,13 +216,24 @@ TEST(NearbyCandidates, TheBackEndOffersTheNearestOlderKeyframesWhoseRelativePosi
   ASSERT_NEAR(back.poses()[9].x, 1.0, 1e-9);
   const double any = 1e3;
   // Older than 5: keyframe 1 (0 m), then 0 and 2 (1 m, the older first), then 3 (2 m).
-  EXPECT_EQ(back.nearbyKeyframes(9, 5, 10.0, any, 4), (std::vector<std::size_t>{1, 0, 2, 3}));
-  EXPECT_EQ(back.nearbyKeyframes(9, 5, 10.0, any, 1), (std::vector<std::size_t>{1}));
-  EXPECT_EQ(back.nearbyKeyframes(9, 5, 1.5, any, 10), (std::vector<std::size_t>{1, 0, 2}));
-  EXPECT_EQ(back.nearbyKeyframes(9, 1, 10.0, any, 10), (std::vector<std::size_t>{0}));
-  EXPECT_TRUE(back.nearbyKeyframes(9, 0, 10.0, any, 10).empty());
+  auto indices = [&](std::size_t index, std::size_t before, double distance, double std, std::size_t count) {
+    std::vector<std::size_t> found;
+    for (const llc::NearbyKeyframe& near : back.nearbyKeyframes(index, before, distance, std, count)) {
+      EXPECT_TRUE(near.has_pose);
+      // Keyframe 9 (x = 1) in the frame of keyframe k (x = k for k <= 5).
+      EXPECT_NEAR(near.pose.x, 1.0 - double(near.keyframe), 1e-6) << near.keyframe;
+      EXPECT_NEAR(near.pose.y, 0.0, 1e-6);
+      found.push_back(near.keyframe);
+    }
+    return found;
+  };
+  EXPECT_EQ(indices(9, 5, 10.0, any, 4), (std::vector<std::size_t>{1, 0, 2, 3}));
+  EXPECT_EQ(indices(9, 5, 10.0, any, 1), (std::vector<std::size_t>{1}));
+  EXPECT_EQ(indices(9, 5, 1.5, any, 10), (std::vector<std::size_t>{1, 0, 2}));
+  EXPECT_EQ(indices(9, 1, 10.0, any, 10), (std::vector<std::size_t>{0}));
+  EXPECT_TRUE(indices(9, 0, 10.0, any, 10).empty());
   // Keyframe 3 is 6 steps from 9 (0.0245 m), 4 is 5 (0.0224 m), 1 is 8 (0.028 m).
-  EXPECT_EQ(back.nearbyKeyframes(9, 5, 10.0, 0.0255, 10), (std::vector<std::size_t>{3, 4}));
+  EXPECT_EQ(indices(9, 5, 10.0, 0.0255, 10), (std::vector<std::size_t>{3, 4}));
   EXPECT_TRUE(back.nearbyKeyframes(9, 5, 10.0, 0.02, 10).empty());
   EXPECT_THROW(back.nearbyKeyframes(10, 5, 10.0, any, 1), std::out_of_range);
   EXPECT_THROW(llc::SlamBackEnd().nearbyKeyframes(0, 0, 10.0, any, 1), std::out_of_range);

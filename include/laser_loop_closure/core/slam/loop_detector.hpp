@@ -36,6 +36,11 @@ struct LoopDetectorOptions {
   /// m; only keyframes whose position relative to the new one the map knows this well (largest
   /// standard deviation): where it does not, a look-alike place nearby is aligned as readily.
   double nearby_max_std = 1.0;
+  /// A nearby keyframe is first aligned by ICP from where the map puts the new one; when that
+  /// fits (ScanAligner::fit) below this, it is refused without the search with no guess (a
+  /// keyframe near on the map that does not see the same place, most of them: cheap to tell).
+  /// 0: every nearby keyframe searched.
+  double nearby_min_predicted_fit = 0.3;
   std::size_t threads = 1;            ///< threads of the classifier query
   /// Floors added to ICP's covariance of a loop (which only knows the residuals, and is
   /// optimistic): standard deviations, as the back end's chi-square gate sees them.
@@ -71,8 +76,8 @@ using CandidateCheck = std::function<std::string(std::size_t from, std::size_t t
 /// Asked for keyframes older than `before` that the map puts within `max_distance` of keyframe
 /// `index`, their relative position known to `max_std`, nearest first, at most `count` (e.g.
 /// SlamBackEnd::nearbyKeyframes).
-using NearbyKeyframes = std::function<std::vector<std::size_t>(std::size_t index, std::size_t before, double max_distance,
-                                                               double max_std, std::size_t count)>;
+using NearbyKeyframes = std::function<std::vector<NearbyKeyframe>(std::size_t index, std::size_t before, double max_distance,
+                                                                  double max_std, std::size_t count)>;
 
 /// A keyframe of a context and its pose in the frame of the keyframe it surrounds.
 struct ContextKeyframe {
@@ -113,6 +118,9 @@ class LoopDetector {
                              const KeyframeContext& context = {}) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
+  /// A nearby keyframe: ICP from where the map puts `to` in `from`'s frame; below
+  /// nearby_min_predicted_fit refused (validation), else verify()'s search with no guess.
+  LoopClosure verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const;
 
   std::vector<double> features(std::size_t index) const { return store_.features(index); }
   /// The feature vector the detector would store for this scan.

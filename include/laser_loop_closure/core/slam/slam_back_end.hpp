@@ -61,10 +61,10 @@ class SlamBackEnd {
   double placeChi2(std::size_t from, std::size_t to, double radius);
   /// Keyframes older than `before` whose optimised position lies within max_distance of keyframe
   /// `index`'s and whose position relative to it is known to max_std (the largest standard
-  /// deviation of the relative translation), nearest first, at most `count` (a NearbyKeyframes
-  /// source). Throws std::out_of_range for a keyframe it does not have.
-  std::vector<std::size_t> nearbyKeyframes(std::size_t index, std::size_t before, double max_distance, double max_std,
-                                           std::size_t count);
+  /// deviation of the relative translation), nearest first, at most `count`, each with where the
+  /// map puts keyframe `index` in its frame (a NearbyKeyframes source). Throws std::out_of_range for a keyframe it does not have.
+  std::vector<NearbyKeyframe> nearbyKeyframes(std::size_t index, std::size_t before, double max_distance, double max_std,
+                                              std::size_t count);
   /// Marginal covariance of the newest keyframe's pose (zero when there is none).
   Eigen::Matrix3d latestCovariance();
   bool gateLoops() const { return gate_loops_; }

@@ -90,6 +90,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/nearby_candidates", loops.nearby_candidates);
   visit("loops/nearby_distance", loops.nearby_distance);
   visit("loops/nearby_max_std", loops.nearby_max_std);
+  visit("loops/nearby_min_predicted_fit", loops.nearby_min_predicted_fit);
   visit("loops/threads", loops.threads);
   visit("loops/translation_sigma", loops.translation_sigma);
   visit("loops/rotation_sigma", loops.rotation_sigma);

@@ -81,6 +81,13 @@ struct OdometryStep {
   bool tracked = false;  ///< ICP seeded by the tracked guess (match_every_scan), not the wheels'
 };
 
+/// A keyframe the map puts near a new one (a NearbyKeyframes answer).
+struct NearbyKeyframe {
+  std::size_t keyframe = 0;
+  bool has_pose = false;  ///< pose known (a source that gives none: the pair is searched with no guess)
+  Pose2 pose;             ///< the new keyframe in this one's frame, where the map puts it
+};
+
 /// One aligned candidate pair and its verdict.
 struct LoopClosure {
   std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one

@@ -126,7 +126,7 @@ class LoopClosureRos {
   std::string placeCheck(std::size_t from, std::size_t to, std::size_t keyframe);
   /// The nearby candidates of keyframe `keyframe`: the back end's through nearby_service, or
   /// none when it does not answer. Worker thread, under mutex_.
-  std::vector<std::size_t> nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance, double max_std,
+  std::vector<llc::NearbyKeyframe> nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance, double max_std,
                                            std::size_t count);
   /// Calls a back-end service over `client` (persistent; made again after a failure, at most
   /// every 5 s, at `retry`): "" when it answered, else why not (then `client` is shut down
