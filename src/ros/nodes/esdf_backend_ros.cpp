@@ -225,9 +225,7 @@ bool EsdfBackendRos::nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Reques
     for (const llc::NearbyKeyframe& near : back_->nearbyKeyframes(request.keyframe, request.before, request.max_distance,
                                                                   request.max_std, request.count)) {
       response.nearby.push_back(std::uint32_t(near.keyframe));
-      geometry_msgs::Pose2D pose;
-      pose.x = near.pose.x, pose.y = near.pose.y, pose.theta = near.pose.theta;
-      response.poses.push_back(pose);
+      response.poses.push_back(toPose2D(near.pose));
     }
   });
   return true;

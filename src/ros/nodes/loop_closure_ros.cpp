@@ -332,7 +332,7 @@ std::vector<llc::NearbyKeyframe> LoopClosureRos::nearbyKeyframes(std::size_t key
   for (std::size_t i = 0; i < ask.response.nearby.size(); ++i) {
     llc::NearbyKeyframe near;
     near.keyframe = ask.response.nearby[i];
-    if (posed) near.has_pose = true, near.pose = {ask.response.poses[i].x, ask.response.poses[i].y, ask.response.poses[i].theta};
+    if (posed) near.has_pose = true, near.pose = fromPose2D(ask.response.poses[i]);
     nearby.push_back(near);
   }
   return nearby;
