@@ -2,6 +2,7 @@
 // a master; writes the trajectory, the loops, the map and a report.
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -201,6 +202,20 @@ struct OffsetChoice {
   std::string table;  ///< report lines of the estimate (auto only)
 };
 
+/// The time offset (s) that shifts odometry as `offset` scans do: offset times the median
+/// scan period, plus the --odometry-time-offset already applied. Rounded to 10 ms.
+double suggestedTimeOffset(const Args& args, const llc::ScanSequence& sequence, int offset) {
+  std::vector<double> periods;
+  for (std::size_t i = 1; i < sequence.scans.size(); ++i) {
+    const double dt = sequence.scans[i].stamp - sequence.scans[i - 1].stamp;
+    if (dt > 0.0) periods.push_back(dt);
+  }
+  if (periods.empty()) return args.number("odometry-time-offset", 0.0);
+  std::nth_element(periods.begin(), periods.begin() + long(periods.size() / 2), periods.end());
+  const double seconds = args.number("odometry-time-offset", 0.0) + offset * periods[periods.size() / 2];
+  return std::round(seconds * 100.0) / 100.0;
+}
+
 /// --odometry-offset N (scans), or auto: the offset whose odometry ICP corrects least.
 OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& sequence, const llc::SlamOptions& options) {
   OffsetChoice choice;
@@ -225,6 +240,9 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
     table << "odometry_offset_estimate=none (" << estimate.reason << ")\n";
   }
   choice.offset = estimate.ok ? estimate.best_offset : 0;
+  if (estimate.ok) table << "odometry_time_offset_suggested=" << suggestedTimeOffset(args, sequence, choice.offset)
+                         << "  (s: the nodelets' odometry_time_offset, llc's --odometry-time-offset; the offset's "
+                            "scans times the median scan period, plus any --odometry-time-offset given)\n";
   choice.table = table.str();
   return choice;
 }
@@ -246,6 +264,9 @@ int runSlam(const Args& args) {
     const long offset = args.integer("odometry-offset", 0);
     if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
   }
+  if (args.has("odometry-time-offset") && !args.has("bag"))
+    throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
+  bagOptions(args);  // its flags checked now
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
   const std::vector<llc::Relation> relations =
       args.has("relations") ? loadRelationsFile(args.get("relations", "")) : std::vector<llc::Relation>{};

@@ -123,7 +123,8 @@ void alignmentOptionsHelp(std::ostream& out) {
 
 void inputHelp(std::ostream& out) {
   out << "LOG is a CARMEN log (.log, .log.gz) or a rosbag (.bag); for a bag: [--front-topic /scan_front]\n"
-         "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n";
+         "  [--back-topic /scan_back] [--odom-topic /odom] [--truth-topic /ground_truth]\n"
+         "  [--odometry-time-offset 0]   (s added to each scan's stamp where its odometry is read, in [-1, 1])\n";
 }
 
 void usage(std::ostream& out) {

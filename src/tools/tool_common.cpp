@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -19,7 +20,8 @@ namespace llc_tool {
 // The keys of a model file's `features:` section (docs/file_formats.md, "Model file").
 const std::vector<std::string> kFeatureFlags = {"features/set", "features/r_max", "features/g_max_dist",
                                                 "features/g_min_size", "features/closed_ring"};
-const std::vector<std::string> kInputFlags = {"front-topic", "back-topic", "odom-topic", "truth-topic"};
+const std::vector<std::string> kInputFlags = {"front-topic", "back-topic", "odom-topic", "truth-topic",
+                                              "odometry-time-offset"};
 
 llc_ros::BagReadOptions bagOptions(const Args& args) {
   llc_ros::BagReadOptions options;
@@ -27,6 +29,9 @@ llc_ros::BagReadOptions bagOptions(const Args& args) {
   options.topics.back = args.get("back-topic", options.topics.back);
   options.topics.odom = args.get("odom-topic", options.topics.odom);
   options.topics.truth = args.get("truth-topic", options.topics.truth);
+  options.odometry_time_offset = args.number("odometry-time-offset", 0.0);
+  if (!(std::fabs(options.odometry_time_offset) <= 1.0))
+    throw UsageError("--odometry-time-offset must be in [-1, 1] s");
   return options;
 }
 
@@ -175,8 +180,12 @@ llc::FeatureOptions featureOptions(const Args& args) {
 llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
   std::vector<std::string> warnings;
   llc::ScanSequence sequence;
+  const bool bag = path.size() >= 4 && path.compare(path.size() - 4, 4, ".bag") == 0;
+  if (args.has("odometry-time-offset") && !bag)
+    throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
+  const llc_ros::BagReadOptions bag_options = bagOptions(args);  // a bad flag: UsageError, not ToolError
   try {
-    sequence = llc_ros::loadDrive(path, bagOptions(args), &warnings);
+    sequence = llc_ros::loadDrive(path, bag_options, &warnings);
   } catch (const std::runtime_error& e) {
     throw ToolError(e.what());
   }

@@ -80,6 +80,8 @@ using llc_ros::PairData;
 
 /// Flags naming the topics of a .bag input (every subcommand that reads a log takes them).
 extern const std::vector<std::string> kInputFlags;
+/// The bag reader's options from kInputFlags; UsageError on a bad --odometry-time-offset.
+llc_ros::BagReadOptions bagOptions(const Args& args);
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
 llc::ScanSequence loadSequence(const std::string& path, const Args& args);
 using llc_ros::extractAll;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <limits>
 #include <set>
 #include <string>
 
@@ -56,6 +57,14 @@ TEST(RosConfig, BadOptionsAreRefused) {
   loop = llc_ros::LoopClosureNodeOptions{};
   loop.tf_queue_size = 0;
   EXPECT_NE(loop.validate(), "");
+  // Odometry after the scan's stamp may not be in tf yet when the scan passes its filter.
+  for (const double offset : {0.05, -1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    loop = llc_ros::LoopClosureNodeOptions{};
+    loop.odometry_time_offset = offset;
+    EXPECT_NE(loop.validate(), "") << offset;
+  }
+  loop.odometry_time_offset = -0.2;
+  EXPECT_EQ(loop.validate(), "");
 }
 
 }  // namespace

@@ -216,6 +216,43 @@ TEST(SimBag, UpsideDownMountsAreMirroredAndTiltedOnesRefused) {
   }
 }
 
+TEST(SimBag, TheOdometryTimeOffsetReadsTheWheelsThatMuchBeforeTheScan) {
+  llc_test::TempDir dir;
+  const SimFixture sim;
+  llc_ros::writeSimBag(sim.drive, dir.file("sim.bag"));
+  const std::vector<llc::SimFrame>& frames = sim.drive.frames;
+  ASSERT_GT(frames.size(), 10u);
+  const double period = frames[1].stamp - frames[0].stamp;
+  ASSERT_GT(period, 0.0);
+  llc_ros::BagReadOptions options;
+  options.odometry_time_offset = -period;  // each scan gets the odometry of the frame before it
+  const llc::ScanSequence whole = llc_ros::readBagSequence(dir.file("sim.bag"), options);
+  options.odometry_time_offset = -period / 2;  // half way between the two frames
+  const llc::ScanSequence half = llc_ros::readBagSequence(dir.file("sim.bag"), options);
+  ASSERT_EQ(whole.scans.size(), frames.size());
+  ASSERT_EQ(half.scans.size(), frames.size());
+  // The first scan has no odometry before it: it is held at the first message.
+  EXPECT_NEAR(whole.scans[0].odometry.x, frames[0].odometry.x, 1e-9);
+  std::size_t checked = 0;
+  for (std::size_t k = 1; k < frames.size(); ++k) {
+    if (std::abs((frames[k].stamp - frames[k - 1].stamp) - period) > 1e-6) continue;  // an uneven step
+    ++checked;
+    // Within 10 um: the bag's stamps are whole nanoseconds (at 1.6e9 s, a double's 0.2 us).
+    const llc::Pose2 &before = frames[k - 1].odometry, &now = frames[k].odometry;
+    EXPECT_NEAR(whole.scans[k].odometry.x, before.x, 1e-5) << k;
+    EXPECT_NEAR(whole.scans[k].odometry.y, before.y, 1e-5) << k;
+    EXPECT_NEAR(whole.scans[k].odometry.theta, before.theta, 1e-5) << k;
+    EXPECT_NEAR(half.scans[k].odometry.x, (before.x + now.x) / 2, 1e-5) << k;
+    EXPECT_NEAR(half.scans[k].odometry.y, (before.y + now.y) / 2, 1e-5) << k;
+    EXPECT_GT(std::hypot(now.x - before.x, now.y - before.y), 1e-3) << k;  // the check can tell them apart
+    // The truth is read at the scan's own stamp.
+    EXPECT_NEAR(whole.scans[k].truth.x, frames[k].truth.x, 1e-9) << k;
+  }
+  EXPECT_GT(checked, frames.size() / 2);
+  options.odometry_time_offset = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(llc_ros::readBagSequence(dir.file("sim.bag"), options), llc_ros::BagError);
+}
+
 TEST(SimBag, BadBagsAndTopicsGiveAClearError) {
   llc_test::TempDir dir;
   const SimFixture sim;

@@ -5,7 +5,9 @@
 // The place gate runs in both: the nodelets ask the back end through ~place_check, which
 // answers from the state llc slam's back end has at that moment. The launch file keeps the
 // front end from skipping scans to catch up (max_lag 0, a long queue), so the outcome does not
-// depend on how busy the machine is.
+// depend on how busy the machine is. Both read the wheels 0.05 s before each scan's stamp
+// (odometry_time_offset; --odometry-time-offset), half the drive's scan period: the nodelet
+// from tf, llc slam from the bag's /odom, each interpolating.
 #include <gtest/gtest.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>

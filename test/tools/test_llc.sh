@@ -67,6 +67,8 @@ check "slam --drift: unknown preset" 2 "--drift must be 'moderate' or 'strong'" 
 check "slam --drift: negative noise" 2 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
 printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
+check "slam: --odometry-time-offset out of range" 2 "odometry-time-offset must be in \[-1, 1\] s" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --odometry-time-offset 2
+check "slam: --odometry-time-offset on a log" 2 "odometry-time-offset is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --odometry-time-offset -0.1
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
 check "slam: the saved session maps a second run as a new chain" 0 "restored [0-9]+ keyframes .*a new chain" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_again" --quiet --load-session "$TMP/sim.llcsession"
 check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F= -v first="$(awk -F, '$3 == 1' "$TMP/slam/loops.csv" | wc -l)" '
@@ -230,6 +232,8 @@ if [ -f "$LOG" ]; then
     # The Kümmerle benchmark: every relation evaluated on the run's own per-scan poses; the same
     # figure again from scans.csv by llc relations, and near it from the keyframes alone.
     check "slam --relations on MIT CSAIL" 0 "^relations_evaluated=1172$" -- "$LLC" slam --log "$MIT" --out "$TMP/mit" --odometry-offset auto --relations "${MIT%.log.gz}.relations" --quiet
+    # Its scans come one scan after their odometry: -1 scans, 0.21 s for a bag and the nodelets.
+    check "MIT CSAIL: the odometry offset in seconds" 0 "^odometry_time_offset_suggested=-0.21 " -- cat "$TMP/mit/report.txt"
     check "MIT CSAIL relations: mean translational error under 0.1 m" 0 "^ok$" -- awk -F= '/^relation_translation_mean_m=/ {print ($2 < 0.1 ? "ok" : "error " $2)}' "$TMP/mit/report.txt"
     mean="$(sed -n 's/^relation_translation_mean_m=//p' "$TMP/mit/report.txt")"
     check "llc relations on scans.csv gives slam's figure" 0 "^relation_translation_mean_m=$mean$" -- "$LLC" relations --log "$MIT" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations" --out "$TMP/mit/errors.csv"

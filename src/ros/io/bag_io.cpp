@@ -70,6 +70,8 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
   } catch (const rosbag::BagException& e) {
     throw BagError(path + ": not a readable bag (" + e.what() + ")");
   }
+  if (!std::isfinite(options.odometry_time_offset))
+    throw BagError(path + ": the odometry time offset must be a finite number of seconds");
   try {
     tf2::BufferCore static_transforms;
     loadStaticTransforms(bag, &static_transforms);
@@ -151,7 +153,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         ++sequence.merged_count;
       }
       logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
-      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : odometry.at(stamp);
+      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : odometry.at(stamp + options.odometry_time_offset);
       logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
       sequence.scans.push_back(std::move(logged));
     }

@@ -21,6 +21,10 @@ std::string LoopClosureNodeOptions::validate() const {
   if (publish_odometry_tf && use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   if (wheel_odometry_wait_scans < 0) return "wheel_odometry_wait_scans must be 0 (wait for ever) or more";
+  // Not later than the scan: tf's filter lets a scan through once its own stamp's transform is
+  // there, and a later one might not be yet.
+  if (!(odometry_time_offset >= -1.0 && odometry_time_offset <= 0.0))
+    return "odometry_time_offset must be in [-1, 0] s (odometry read at most 1 s before the scan's stamp)";
   return "";
 }
 
@@ -137,6 +141,20 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
   if (odometry_filter_ && !without_wheels_) odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
 }
 
+bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose,
+                                         std::string* error) const {
+  const ros::Time& stamp = msg.header.stamp;
+  if (options_.odometry_time_offset == 0.0)
+    return lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
+  const double shifted = stamp.toSec() + options_.odometry_time_offset;  // never 0: tf reads that as "latest"
+  if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, shifted > 1e-9 ? ros::Time(shifted) : ros::Time(0, 1),
+                  pose, error))
+    return true;
+  // Before the first odometry (the drive's first scans) the earliest there is, held as the bag
+  // reader holds it: the scan's own stamp, which its tf filter found.
+  return lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
+}
+
 void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) {
   // The tf filter lets a scan go as soon as its transform is in the buffer, so after a gap in
   // the odometry a new scan can pass before older ones that waited; the front end must see
@@ -160,8 +178,7 @@ void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) 
     PendingScan head = waiting->second;
     awaiting_odometry_.erase(waiting);
     std::string error;
-    head.has_wheel_odometry = lookupPose2(tf_buffer_, options_.odom_frame, head.msg->header.frame_id,
-                                          head.msg->header.stamp, &head.wheel_odometry, &error);
+    head.has_wheel_odometry = lookupWheelOdometry(*head.msg, &head.wheel_odometry, &error);
     if (head.has_wheel_odometry) {
       ++filter_passed_;
       resolved_[head.index] = head;
@@ -183,8 +200,7 @@ void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::Const
   ++filter_passed_;
   // The filter saw the transform in the buffer: this lookup does not wait.
   std::string error;
-  pending.has_wheel_odometry = lookupPose2(tf_buffer_, options_.odom_frame, msg->header.frame_id, msg->header.stamp,
-                                           &pending.wheel_odometry, &error);
+  pending.has_wheel_odometry = lookupWheelOdometry(*msg, &pending.wheel_odometry, &error);
   if (!pending.has_wheel_odometry) {
     ++lookup_failed_;
     last_filter_problem_ = "no wheel odometry: " + error;

@@ -28,6 +28,10 @@ struct BagReadOptions {
   /// Where a scanner sits whose frame /tf_static does not mount on the base frame (a bag
   /// recorded without tf): identity, as the nodelets' mount_x/y/yaw default.
   llc::Pose2 fallback_mount;
+  /// s added to each scan's stamp where its wheel odometry is read (interpolated): a scanner
+  /// whose stamps come d s after the wheels' (stamped on arrival) wants -d. As the nodelets'
+  /// odometry_time_offset; `llc slam --odometry-offset auto` suggests it.
+  double odometry_time_offset = 0.0;
 };
 
 /// What the reader met besides the scans it returns.
@@ -48,7 +52,8 @@ class BagError : public std::runtime_error {
 /// One scan per usable front LaserScan, in bag order (index = position among them), merged
 /// with the back scan nearest in time within max_merge_gap into a 360-degree scan in the base
 /// frame. Scanner mountings come from /tf_static (level or upside-down mounts; a tilted one is
-/// an error). Truth and odometry poses are interpolated at each scan's stamp. Front scans
+/// an error). Truth and odometry poses are interpolated at each scan's stamp (the odometry at the
+/// stamp + odometry_time_offset; a non-finite offset is a BagError). Front scans
 /// that are malformed (see toScan) or older than the scan before them are skipped and counted.
 llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions& options = {},
                                   BagReadReport* report = nullptr);

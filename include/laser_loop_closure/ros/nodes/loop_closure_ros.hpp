@@ -57,6 +57,10 @@ struct LoopClosureNodeOptions {
   /// too) and broadcast odom_frame -> the scan's frame from scan matching, with one warning
   /// (0: wait for the wheels for ever).
   int wheel_odometry_wait_scans = 50;
+  /// s added to each scan's stamp where its wheel odometry is looked up in tf, in [-1, 0]: a
+  /// scanner whose stamps come d s after the wheels' (stamped on arrival) wants -d. `llc slam
+  /// --bag B --odometry-offset auto` suggests it (odometry_time_offset_suggested).
+  double odometry_time_offset = 0.0;
   int tf_queue_size = 100;           ///< scans waiting for their odometry transform (none waits on a clock); when full the oldest is dropped
   int queue_size = 200;              ///< scans (odometry attached) waiting for the worker thread; when full the oldest is dropped
   /// s of scan time the worker may fall behind the newest scan before it skips the oldest
@@ -79,6 +83,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("use_wheel_odometry", o.use_wheel_odometry);
   visit("publish_odometry_tf", o.publish_odometry_tf);
   visit("wheel_odometry_wait_scans", o.wheel_odometry_wait_scans);
+  visit("odometry_time_offset", o.odometry_time_offset);
   visit("tf_queue_size", o.tf_queue_size);
   visit("queue_size", o.queue_size);
   visit("max_lag", o.max_lag);
@@ -117,6 +122,9 @@ class LoopClosureRos {
   /// Hands scan `index` (null: it was dropped) on to the backlog once every older scan has been
   /// handed on or dropped: the front end sees the scans in the order they came. Holds receive_mutex_.
   void resolveInOrder(std::size_t index, const PendingScan* scan);
+  /// The scan's wheel odometry from tf at its stamp + odometry_time_offset (when that is not in
+  /// tf, at its stamp: the start of a drive); false with the lookup's error.
+  bool lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose, std::string* error) const;
   void enqueue(PendingScan scan);
   /// The worker thread: takes scans from the backlog through the front end until stopped.
   void work();
