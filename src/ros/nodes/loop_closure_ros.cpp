@@ -142,7 +142,7 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
 }
 
 bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose,
-                                         std::string* error) const {
+                                         std::string* error) {
   const ros::Time& stamp = msg.header.stamp;
   if (options_.odometry_time_offset == 0.0)
     return lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
@@ -150,9 +150,12 @@ bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg,
   if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, shifted > 1e-9 ? ros::Time(shifted) : ros::Time(0, 1),
                   pose, error))
     return true;
-  // Before the first odometry (the drive's first scans) the earliest there is, held as the bag
-  // reader holds it: the scan's own stamp, which its tf filter found.
-  return lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
+  // Before the first odometry (the drive's first scans), or after a gap in tf: the odometry at
+  // the scan's own stamp, which its tf filter found (the bag reader holds its first message;
+  // on sim.bag, whose odometry starts with the scans, the two agree: online_offline.test).
+  if (!lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error)) return false;
+  ++odometry_at_scan_stamp_;
+  return true;
 }
 
 void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) {
@@ -450,7 +453,7 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
 
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0, behind_older = 0;
-  std::size_t jumps_back = 0, given_up = 0, behind_newer = 0;
+  std::size_t jumps_back = 0, given_up = 0, behind_newer = 0, at_scan_stamp = 0;
   std::string filter_problem;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
@@ -458,6 +461,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     awaiting = awaiting_odometry_.size();
     behind_older = resolved_.size();
     jumps_back = clock_jumps_back_, given_up = scans_given_up_at_jumps_, behind_newer = given_up_behind_newer_;
+    at_scan_stamp = odometry_at_scan_stamp_;
     filter_problem = last_filter_problem_;
   }
   const llc::ScanBacklogCounters backlog = backlog_->counters();
@@ -482,6 +486,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("scans given up, no odometry while a newer scan had it", behind_newer);
   status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
+  status.add("scans with odometry at their own stamp, none at stamp + odometry_time_offset", at_scan_stamp);
   status.add("scans waiting for the front end", backlog.waiting);
   status.add("lag behind the newest scan (s)", backlog.lag);
   status.add("largest lag (s)", backlog.largest_lag);

@@ -123,8 +123,8 @@ class LoopClosureRos {
   /// handed on or dropped: the front end sees the scans in the order they came. Holds receive_mutex_.
   void resolveInOrder(std::size_t index, const PendingScan* scan);
   /// The scan's wheel odometry from tf at its stamp + odometry_time_offset (when that is not in
-  /// tf, at its stamp: the start of a drive); false with the lookup's error.
-  bool lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose, std::string* error) const;
+  /// tf, at its stamp: the start of a drive; counted); false with the lookup's error. Under receive_mutex_.
+  bool lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose, std::string* error);
   void enqueue(PendingScan scan);
   /// The worker thread: takes scans from the backlog through the front end until stopped.
   void work();
@@ -184,6 +184,8 @@ class LoopClosureRos {
   static constexpr double kClockJumpBack = 1.0;
   ros::Time newest_received_stamp_;
   std::size_t clock_jumps_back_ = 0, scans_given_up_at_jumps_ = 0, given_up_behind_newer_ = 0;
+  /// Scans whose odometry tf did not hold at stamp + odometry_time_offset, read at the stamp.
+  std::size_t odometry_at_scan_stamp_ = 0;
   std::string last_filter_problem_;
 
   std::mutex mutex_;     ///< guards everything below and front_
