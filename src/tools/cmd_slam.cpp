@@ -19,6 +19,7 @@
 #include "laser_loop_closure/core/common/file_util.hpp"
 #include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/io/reference_truth.hpp"
 #include "laser_loop_closure/core/map/map_picture.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
 #include "laser_loop_closure/core/slam/odometry_offset.hpp"
@@ -58,6 +59,7 @@ struct TruthCheck {
   std::size_t true_pairs_not_aligned = 0;  ///< candidates the place gate skipped that were true revisits
   llc::RevisitFates fates;                 ///< where the true revisits not closed were lost
   std::string wrong_loop_lines;            ///< one report line per wrong applied loop
+  std::size_t wrong_loops_doubtful = 0;    ///< of the wrong loops, those with an end whose truth is doubtful (--truth)
   /// Odometry steps and applied loops against the truth: RMS errors, and the mean of
   /// e^T C^-1 e with the covariance C the back end was given (3 when C is honest).
   double step_rms_m = 0.0, step_rms_rad = 0.0, step_nees = 0.0, loop_nees = 0.0;
@@ -76,8 +78,8 @@ Eigen::Vector3d relativeError(const llc::Pose2& truth, const llc::Pose2& measure
 /// closed, and applied loops that are wrong (off the truth by more than 1 m or 0.1 rad).
 TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSequence& sequence,
                              const std::vector<llc::OdometryStep>& steps,
-                             const std::vector<llc::LoopClosure>& not_aligned, double positive_distance,
-                             double positive_heading, bool has_truth) {
+                             const std::vector<llc::LoopClosure>& not_aligned, llc::LoopTruthOptions truth_options,
+                             bool has_truth, const llc::ReferenceTruthResult* reference) {
   TruthCheck check;
   if (!has_truth || slam.keyframes().empty()) return check;
   check.available = true;
@@ -103,10 +105,7 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
     check.step_rms_m = std::sqrt(check.step_rms_m / n), check.step_rms_rad = std::sqrt(check.step_rms_rad / n);
     check.step_nees /= n;
   }
-  llc::LoopTruthOptions truth_options;
   truth_options.min_keyframe_gap = slam.options().loops.min_keyframe_gap;
-  truth_options.positive_distance = positive_distance;
-  truth_options.positive_heading = positive_heading;
   std::vector<bool> full_circle;
   for (const llc::Keyframe& k : keyframes) full_circle.push_back(k.scan.full_circle);
   const llc::LoopTruthCheck loops = llc::checkLoopsAgainstTruth(truth, full_circle, slam.loops(), truth_options);
@@ -122,11 +121,24 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
     if (!record.applied) continue;
     const llc::Pose2 e = llc::between(llc::between(truth[record.loop.from], truth[record.loop.to]), record.loop.pose);
     const llc::Pose2 d = llc::between(truth[record.loop.from], truth[record.loop.to]);
-    if (std::hypot(e.x, e.y) > truth_options.wrong_translation || std::abs(e.theta) > truth_options.wrong_rotation)
-      wrong << "wrong_loop: scans " << keyframes[record.loop.from].scan_index << " -> " << keyframes[record.loop.to].scan_index
-            << " truly " << std::hypot(d.x, d.y) << " m apart, off the truth by " << std::hypot(e.x, e.y) << " m "
-            << e.theta * 180.0 / M_PI << " deg, score " << record.loop.score << ", inlier share " << record.loop.inlier_share
-            << ", innovation chi2 " << record.innovation_chi2 << "\n";
+    if (!(std::hypot(e.x, e.y) > truth_options.wrong_translation || std::abs(e.theta) > truth_options.wrong_rotation)) continue;
+    const std::size_t from = keyframes[record.loop.from].scan_index, to = keyframes[record.loop.to].scan_index;
+    wrong << "wrong_loop: scans " << from << " -> " << to << " truly " << std::hypot(d.x, d.y) << " m apart, off the truth by "
+          << std::hypot(e.x, e.y) << " m " << e.theta * 180.0 / M_PI << " deg, score " << record.loop.score
+          << ", inlier share " << record.loop.inlier_share << ", innovation chi2 " << record.innovation_chi2;
+    // A carried truth pose may be off by as much as its gap's odometry misses the reference:
+    // doubtful when that is over half the threshold (or not known, outside the matched scans).
+    bool doubtful = false;
+    for (std::size_t scan : {from, to}) {
+      if (!reference) break;
+      const double m = reference->gap_miss_m[scan], rad = reference->gap_miss_rad[scan];
+      if (m <= truth_options.wrong_translation / 2 && rad <= truth_options.wrong_rotation / 2) continue;
+      doubtful = true;
+      wrong << "; truth doubtful at scan " << scan << " (its gap's odometry misses the reference by " << m << " m "
+            << rad * 180.0 / M_PI << " deg)";
+    }
+    check.wrong_loops_doubtful += doubtful ? 1 : 0;
+    wrong << "\n";
   }
   check.wrong_loop_lines = wrong.str();
   return check;
@@ -255,10 +267,15 @@ int runSlam(const Args& args) {
   const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");
   const std::string dir = args.required("out");
   // Every flag and output checked before the run starts, not after it.
-  const double positive_distance = args.number("positive-distance", 1.5);
-  const double positive_heading = args.number("positive-heading-deg", 45.0) * M_PI / 180.0;
-  if (!(positive_distance > 0.0 && positive_heading > 0.0))
+  llc::LoopTruthOptions truth_options;
+  truth_options.positive_distance = args.number("positive-distance", 1.5);
+  truth_options.positive_heading = args.number("positive-heading-deg", 45.0) * M_PI / 180.0;
+  if (!(truth_options.positive_distance > 0.0 && truth_options.positive_heading > 0.0))
     throw UsageError("--positive-distance and --positive-heading-deg must be > 0");
+  truth_options.wrong_translation = args.number("wrong-loop-m", truth_options.wrong_translation);
+  truth_options.wrong_rotation = args.number("wrong-loop-deg", truth_options.wrong_rotation * 180.0 / M_PI) * M_PI / 180.0;
+  if (!(truth_options.wrong_translation > 0.0 && truth_options.wrong_rotation > 0.0))
+    throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   if (args.get("odometry-offset", "0") != "auto") {
     const long offset = args.integer("odometry-offset", 0);
@@ -280,6 +297,14 @@ int runSlam(const Args& args) {
     }
   }
   applyParameterFlags(args, &options);  // --SECTION/FIELD VALUE, after the file
+  llc::ScanSequence reference;  // --truth: another log of the same drive with corrected poses
+  if (args.has("truth")) {
+    try {
+      reference = llc::loadScanSequence(args.get("truth", ""));
+    } catch (const std::exception& e) {
+      throw ToolError(std::string("--truth: ") + e.what());
+    }
+  }
   prepareOutputFolder("out", dir);
   const std::string model_path = args.get("model", defaultModelPath());
   llc::ClassifierModel model;
@@ -292,9 +317,41 @@ int runSlam(const Args& args) {
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
   // Decided before any odometry shift: a log whose true poses are its odometry has no truth
   // (unless its odometry is drifted below: then those poses are the truth).
-  const bool has_truth = args.has("evaluate") || drift || hasTruthBesideOdometry(sequence);
+  const bool has_truth = args.has("evaluate") || args.has("truth") || drift || hasTruthBesideOdometry(sequence);
   const OffsetChoice offset = chooseOdometryOffset(args, sequence, options.slam);
   llc::shiftOdometry(&sequence, offset.offset);
+  // After the shift, so that the poses between matched scans are carried by the odometry
+  // that belongs to each scan; before any drift, which must not reach the truth.
+  std::string reference_lines;
+  std::optional<llc::ReferenceTruthResult> reference_truth;
+  if (args.has("truth")) {
+    try {
+      const llc::ReferenceTruthResult& r = reference_truth.emplace(llc::applyReferenceTruth(reference, &sequence));
+      std::ostringstream lines;
+      lines << "truth_from=" << args.get("truth", "") << "\n"
+            << "truth_scans_matched=" << r.matched << "  (the reference's pose of the scan with the same ranges)\n"
+            << "truth_scans_carried=" << r.carried << "  (by their odometry from the matched scans on either side)\n"
+            << "truth_max_carry_scans=" << r.max_carry_scans << "\n"
+            << "truth_scans_ambiguous=" << r.ambiguous << "  (ranges met twice: left unmatched)\n";
+      std::size_t doubtful = 0;
+      for (std::size_t i = 0; i < r.gap_miss_m.size(); ++i)
+        doubtful += !(r.gap_miss_m[i] <= truth_options.wrong_translation / 2 && r.gap_miss_rad[i] <= truth_options.wrong_rotation / 2);
+      lines << "truth_scans_doubtful=" << doubtful << "  (carried across a gap whose odometry misses the reference by over half "
+            << "the wrong-loop threshold, or before the first or after the last matched scan)\n";
+      reference_lines = lines.str();
+      // The truth itself, to be judged too (llc relations --keyframes truth.csv).
+      llc::AtomicTextFile out(dir + "/truth.csv");
+      out << "index,stamp,x,y,theta,matched\n";
+      for (std::size_t i = 0; i < sequence.scans.size(); ++i) {
+        const llc::LoggedScan& s = sequence.scans[i];
+        out << i << "," << std::fixed << std::setprecision(6) << s.stamp << "," << s.truth.x << "," << s.truth.y << ","
+            << s.truth.theta << "," << (r.matched_scans[i] ? 1 : 0) << "\n";
+      }
+      out.commit();
+    } catch (const std::invalid_argument& e) {
+      throw ToolError(std::string("--truth: ") + e.what());
+    }
+  }
   if (drift) {
     try {
       llc::driftOdometry(&sequence, *drift);
@@ -368,8 +425,8 @@ int runSlam(const Args& args) {
   const llc::SlamCounters& c = slam.counters();
   const double duration = sequence.scans.back().stamp - sequence.scans.front().stamp;
   // Restored keyframes come from another input: their scan indices do not name this one's.
-  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, positive_distance,
-                                                                 positive_heading, has_truth);
+  const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, truth_options, has_truth,
+                                                                 reference_truth ? &*reference_truth : nullptr);
   if (truth.available) writeStepErrors(slam, steps, truth, dir + "/odometry_steps.csv");
   std::ostringstream report;
   report << std::setprecision(4);
@@ -425,12 +482,16 @@ int runSlam(const Args& args) {
     writeRelationErrors(result, relations, dir + "/relation_errors.csv");
   }
   if (truth.available) {
-    report << "path_length_m=" << truth.path_length << "\n"
+    report << reference_lines
+           << "path_length_m=" << truth.path_length << "\n"
            << "rms_error_m=" << truth.slam_rms << "\n"
            << "rms_error_odometry_m=" << truth.odometry_rms << "\n"
            << "true_loop_keyframes=" << truth.true_loop_keyframes << "\n"
            << "true_loop_keyframes_closed=" << truth.closed << "\n"
            << "wrong_loops_accepted=" << truth.wrong_loops << "\n"
+           << "wrong_loops_truth_doubtful=" << truth.wrong_loops_doubtful << "  (of those, with an end whose --truth pose is doubtful)\n"
+           << "wrong_loop_translation_m=" << truth_options.wrong_translation << "  (an applied loop off the truth by more is wrong)\n"
+           << "wrong_loop_rotation_deg=" << truth_options.wrong_rotation * 180.0 / M_PI << "  (or by more than this)\n"
            << "true_pairs_not_aligned=" << truth.true_pairs_not_aligned << "  (candidates the place gate skipped that truly revisit)\n"
            << "open_revisits=" << truth.fates.open << "  (true-revisit keyframes not closed; where their best true candidate stopped:)\n"
            << "open_no_true_candidate=" << truth.fates.no_true_candidate << "\n"
@@ -452,7 +513,8 @@ int runSlam(const Args& args) {
   for (const auto& reason : loop_reasons) report << "loop_refused: " << reason.first << " = " << reason.second << "\n";
   report << "seconds=" << seconds << "\n";
   llc::writeFileAtomically(dir + "/report.txt", report.str());
-  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv" : "") << "}\n";
+  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv" : "")
+            << (args.has("truth") ? ",truth.csv" : "") << "}\n";
   return 0;
 }
 

@@ -83,7 +83,8 @@ const std::vector<Command>& commands() {
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
-             "drift-noise-rad", "drift-noise-share", "drift-seed", "relations"},
+             "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
+             "wrong-loop-deg"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
@@ -92,6 +93,9 @@ const std::vector<Command>& commands() {
        "       map.pgm/.yaml/.png, report.txt)\n"
        "      [--relations R]   (the Kuemmerle et al. relations metric of scans.csv against R, in report.txt,\n"
        "       each relation's error in relation_errors.csv)\n"
+       "      [--truth REFERENCE.log]   (truth from another log of the same drive: scans with the same ranges\n"
+       "       take its poses, the rest are carried by odometry; then as --evaluate)\n"
+       "      [--wrong-loop-m 1.0] [--wrong-loop-deg 5.73]   (an applied loop off the truth by more is wrong)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"

@@ -63,6 +63,16 @@ check "slam: the place gate spared alignments but skipped no true revisit" 0 "^o
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
 # Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.
 check "slam --drift strong on sim.log: drift said, truth kept" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --out '$TMP/slam_drift' --quiet --drift strong --drift-seed 3 | grep -q '^odometry_drift: scale_bias=0.03 heading_drift=0.01 ' && awk -F= '{v[\$1] = \$2} END {print (v[\"rms_error_odometry_m\"] > v[\"rms_error_m\"] && v[\"true_loop_keyframes\"] > 0 ? \"ok\" : \"not ok\")}' '$TMP/slam_drift/report.txt'"
+# --truth: the log as its own reference gives every scan its own true pose back, through the
+# rear scans merged and the scanners' offsets (so the same RMS as the run above), and no
+# pose needs carrying.
+check "slam --truth: the log itself as the reference" 0 "^truth_scans_carried=0 " -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth" --quiet --drift strong --drift-seed 3 --truth "$TMP/sim/sim.log"
+check "slam --truth: the same RMS as the log's own truth" 0 "^rms_error_m=$(sed -n 's/^rms_error_m=//p' "$TMP/slam_drift/report.txt")$" -- cat "$TMP/slam_truth/report.txt"
+check "slam --truth: truth.csv" 0 "^index,stamp,x,y,theta,matched$" -- head -1 "$TMP/slam_truth/truth.csv"
+check "slam --truth: a missing reference, before the run" 1 "--truth: .*none.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/none.log"
+printf 'FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.0 host 1.0\nFLASER 3 1.5 2.5 3.5 1 0 0 1 0 0 2.0 host 2.0\n' > "$TMP/elsewhere.log"
+check "slam --truth: a log of another drive" 1 "reference truth: 0 scan\(s\) of .*elsewhere.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/elsewhere.log" --quiet
+check "slam: --wrong-loop-deg 0" 2 "wrong-loop-m and --wrong-loop-deg must be > 0" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --wrong-loop-deg 0
 check "slam --drift: unknown preset" 2 "--drift must be 'moderate' or 'strong'" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift wild
 check "slam --drift: negative noise" 2 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
 printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
@@ -231,7 +241,12 @@ if [ -f "$LOG" ]; then
   if [ -f "$MIT" ]; then
     # The Kümmerle benchmark: every relation evaluated on the run's own per-scan poses; the same
     # figure again from scans.csv by llc relations, and near it from the keyframes alone.
-    check "slam --relations on MIT CSAIL" 0 "^relations_evaluated=1172$" -- "$LLC" slam --log "$MIT" --out "$TMP/mit" --odometry-offset auto --relations "${MIT%.log.gz}.relations" --quiet
+    CSAIL_TRUTH="$DATA/carmen/csail-corrected.log.gz"
+    check "slam --relations on MIT CSAIL" 0 "^relations_evaluated=1172$" -- "$LLC" slam --log "$MIT" --out "$TMP/mit" --odometry-offset auto --relations "${MIT%.log.gz}.relations" --quiet --truth "$CSAIL_TRUTH" --wrong-loop-deg 15
+    # Its SLAM-corrected log holds 406 of its scans: the truth for loops (1 m / 15 degrees, as
+    # scripts/benchmark_relations judges them).
+    check "MIT CSAIL: the corrected log's scans found" 0 "^truth_scans_matched=406 " -- cat "$TMP/mit/report.txt"
+    check "MIT CSAIL: no wrong loop against the corrected log" 0 "^wrong_loops_accepted=0$" -- cat "$TMP/mit/report.txt"
     # Its scans come one scan after their odometry: -1 scans, 0.21 s for a bag and the nodelets.
     check "MIT CSAIL: the odometry offset in seconds" 0 "^odometry_time_offset_suggested=-0.21 " -- cat "$TMP/mit/report.txt"
     check "MIT CSAIL relations: mean translational error under 0.1 m" 0 "^ok$" -- awk -F= '/^relation_translation_mean_m=/ {print ($2 < 0.1 ? "ok" : "error " $2)}' "$TMP/mit/report.txt"

@@ -5,6 +5,16 @@
 
 namespace llc {
 
+std::uint64_t recordedRangesKey(const std::vector<double>& ranges) {
+  std::uint64_t hash = 14695981039346656037ull;  // FNV-1a, 64 bits
+  auto mix = [&](std::uint64_t value) {
+    for (int byte = 0; byte < 8; ++byte) hash = (hash ^ ((value >> (8 * byte)) & 0xff)) * 1099511628211ull;
+  };
+  mix(ranges.size());
+  for (double r : ranges) mix(std::isfinite(r) ? std::uint64_t(std::llround(r * 100.0)) : 0x7ff0000000000000ull);
+  return hash == 0 ? 1 : hash;
+}
+
 ScanSequence makeScanSequence(const CarmenLog& log, const ScanSequenceOptions& options) {
   ScanSequence sequence;
   sequence.source = log.path;
@@ -17,6 +27,7 @@ ScanSequence makeScanSequence(const CarmenLog& log, const ScanSequenceOptions& o
     LoggedScan logged;
     logged.stamp = front.stamp;
     logged.odometry = front.odometry;
+    logged.recorded_ranges_key = recordedRangesKey(front.ranges);
     logged.truth = log.front_truth[i] >= 0 ? log.truth[std::size_t(log.front_truth[i])].truth : front.pose;
     logged.scan = scanFromRanges(front.ranges, front.geometry, front_mount, front.stamp);
 

@@ -138,6 +138,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
       }
       last_stamp = stamp;
       logged.stamp = stamp;
+      logged.recorded_ranges_key = llc::recordedRangesKey(std::vector<double>(front->ranges.begin(), front->ranges.end()));
       // The back scan nearest in time, if near enough.
       auto after = std::lower_bound(backs.begin(), backs.end(), front->header.stamp,
                                     [](const auto& b, const ros::Time& t) { return b->header.stamp < t; });

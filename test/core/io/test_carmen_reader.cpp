@@ -71,6 +71,21 @@ TEST(CarmenReader, ScanSequenceMergesRearAndUsesTruth) {
   EXPECT_EQ(llc::loadScanSequence(dir.file("a.log"), front_only).merged_count, 0u);
 }
 
+TEST(CarmenReader, EachScanIsNamedByItsRangesAsRecordedWhateverTheScannersOffset) {
+  llc_test::TempDir dir;
+  llc_test::writeText(dir.file("a.log"), kLog);  // front scanner 0.25 m ahead, a rear scan merged
+  llc_test::writeText(dir.file("b.log"), "FLASER 4 1.0 2.0 3.0 4.0 0 0 0 0 0 0 5.0 host 5.0\n"
+                                         "FLASER 3 1.0 2.0 3.004 0 0 0 0 0 0 6.0 host 6.0\n");
+  const llc::ScanSequence a = llc::loadScanSequence(dir.file("a.log")), b = llc::loadScanSequence(dir.file("b.log"));
+  EXPECT_NE(a.scans[0].scan.ranges, b.scans[0].scan.ranges);  // moved and merged in a
+  EXPECT_EQ(a.scans[0].recorded_ranges_key, b.scans[0].recorded_ranges_key);
+  EXPECT_EQ(a.scans[1].recorded_ranges_key, b.scans[1].recorded_ranges_key);  // 3.004 is 3.00 to 1 cm
+  EXPECT_NE(a.scans[0].recorded_ranges_key, a.scans[1].recorded_ranges_key);
+  EXPECT_NE(a.scans[0].recorded_ranges_key, 0u);
+  EXPECT_NE(llc::recordedRangesKey({1.0, 2.0}), llc::recordedRangesKey({1.0, 2.0, INFINITY}));
+  EXPECT_EQ(llc::recordedRangesKey({INFINITY}), llc::recordedRangesKey({NAN}));  // no return, either way
+}
+
 TEST(CarmenReader, ReadsGzip) {
   llc_test::TempDir dir;
   gzFile out = gzopen(dir.file("a.log.gz").c_str(), "wb");

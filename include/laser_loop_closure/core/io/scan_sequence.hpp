@@ -2,6 +2,7 @@
 // its ground-truth pose (for labelling) and odometry.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,9 @@ struct LoggedScan {
   Pose2 truth;     ///< TRUEPOS when the log has it, else the pose on the laser line
   Pose2 odometry;  ///< odometry pose on the laser line
   double stamp = 0.0;
+  /// recordedRangesKey of the front scanner's ranges as the log wrote them (before any mount
+  /// or merge), which names the scan in other logs of the same drive; 0 when not known.
+  std::uint64_t recorded_ranges_key = 0;
 };
 
 struct ScanSequence {
@@ -29,6 +33,10 @@ struct ScanSequenceOptions {
   bool use_rear = true;       ///< merge a rear scan into its front scan when there is one
   double max_merge_gap = 0.05;  ///< s; a rear scan further in time from the front one is unused
 };
+
+/// A hash of ranges to 1 cm (a range that is not finite as one value of its own) and their
+/// count; never 0.
+std::uint64_t recordedRangesKey(const std::vector<double>& ranges);
 
 /// One scan per front laser line (FLASER or ROBOTLASER1), index = position among them.
 /// A rear (RLASER) line written next to a front line and within max_merge_gap of it is
