@@ -228,13 +228,19 @@ double suggestedTimeOffset(const Args& args, const llc::ScanSequence& sequence, 
   return std::round(seconds * 100.0) / 100.0;
 }
 
+/// --odometry-offset N (scans, checked), or nothing for auto.
+std::optional<int> fixedOdometryOffset(const Args& args) {
+  if (args.get("odometry-offset", "0") == "auto") return std::nullopt;
+  const long offset = args.integer("odometry-offset", 0);
+  if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
+  return int(offset);
+}
+
 /// --odometry-offset N (scans), or auto: the offset whose odometry ICP corrects least.
 OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& sequence, const llc::SlamOptions& options) {
   OffsetChoice choice;
-  const std::string given = args.get("odometry-offset", "0");
-  if (given != "auto") {
-    choice.offset = int(args.integer("odometry-offset", 0));
-    if (std::abs(choice.offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
+  if (const std::optional<int> fixed = fixedOdometryOffset(args)) {
+    choice.offset = *fixed;
     return choice;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -277,13 +283,8 @@ int runSlam(const Args& args) {
   if (!(truth_options.wrong_translation > 0.0 && truth_options.wrong_rotation > 0.0))
     throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
-  if (args.get("odometry-offset", "0") != "auto") {
-    const long offset = args.integer("odometry-offset", 0);
-    if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
-  }
-  if (args.has("odometry-time-offset") && !args.has("bag"))
-    throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
-  bagOptions(args);  // its flags checked now
+  fixedOdometryOffset(args);  // checked now
+  driveReadOptions(input, args);  // likewise
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
   const std::vector<llc::Relation> relations =
       args.has("relations") ? loadRelationsFile(args.get("relations", "")) : std::vector<llc::Relation>{};

@@ -177,13 +177,17 @@ llc::FeatureOptions featureOptions(const Args& args) {
   return options;
 }
 
+llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& args) {
+  const bool bag = path.size() >= 4 && path.compare(path.size() - 4, 4, ".bag") == 0;  // as loadDrive decides
+  if (args.has("odometry-time-offset") && !bag)
+    throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
+  return bagOptions(args);
+}
+
 llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
   std::vector<std::string> warnings;
   llc::ScanSequence sequence;
-  const bool bag = path.size() >= 4 && path.compare(path.size() - 4, 4, ".bag") == 0;
-  if (args.has("odometry-time-offset") && !bag)
-    throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
-  const llc_ros::BagReadOptions bag_options = bagOptions(args);  // a bad flag: UsageError, not ToolError
+  const llc_ros::BagReadOptions bag_options = driveReadOptions(path, args);  // a bad flag: UsageError, not ToolError
   try {
     sequence = llc_ros::loadDrive(path, bag_options, &warnings);
   } catch (const std::runtime_error& e) {

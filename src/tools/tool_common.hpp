@@ -83,6 +83,8 @@ extern const std::vector<std::string> kInputFlags;
 /// The bag reader's options from kInputFlags; UsageError on a bad --odometry-time-offset.
 llc_ros::BagReadOptions bagOptions(const Args& args);
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
+/// bagOptions, after checking that the flags only a bag takes come with a bag (UsageError).
+llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& args);
 llc::ScanSequence loadSequence(const std::string& path, const Args& args);
 using llc_ros::extractAll;
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
