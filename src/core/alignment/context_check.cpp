@@ -19,7 +19,7 @@ std::string ContextCheckOptions::validate() const {
   if (!(search_shift > 0.0) || !std::isfinite(search_shift)) return "search_shift must be > 0 m";
   if (search_restarts < 1 || search_restarts > 10) return "search_restarts must be in [1, 10]";
   if (!(fit_distance > 0.0) || !std::isfinite(fit_distance)) return "fit_distance must be > 0 m";
-  if (!(max_alternative_gain >= 0.0 && max_alternative_gain <= 1.0)) return "max_alternative_gain must be in [0, 1]";
+  if (!(max_alternative_gain >= -1.0 && max_alternative_gain <= 1.0)) return "max_alternative_gain must be in [-1, 1]";
   if (!(alternative_distance > 0.0) || !std::isfinite(alternative_distance)) return "alternative_distance must be > 0 m";
   if (max_points < 10) return "max_points must be >= 10";
   if (!(cell >= 0.0) || !std::isfinite(cell)) return "cell must be >= 0 m";

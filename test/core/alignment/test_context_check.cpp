@@ -126,6 +126,26 @@ TEST(ContextCheck, OneThreadOrTwoGiveTheSameResult) {
   }
 }
 
+TEST(ContextCheck, ANegativeGainRefusesALoopThatAnotherPoseFitsAlmostAsWell) {
+  const Contexts c = contextsAtTheOrigin();
+  ContextCheckOptions options;
+  const llc::IcpOptions icp;
+  const llc::ContextCheckResult at_truth =
+      llc::checkLoopContext(c.old_context, c.new_context, Pose2{0.0, 0.0, 0.0}, alongTheCorridor(), options, icp);
+  ASSERT_TRUE(at_truth.checked);
+  ASSERT_GT(at_truth.alternative_fit, 0.0);  // some restart ended elsewhere along the corridor
+  const double margin = at_truth.fit - at_truth.alternative_fit;  // how much better the truth fits
+  ASSERT_GT(margin, 0.0);
+  options.max_alternative_gain = -(margin - 0.01);  // asks for less than the truth's lead: accepted
+  EXPECT_TRUE(llc::checkLoopContext(c.old_context, c.new_context, Pose2{0.0, 0.0, 0.0}, alongTheCorridor(), options, icp)
+                  .accepted);
+  options.max_alternative_gain = -(margin + 0.01);  // asks for more: refused as ambiguous
+  const llc::ContextCheckResult refused =
+      llc::checkLoopContext(c.old_context, c.new_context, Pose2{0.0, 0.0, 0.0}, alongTheCorridor(), options, icp);
+  EXPECT_FALSE(refused.accepted);
+  EXPECT_NE(refused.reject_reason.find("context: fits"), std::string::npos) << refused.reject_reason;
+}
+
 TEST(ContextCheck, TheGainLimitDecides) {
   const Contexts c = contextsAtTheOrigin();
   ContextCheckOptions options;
@@ -224,6 +244,7 @@ TEST(ContextCheck, OptionsAreValidated) {
   refused([](ContextCheckOptions& o) { o.search_restarts = 0; }, "search_restarts");
   refused([](ContextCheckOptions& o) { o.fit_distance = std::numeric_limits<double>::infinity(); }, "fit_distance");
   refused([](ContextCheckOptions& o) { o.max_alternative_gain = 1.5; }, "max_alternative_gain");
+  refused([](ContextCheckOptions& o) { o.max_alternative_gain = -1.5; }, "max_alternative_gain");
   refused([](ContextCheckOptions& o) { o.alternative_distance = 0.0; }, "alternative_distance");
   refused([](ContextCheckOptions& o) { o.max_points = 3; }, "max_points");
   refused([](ContextCheckOptions& o) { o.cell = -0.1; }, "cell");

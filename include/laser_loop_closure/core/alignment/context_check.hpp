@@ -29,8 +29,10 @@ struct ContextCheckOptions {
   int search_restarts = 3;  ///< see search_shift
   double fit_distance = 0.1;  ///< m; a point of the new context this near a point of the old one fits
   /// Refused when the context fits at another pose (more than alternative_distance away) by at
-  /// least this share of its points better than at the loop's pose.
-  double max_alternative_gain = 0.07;
+  /// least this share of its points better than at the loop's pose; a negative value refuses
+  /// also a loop whose pose does not fit better than any other by more than -this (a corridor
+  /// whose doors repeat: one place fits about as well as the next).
+  double max_alternative_gain = -0.03;
   double alternative_distance = 0.5;  ///< m
   std::size_t max_points = 2000;  ///< points of the new context whose fit is counted (evenly strided)
   double cell = 0.05;  ///< m; each context's points thinned to one per square cell of this side (scans overlap)
