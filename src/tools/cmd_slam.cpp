@@ -443,6 +443,8 @@ int runSlam(const Args& args) {
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
          << "time_jumps_back=" << c.time_jumps << "  (stamps back by more than restart_after_jump_back: new odometry chains)\n"
          << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
+         << "wheel_odometry_stalled_scans=" << c.stalled_wheel_scans
+         << "  (a reading repeated while the laser said the robot moved: placed by the laser alone)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "odometry_steps_recovered=" << c.recovered_steps << "  (the wheels doubted, the laser's motion from a correlative search taken)\n"
          << "odometry_steps_tracked=" << c.tracked_steps << "  (ICP from the tracked scans' pose fitted better than from the wheels', or both agreed: track_scans)\n"

@@ -46,6 +46,11 @@ ScanOdometry::ScanOdometry(const ScanOdometryOptions& options) : options_(option
   if (!error.empty()) throw std::invalid_argument("odometry options: " + error);
 }
 
+bool ScanOdometry::samePose(const Pose2& a, const Pose2& b) {
+  const Pose2 apart = between(a, b);
+  return std::hypot(apart.x, apart.y) <= 0.05 && std::abs(apart.theta) <= 0.02;
+}
+
 bool ScanOdometry::movedEnough(const Pose2& motion) const {
   return std::hypot(motion.x, motion.y) >= options_.keyframe_distance ||
          std::abs(motion.theta) >= options_.keyframe_angle;
@@ -101,11 +106,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   // ICP slides: the wheels' guess stands there). How far ICP went is judged from its seed; how
   // much it disagrees with the wheels (a disputed step's covariance holds both) from theirs.
   Pose2 seed = guess;
-  // Two poses this close are one (a second ICP from there would find what the first did).
-  auto same = [](const Pose2& a, const Pose2& b) {
-    const Pose2 apart = between(a, b);
-    return std::hypot(apart.x, apart.y) <= 0.05 && std::abs(apart.theta) <= 0.02;
-  };
+  const auto same = &ScanOdometry::samePose;
   if (tracked && guess_from_wheels && isFinite(*tracked) && !same(guess, *tracked)) {
     const IcpResult from_tracked = alignIcp(current.points, previous.icp_target, *tracked, options_.icp, &current.icp_target.normals);
     auto fit = [&](const IcpResult& r) {

@@ -54,6 +54,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
     last_keyframe_wheels_ = keyframes.back().wheel_odometry;
   }
   has_last_wheels_ = has_jump_ = false;  // a jump is judged between scans of this run only
+  wheels_moved_ = wheels_stalled_ = false;
   return "";
 }
 
@@ -83,84 +84,38 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     restart_pending_ = true;
     restart_reason_ = "a new chain after time jumped back";
     tracked_motion_ = velocity_ = Pose2{};
-    has_last_wheels_ = has_jump_ = has_wheel_track_ = false;
+    has_last_wheels_ = has_jump_ = has_wheel_track_ = wheels_moved_ = wheels_stalled_ = false;
   }
 
   const auto start = std::chrono::steady_clock::now();
   std::shared_ptr<const PreparedScan> prepared;
+  // The same wheel reading as the scan before's, to the bit: the robot stood, or the wheels'
+  // source stalled (the laser tells which). A new reading ends a stall.
+  const bool repeated = wheel_odometry && has_last_wheels_ && last_wheels_.x == wheel_odometry->x &&
+                        last_wheels_.y == wheel_odometry->y && last_wheels_.theta == wheel_odometry->theta;
+  if (!repeated) wheels_stalled_ = false;
   if (has_keyframe_) {
-    const std::size_t last = detector_.size() - 1;
+    bool placed = false;
     if (wheel_odometry && last_keyframe_has_wheels_) {
-      if (has_last_wheels_) {
-        const ScanOdometryOptions& o = odometry_.options();
-        const Pose2 moved = between(last_wheels_, *wheel_odometry);
-        // At least 1 s: logs hold scans whose stamps stand still while the robot moves (the
-        // corrected csail log turns 1.15 rad in 0 s). A heading is never judged: any turn
-        // fits in a second at max_turn_rate, and a log's stamps say too little to do better.
-        const double dt = std::max(scan.stamp - last_wheels_stamp_, 1.0);
-        if (std::hypot(moved.x, moved.y) > o.max_speed * dt) {
-          const Pose2 since = between(before_jump_wheels_, *wheel_odometry);
-          if (has_jump_ && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - before_jump_stamp_, 1.0)) {
-            // Back where they were going: the jump was a spike, and the old reference holds.
-            last_keyframe_wheels_ = before_jump_reference_;
-            has_jump_ = false;
-          } else {
-            // No robot moves so: measure from a reference that leaves the jump out (as if the
-            // robot stood still meanwhile); ICP at the next keyframe finds what it really did.
-            before_jump_reference_ = last_keyframe_wheels_, before_jump_wheels_ = last_wheels_;
-            before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
-            last_keyframe_wheels_ = compose(*wheel_odometry, inverse(between(last_keyframe_wheels_, last_wheels_)));
-          }
-          has_wheel_track_ = false;  // its wheel reference holds the jump
-          ++counters_.wheel_jumps;
-          step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
-                            std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
-                            " s (beyond max_speed): left out";
-        }
-      }
-      last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
-      // The wheels' guess, and (track_scans) the tracked one: from the last scan ICP placed, on
-      // by the wheels' motion since. FR079 turned left while its wheels, slipping for 4 s, said
-      // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
-      const Pose2 guess = between(last_keyframe_wheels_, *wheel_odometry);
-      const Pose2 tracked = compose(tracked_motion_, between(tracked_wheels_, *wheel_odometry));
-      const bool keyframe = odometry_.movedEnough(guess);
-      if (!keyframe && !odometry_.options().match_every_scan) {  // not a keyframe: nothing more to do
-        step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
-        setOdometryPose(step);
-        return step;
-      }
-      prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, true, wheel_noise_.scale(),
-                                      has_wheel_track_ ? &tracked : nullptr);
-      if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
-        // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
-        if (odometry_.options().track_scans && step.odometry.matched && !step.odometry.disputed) {
-          tracked_motion_ = step.odometry.motion, tracked_wheels_ = *wheel_odometry;
-          has_wheel_track_ = true;
-        }
+      const WheelPlacement placement = placeWithWheels(scan, *wheel_odometry, repeated, step, prepared);
+      if (placement == WheelPlacement::kNotKeyframe) {
         counters_.seconds_odometry += secondsSince(start);
         setOdometryPose(step);
         return step;
       }
-      wheel_noise_.add(step.odometry.wheel_disagreement);
-    } else {
-      // No wheels: every scan is matched to the newest keyframe to know when it moved enough,
-      // from where the last velocity says it is now.
-      prepared = detector_.aligner().prepare(scan);
-      const double dt = scan.stamp - last_scan_stamp_;  // a keyframe was made, so a scan came before
-      const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
-      const Pose2 guess = predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt})
-                                  : tracked_motion_;
-      step.odometry = odometry_.match(detector_.prepared(last), *prepared, guess, false);
-      if (predict && step.odometry.matched && dt >= odometry_.options().min_velocity_interval) {
-        const Pose2 moved = between(tracked_motion_, step.odometry.motion);
-        const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};
-        // A velocity no robot has says the stamps are out of step with the scans: not kept.
-        if (std::hypot(velocity.x, velocity.y) <= odometry_.options().max_speed &&
-            std::abs(velocity.theta) <= odometry_.options().max_turn_rate)
-          velocity_ = velocity;
+      placed = true;
+    }
+    if (!placed) {
+      // No wheels (or no wheel reference at the newest keyframe: a stall): every scan is
+      // matched to the newest keyframe to know when it moved enough, from where the last
+      // velocity says it is now.
+      if (wheel_odometry) {
+        last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
+        wheels_moved_ = !repeated;
       }
+      if (!prepared) prepared = detector_.aligner().prepare(scan);
+      step.odometry = odometry_.match(detector_.prepared(detector_.size() - 1), *prepared, predictedMotion(scan.stamp), false);
+      if (step.odometry.matched) updateVelocity(step.odometry.motion, scan.stamp);
       last_scan_stamp_ = scan.stamp;
       tracked_motion_ = step.odometry.motion;
       if (!odometry_.movedEnough(tracked_motion_)) {
@@ -185,8 +140,9 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   has_keyframe_ = true;
   last_keyframe_stamp_ = scan.stamp;
   last_scan_stamp_ = scan.stamp;
-  last_keyframe_has_wheels_ = wheel_odometry != nullptr;
-  if (wheel_odometry) last_keyframe_wheels_ = *wheel_odometry;
+  // A stalled reading is no reference: the scans after it go on by the laser to the next keyframe.
+  last_keyframe_has_wheels_ = wheel_odometry != nullptr && !wheels_stalled_;
+  if (last_keyframe_has_wheels_) last_keyframe_wheels_ = *wheel_odometry;
   has_jump_ = false;  // a new reference: a jump before it is history
   tracked_motion_ = Pose2{};
   has_wheel_track_ = false;
@@ -207,6 +163,99 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   step.has_odometry_pose = true;
   ++counters_.keyframes;
   return step;
+}
+
+SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, const Pose2& wheels, bool repeated,
+                                                          FrontEndStep& step, std::shared_ptr<const PreparedScan>& prepared) {
+  const ScanOdometryOptions& o = odometry_.options();
+  if (has_last_wheels_) {
+    const Pose2 moved = between(last_wheels_, wheels);
+    // At least 1 s: logs hold scans whose stamps stand still while the robot moves (the
+    // corrected csail log turns 1.15 rad in 0 s). A heading is never judged: any turn
+    // fits in a second at max_turn_rate, and a log's stamps say too little to do better.
+    const double dt = std::max(scan.stamp - last_wheels_stamp_, 1.0);
+    if (std::hypot(moved.x, moved.y) > o.max_speed * dt) {
+      const Pose2 since = between(before_jump_wheels_, wheels);
+      if (has_jump_ && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - before_jump_stamp_, 1.0)) {
+        // Back where they were going: the jump was a spike, and the old reference holds.
+        last_keyframe_wheels_ = before_jump_reference_;
+        has_jump_ = false;
+      } else {
+        // No robot moves so: measure from a reference that leaves the jump out (as if the
+        // robot stood still meanwhile); ICP at the next keyframe finds what it really did.
+        before_jump_reference_ = last_keyframe_wheels_, before_jump_wheels_ = last_wheels_;
+        before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
+        last_keyframe_wheels_ = compose(wheels, inverse(between(last_keyframe_wheels_, last_wheels_)));
+      }
+      has_wheel_track_ = false;  // its wheel reference holds the jump
+      ++counters_.wheel_jumps;
+      step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
+                        std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
+                        " s (beyond max_speed): left out";
+    }
+  }
+  // A repeated reading right after the wheels moved (or in a stall): stood the robot, or
+  // stalled the wheels' source? MIT CSAIL's report nothing for 1 s mid-turn, then jump 0.87 rad.
+  // (Only where every scan is matched: the laser's last pose is then the scan before's.)
+  const bool maybe_stalled =
+      repeated && o.stalled_wheels_as_missing && o.match_every_scan && (wheels_moved_ || wheels_stalled_);
+  wheels_moved_ = !repeated;
+  last_wheels_ = wheels, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
+  // The wheels' guess, and (track_scans) the tracked one: from the last scan ICP placed, on
+  // by the wheels' motion since. FR079 turned left while its wheels, slipping for 4 s, said
+  // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
+  // A reading that may be stalled says nothing of the motion since: the last velocity does.
+  const Pose2 guess = between(last_keyframe_wheels_, wheels);
+  const Pose2 tracked = maybe_stalled ? predictedMotion(scan.stamp) : compose(tracked_motion_, between(tracked_wheels_, wheels));
+  const bool keyframe = odometry_.movedEnough(guess);
+  if (!keyframe && !o.match_every_scan) {  // not a keyframe: nothing more to do
+    step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
+    return WheelPlacement::kNotKeyframe;
+  }
+  prepared = detector_.aligner().prepare(scan);
+  step.odometry = odometry_.match(detector_.prepared(detector_.size() - 1), *prepared, guess, true,
+                                  wheel_noise_.scale(), has_wheel_track_ || maybe_stalled ? &tracked : nullptr);
+  // The laser, predicted on, fits clearly better than where the repeated reading says the
+  // robot stood, and it moved since the scan before: the wheels stalled. Their reading is no guess and no reference until it
+  // changes; the laser's motion is a matched step (not disputed with a stale reading).
+  if (maybe_stalled && step.odometry.tracked && !ScanOdometry::samePose(step.odometry.motion, tracked_motion_)) {
+    wheels_stalled_ = true;
+    ++counters_.stalled_wheel_scans;
+    step.odometry.disputed = false;
+    step.odometry.covariance = odometry_.stepCovariance(step.odometry.motion, true);
+    updateVelocity(step.odometry.motion, scan.stamp);
+    tracked_motion_ = step.odometry.motion, last_scan_stamp_ = scan.stamp;
+    has_wheel_track_ = false;  // tracked_wheels_ would be the stale reading
+    return odometry_.movedEnough(step.odometry.motion) ? WheelPlacement::kKeyframe : WheelPlacement::kNotKeyframe;
+  }
+  if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
+    // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
+    if (o.track_scans && step.odometry.matched && !step.odometry.disputed) {
+      updateVelocity(step.odometry.motion, scan.stamp);
+      tracked_motion_ = step.odometry.motion, tracked_wheels_ = wheels, last_scan_stamp_ = scan.stamp;
+      has_wheel_track_ = true;
+    }
+    return WheelPlacement::kNotKeyframe;
+  }
+  wheel_noise_.add(step.odometry.wheel_disagreement);
+  return WheelPlacement::kKeyframe;
+}
+
+Pose2 SlamFrontEnd::predictedMotion(double stamp) const {
+  const double dt = stamp - last_scan_stamp_;
+  const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
+  return predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt}) : tracked_motion_;
+}
+
+void SlamFrontEnd::updateVelocity(const Pose2& motion, double stamp) {
+  const double dt = stamp - last_scan_stamp_;
+  if (!(dt >= odometry_.options().min_velocity_interval && dt <= odometry_.options().max_prediction_gap)) return;
+  const Pose2 moved = between(tracked_motion_, motion);
+  const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};
+  // A velocity no robot has says the stamps are out of step with the scans: not kept.
+  if (std::hypot(velocity.x, velocity.y) <= odometry_.options().max_speed &&
+      std::abs(velocity.theta) <= odometry_.options().max_turn_rate)
+    velocity_ = velocity;
 }
 
 void SlamFrontEnd::setOdometryPose(FrontEndStep& step) const {

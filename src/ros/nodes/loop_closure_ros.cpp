@@ -517,6 +517,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     status.add(std::string("steps not matched: ") + llc::odometryRefusalName(llc::OdometryRefusal(kind)),
                c.steps_not_matched[kind]);
   status.add("wheel odometry jumps left out", c.wheel_jumps);
+  status.add("scans with stalled wheel odometry (placed by the laser)", c.stalled_wheel_scans);
   status.add("stamps that jumped back (new odometry chains)", c.time_jumps);
   status.add("pairs classified", c.pairs_classified);
   status.add("candidates", c.candidates);

@@ -57,6 +57,12 @@ struct ScanOdometryOptions {
   /// (FR079); on a tie (a corridor, where ICP slides) the wheels' guess stands.
   bool track_scans = true;
   double track_min_fit_gain = 0.05;
+  /// A wheel reading that repeats the scan before's exactly while the laser says the robot
+  /// moved (ICP from it failed or disputed it) is a stalled odometry source, not a robot that
+  /// stood: the scan is placed by the laser alone, predicted by the last matched velocity, as
+  /// without wheels, and a keyframe made so takes no wheel reference. MIT CSAIL's wheels report
+  /// nothing for 1 s mid-turn, then jump 0.87 rad. (false: the stalled reading is the guess.)
+  bool stalled_wheels_as_missing = true;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
@@ -117,6 +123,9 @@ class ScanOdometry {
   /// max_wheel_disagreement and for a disputed step.
   OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
                      bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
+  /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
+  /// the first did.
+  static bool samePose(const Pose2& a, const Pose2& b);
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
 

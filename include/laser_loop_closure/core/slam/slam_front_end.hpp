@@ -27,6 +27,7 @@ struct FrontEndCounters {
   std::size_t recovered_steps = 0;  ///< of the matched ones, by correlative_recovery (the laser over the wheels)
   std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t stalled_wheel_scans = 0;  ///< scans whose repeated wheel reading the laser contradicted: placed without it
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0;        ///< of `aligned`, keyframes the map put near (not the classifier)
@@ -122,6 +123,8 @@ class SlamFrontEnd {
   Pose2 last_wheels_;            ///< the scan before's wheel reading, to see jumps
   double last_wheels_stamp_ = 0.0;
   bool has_last_wheels_ = false;
+  bool wheels_moved_ = false;    ///< the last wheel reading differed from the one before
+  bool wheels_stalled_ = false;  ///< the last wheel reading was found stalled (stalled_wheels_as_missing)
   /// The last jump, to tell a spike (the wheels come back) from a step: the reference and the
   /// reading before it (cleared when a keyframe takes a new reference).
   Pose2 before_jump_reference_, before_jump_wheels_;
@@ -129,6 +132,17 @@ class SlamFrontEnd {
   bool has_jump_ = false;
   Pose2 keyframe_in_odometry_;  ///< the newest keyframe in the front end's own odometry frame
   bool has_keyframe_in_odometry_ = false;
+  enum class WheelPlacement { kNotKeyframe, kKeyframe };
+  /// The wheel odometry branch of addScan (the newest keyframe has a wheel reading): jumps
+  /// left out, ICP from the wheels' guess and the tracked one, stalled readings found; fills
+  /// step.odometry (and `prepared` when it matched).
+  WheelPlacement placeWithWheels(const Scan& scan, const Pose2& wheels, bool repeated, FrontEndStep& step,
+                                 std::shared_ptr<const PreparedScan>& prepared);
+  /// tracked_motion_ carried on by velocity_ to `stamp` (predict_motion, within max_prediction_gap).
+  Pose2 predictedMotion(double stamp) const;
+  /// velocity_ from the tracked motion at last_scan_stamp_ to `motion` at `stamp` (kept when
+  /// the scans are min_velocity_interval apart and no faster than max_speed, max_turn_rate).
+  void updateVelocity(const Pose2& motion, double stamp);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
   /// The last matched scan's motion from the newest keyframe: without wheel odometry every
@@ -137,8 +151,8 @@ class SlamFrontEnd {
   Pose2 tracked_motion_;
   Pose2 tracked_wheels_;
   bool has_wheel_track_ = false;
-  // Without wheel odometry and with predict_motion: the last matched velocity (per second, in
-  // the robot's frame; zero after a restore) and the stamp of the last scan used.
+  // The last matched velocity (per second, in the robot's frame; zero after a restore), which
+  // predicts scans without (or with stalled) wheel odometry, and tracked_motion_'s stamp.
   Pose2 velocity_;
   double last_scan_stamp_ = 0.0;
   // The threshold calibration's view of the drive: each keyframe's pose by this front end's

@@ -50,6 +50,7 @@ struct SlamCounters {
   std::size_t recovered_steps = 0;  ///< of the matched ones, the laser's motion from a correlative search over the wheels
   std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
+  std::size_t stalled_wheel_scans = 0;  ///< repeated wheel readings the laser contradicted: placed without them
   std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0, nearby_found = 0;  ///< of aligned / of those accepted by alignment: nearby candidates
