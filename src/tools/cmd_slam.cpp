@@ -335,6 +335,8 @@ int runSlam(const Args& args) {
             << "truth_scans_matched=" << r.matched << "  (the reference's pose of the scan with the same ranges)\n"
             << "truth_scans_carried=" << r.carried << "  (by their odometry from the matched scans on either side)\n"
             << "truth_max_carry_scans=" << r.max_carry_scans << "\n"
+            << "truth_stalled_odometry_scans=" << r.stalled_odometry
+            << "  (a reading repeated, then a new one within 2 s: interpolated in time to carry the truth by)\n"
             << "truth_scans_ambiguous=" << r.ambiguous << "  (ranges met twice: left unmatched)\n";
       std::size_t doubtful = 0;
       for (std::size_t i = 0; i < r.gap_miss_m.size(); ++i)

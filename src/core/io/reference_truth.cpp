@@ -17,6 +17,36 @@ std::uint64_t scanKey(const LoggedScan& s) {
   return s.recorded_ranges_key != 0 ? s.recorded_ranges_key : recordedRangesKey(s.scan.ranges);
 }
 
+/// The odometry the truth is carried by: each scan's, except where the odometry's source
+/// stalled (a reading repeated exactly, then a different one within kMaxStall seconds: MIT
+/// CSAIL's wheels report nothing for 1 s mid-turn, then jump 0.87 rad). There the readings
+/// are interpolated in time from the last reading before the run to the first one after it.
+std::vector<Pose2> odometryWithoutStalls(const ScanSequence& sequence, std::size_t* stalled) {
+  constexpr double kMaxStall = 2.0;  // s
+  const std::vector<LoggedScan>& scans = sequence.scans;
+  std::vector<Pose2> odometry(scans.size());
+  for (std::size_t i = 0; i < scans.size(); ++i) odometry[i] = scans[i].odometry;
+  auto same = [](const Pose2& a, const Pose2& b) { return a.x == b.x && a.y == b.y && a.theta == b.theta; };
+  for (std::size_t i = 1; i < scans.size(); ++i) {
+    if (!same(odometry[i], odometry[i - 1])) continue;
+    std::size_t next = i;  // the first reading after the run
+    while (next < scans.size() && same(odometry[next], odometry[i - 1])) ++next;
+    const double t0 = scans[i - 1].stamp;
+    if (next == scans.size() || !(scans[next].stamp > t0) || scans[next].stamp - t0 > kMaxStall) {
+      i = next;
+      continue;
+    }
+    const Pose2 step = between(odometry[i - 1], odometry[next]);
+    for (std::size_t k = i; k < next; ++k) {
+      const double w = std::clamp((scans[k].stamp - t0) / (scans[next].stamp - t0), 0.0, 1.0);
+      odometry[k] = compose(odometry[i - 1], Pose2{w * step.x, w * step.y, w * step.theta});
+      ++*stalled;
+    }
+    i = next;
+  }
+  return odometry;
+}
+
 }  // namespace
 
 ReferenceTruthResult applyReferenceTruth(const ScanSequence& reference, ScanSequence* sequence) {
@@ -56,8 +86,9 @@ ReferenceTruthResult applyReferenceTruth(const ScanSequence& reference, ScanSequ
   std::vector<Pose2> truth(n);
   result.gap_miss_m.assign(n, 0.0);
   result.gap_miss_rad.assign(n, 0.0);
+  const std::vector<Pose2> odometry = odometryWithoutStalls(*sequence, &result.stalled_odometry);
   auto carriedFrom = [&](std::size_t m, std::size_t i) {
-    return compose(reference.scans[source[m]].truth, between(sequence->scans[m].odometry, sequence->scans[i].odometry));
+    return compose(reference.scans[source[m]].truth, between(odometry[m], odometry[i]));
   };
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t b = before[i], a = after[i];

@@ -89,10 +89,13 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
 
   const auto start = std::chrono::steady_clock::now();
   std::shared_ptr<const PreparedScan> prepared;
-  // The same wheel reading as the scan before's, to the bit: the robot stood, or the wheels'
-  // source stalled (the laser tells which). A new reading ends a stall.
-  const bool repeated = wheel_odometry && has_last_wheels_ && last_wheels_.x == wheel_odometry->x &&
-                        last_wheels_.y == wheel_odometry->y && last_wheels_.theta == wheel_odometry->theta;
+  // The same wheel reading as the scan before's (to a micrometre and a microradian: a reading
+  // looked up through tf between two equal ones may differ in its last bits): the robot stood,
+  // or the wheels' source stalled (the laser tells which). A new reading ends a stall.
+  const bool repeated = wheel_odometry && has_last_wheels_ && [&] {
+    const Pose2 moved = between(last_wheels_, *wheel_odometry);
+    return std::abs(moved.x) <= 1e-6 && std::abs(moved.y) <= 1e-6 && std::abs(moved.theta) <= 1e-6;
+  }();
   if (!repeated) wheels_stalled_ = false;
   if (has_keyframe_) {
     bool placed = false;

@@ -122,4 +122,35 @@ TEST(ReferenceTruth, AnotherDriveIsRefusedAndLeavesTheSequenceAlone) {
   EXPECT_THROW(llc::applyReferenceTruth(empty, &sequence), std::invalid_argument);
 }
 
+TEST(ReferenceTruth, AStalledOdometryReadingIsInterpolatedInTimeToCarryTheTruthBy) {
+  // Scans 0.2 s apart, 1 m a scan; the odometry stalls at scan 1's reading over scans 2 and 3,
+  // then catches up at scan 4 (4, 0, 0.3). Carried from the matched scans 0 and 5, scans 2
+  // and 3 are where the time between scans 1 and 4 puts them, not at scan 1 and then a jump.
+  llc::ScanSequence sequence = drive();
+  sequence.scans.push_back(scanWithRanges(6.0, {5.0, 0.0, 0.3}));
+  for (std::size_t i = 0; i < sequence.scans.size(); ++i) sequence.scans[i].stamp = 10.0 + 0.2 * double(i);
+  sequence.scans[4].odometry = {4.0, 0.0, 0.3};
+  sequence.scans[2].odometry = sequence.scans[3].odometry = sequence.scans[1].odometry;
+  llc::ScanSequence reference;
+  reference.scans.push_back(scanWithRanges(1.0, {0.0, 0.0, 0.0}));
+  reference.scans.push_back(scanWithRanges(6.0, {5.0, 0.0, 0.3}));
+  const llc::ReferenceTruthResult r = llc::applyReferenceTruth(reference, &sequence);
+  EXPECT_EQ(r.stalled_odometry, 2u);
+  // Scan 2 a third of the way from scan 1 (1, 0, 0) to scan 4 (3 m on, turned 0.3 rad): the
+  // odometry agrees with the reference at both ends, so each carried pose is that one.
+  expectPose({2.0, 0.0, 0.1}, sequence.scans[2].truth);
+  expectPose({3.0, 0.0, 0.2}, sequence.scans[3].truth);
+  EXPECT_NEAR(r.gap_miss_m[3], 0.0, 1e-12);
+  expectPose({1.0, 0.0, 0.0}, sequence.scans[3].odometry);  // the odometry itself is left alone
+  // A reading repeated for longer than 2 s is a robot that stood: carried as it is.
+  llc::ScanSequence stood = drive();
+  for (std::size_t i = 0; i < stood.scans.size(); ++i) stood.scans[i].stamp = 10.0 + 1.5 * double(i);
+  stood.scans[2].odometry = stood.scans[1].odometry;
+  stood.scans[3].odometry = {2.0, 0.0, 0.0};
+  stood.scans[4].odometry = {3.0, 0.0, 0.0};
+  reference.scans[1] = scanWithRanges(5.0, {3.0, 0.0, 0.0});
+  EXPECT_EQ(llc::applyReferenceTruth(reference, &stood).stalled_odometry, 0u);
+  expectPose({1.0, 0.0, 0.0}, stood.scans[2].truth);
+}
+
 }  // namespace

@@ -16,6 +16,7 @@ struct ReferenceTruthResult {
   std::size_t carried = 0;          ///< scans given a pose carried by odometry from matched scans
   std::size_t ambiguous = 0;        ///< reference scans left out: their ranges occur twice (either log)
   std::size_t max_carry_scans = 0;  ///< most scans between any scan and its nearest matched scan
+  std::size_t stalled_odometry = 0;  ///< scans whose odometry reading was stalled: interpolated to carry by
   std::vector<bool> matched_scans;  ///< per scan of the sequence: whether it took a reference pose
   /// Per scan of the sequence: how far its odometry, carried across the gap the scan lies in
   /// from the matched scan before it to the one after, misses the reference's pose there (m,
@@ -30,7 +31,8 @@ struct ReferenceTruthResult {
 /// that scan's truth. Any other scan is carried by its odometry motion from the matched scans
 /// on either side (by index): from each one's truth, the two blended linearly by the scan's
 /// place between them (the heading along the shorter arc); before the first or after the last
-/// matched scan from that one alone. Throws std::invalid_argument (the sequence unchanged) when
+/// matched scan from that one alone. A stalled odometry reading (repeated exactly, then a
+/// different one within 2 s) is interpolated in time between the readings around it first. Throws std::invalid_argument (the sequence unchanged) when
 /// fewer than two scans match: then it is not the same drive.
 ReferenceTruthResult applyReferenceTruth(const ScanSequence& reference, ScanSequence* sequence);
 

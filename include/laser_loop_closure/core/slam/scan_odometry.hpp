@@ -57,11 +57,13 @@ struct ScanOdometryOptions {
   /// (FR079); on a tie (a corridor, where ICP slides) the wheels' guess stands.
   bool track_scans = true;
   double track_min_fit_gain = 0.05;
-  /// A wheel reading that repeats the scan before's exactly while the laser says the robot
-  /// moved (ICP from it failed or disputed it) is a stalled odometry source, not a robot that
-  /// stood: the scan is placed by the laser alone, predicted by the last matched velocity, as
-  /// without wheels, and a keyframe made so takes no wheel reference. MIT CSAIL's wheels report
-  /// nothing for 1 s mid-turn, then jump 0.87 rad. (false: the stalled reading is the guess.)
+  /// With match_every_scan: a wheel reading that repeats the scan before's (to 1e-6 m and rad)
+  /// right after the wheels moved is a robot that stood or a stalled odometry source. ICP runs
+  /// from the wheels' guess and from the laser's prediction (the last scan's pose on by the
+  /// last matched velocity); when the prediction's result wins (as tracking judges) and the
+  /// laser moved since the scan before, the wheels stalled: the scan is the laser's, keyframes
+  /// come as the laser moves, and one made then takes no wheel reference. MIT CSAIL's wheels
+  /// report nothing for 1 s mid-turn, then jump 0.87 rad. (false: the stalled reading is the guess.)
   bool stalled_wheels_as_missing = true;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
