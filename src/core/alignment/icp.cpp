@@ -19,6 +19,7 @@ std::string IcpOptions::validate() const {
   if (!(translation_tolerance > 0.0) || !(rotation_tolerance > 0.0)) return "tolerances must be > 0";
   if (min_correspondences < 3) return "min_correspondences must be >= 3";
   if (!(degeneracy_ratio >= 0.0 && degeneracy_ratio < 1.0)) return "degeneracy_ratio must be in [0, 1)";
+  if (!(remap_ratio >= 0.0 && remap_ratio < 1.0)) return "remap_ratio must be in [0, 1)";
   if (normal_neighbours < 2) return "normal_neighbours must be >= 2";
   if (!(normal_radius > 0.0)) return "normal_radius must be > 0";
   if (!(max_normal_angle > 0.0 && max_normal_angle <= M_PI / 2)) return "max_normal_angle must be in (0, pi/2]";
@@ -136,9 +137,18 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
     const double scale = std::sqrt(std::max(spread / double(pairs.size()), 1e-6));
     const Eigen::Vector3d unit(1.0, 1.0, 1.0 / scale);
     const Eigen::Matrix3d normalised = unit.asDiagonal() * hessian * unit.asDiagonal();
-    const Eigen::Vector3d eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(normalised).eigenvalues();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(normalised);
+    const Eigen::Vector3d eigen = solver.eigenvalues();
     if (!(eigen(0) > options.degeneracy_ratio * eigen(2))) return finish("degenerate geometry");
-    const Eigen::Vector3d step = -hessian.ldlt().solve(gradient);
+    Eigen::Vector3d step = -hessian.ldlt().solve(gradient);
+    if (options.remap_ratio > 0.0) {
+      // Solution remapping (Zhang, Kaess, Singh 2016): no step along a direction the pairs
+      // hardly constrain (a corridor's axis), so there the pose stays where the seed put it.
+      Eigen::Matrix3d keep = Eigen::Matrix3d::Zero();
+      for (int i = 0; i < 3; ++i)
+        if (eigen(i) >= options.remap_ratio * eigen(2)) keep += solver.eigenvectors().col(i) * solver.eigenvectors().col(i).transpose();
+      step = unit.asDiagonal() * (keep * (unit.cwiseInverse().asDiagonal() * step));
+    }
     if (!step.allFinite()) return finish("numerical failure");
     result.pose = compose(Pose2{step(0), step(1), step(2)}, result.pose);
     if (std::hypot(step(0), step(1)) < options.translation_tolerance && std::abs(step(2)) < options.rotation_tolerance) {

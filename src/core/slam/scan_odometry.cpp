@@ -46,6 +46,11 @@ ScanOdometry::ScanOdometry(const ScanOdometryOptions& options) : options_(option
   if (!error.empty()) throw std::invalid_argument("odometry options: " + error);
 }
 
+IcpOptions ScanOdometry::withoutRemapping(IcpOptions options) {
+  options.remap_ratio = 0.0;
+  return options;
+}
+
 bool ScanOdometry::samePose(const Pose2& a, const Pose2& b) {
   const Pose2 apart = between(a, b);
   return std::hypot(apart.x, apart.y) <= 0.05 && std::abs(apart.theta) <= 0.02;
@@ -97,7 +102,13 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
     return step;
   };
   if (!options_.scan_matching) return finish("", OdometryRefusal::kNone);
-  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, options_.icp, &current.icp_target.normals);
+  // Remapping keeps the seed along a direction the scans hardly fix: right for the wheels'
+  // guess (and the tracked one, carried by them), which know that direction by themselves; not
+  // for a guess the laser made (the motion model, a correlative search), which would then
+  // never learn a motion along a corridor.
+  const IcpOptions laser_seeded = withoutRemapping(options_.icp);
+  const IcpOptions& seeded = guess_from_wheels ? options_.icp : laser_seeded;
+  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals);
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;
@@ -108,7 +119,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   Pose2 seed = guess;
   const auto same = &ScanOdometry::samePose;
   if (tracked && guess_from_wheels && isFinite(*tracked) && !same(guess, *tracked)) {
-    const IcpResult from_tracked = alignIcp(current.points, previous.icp_target, *tracked, options_.icp, &current.icp_target.normals);
+    const IcpResult from_tracked = alignIcp(current.points, previous.icp_target, *tracked, seeded, &current.icp_target.normals);
     auto fit = [&](const IcpResult& r) {
       return r.converged ? validateShape(current.points, previous.icp_target.tree, r.pose, overlap, &previous.view).inlier_share : -1.0;
     };
@@ -192,7 +203,8 @@ std::optional<Pose2> ScanOdometry::recoverFromWheels(const PreparedScan& previou
     if (reverse.found && (!search.found || reverse.score > search.score)) search = reverse;
   }
   if (!search.found) return std::nullopt;
-  const IcpResult refined = alignIcp(current.points, previous.icp_target, search.pose, options_.icp, &current.icp_target.normals);
+  const IcpResult refined =
+      alignIcp(current.points, previous.icp_target, search.pose, withoutRemapping(options_.icp), &current.icp_target.normals);
   auto inWindow = [&](const Pose2& pose, const Pose2& centre) {
     return std::abs(pose.x - centre.x) <= window.max_translation + window.translation_step &&
            std::abs(pose.y - centre.y) <= window.max_translation + window.translation_step &&

@@ -284,6 +284,43 @@ TEST(Icp, RefusesDegenerateAndEmptyInputWithAReason) {
   EXPECT_FALSE(bad.validate().empty());
 }
 
+TEST(Icp, RemappingKeepsTheSeedAlongACorridorsAxisAndCorrectsTheRest) {
+  // The corridor with one niche (0.2 m deep, 1 m wide) in a wall: its far end is all that
+  // fixes the position along the axis (a weak direction of the Hessian, above the degeneracy
+  // ratio). From a seed 0.06 m along the axis, 0.03 m across and 0.01 rad off, ICP alone finds
+  // the truth; with remapping it corrects the lateral offset and the heading and keeps the
+  // seed's position along the axis (where wheels know better than a niche or two).
+  const std::vector<llc_test::Wall> walls = {{{-100, -1.5}, {100, -1.5}}, {{-100, 1.5}, {2.8, 1.5}},
+                                             {{3.8, 1.5}, {100, 1.5}},    {{2.8, 1.5}, {2.8, 1.7}},
+                                             {{2.8, 1.7}, {3.8, 1.7}},    {{3.8, 1.7}, {3.8, 1.5}}};
+  const Pose2 truth{0.3, 0.0, 0.0};
+  llc::IcpOptions options;
+  const llc::IcpTarget target(llc::scanPoints(scanAt(walls, Pose2{}), 40.0), options);
+  const Points2 source = llc::scanPoints(scanAt(walls, truth), 40.0);
+  const Pose2 seed{0.36, 0.03, 0.01};
+  const llc::IcpResult plain = llc::alignIcp(source, target, seed, options);
+  ASSERT_TRUE(plain.converged) << plain.reject_reason;
+  expectPoseNear(plain.pose, truth, 0.01, 0.002);
+  options.remap_ratio = 0.01;
+  const llc::IcpResult remapped = llc::alignIcp(source, target, seed, options);
+  ASSERT_TRUE(remapped.converged) << remapped.reject_reason;
+  EXPECT_NEAR(remapped.pose.y, truth.y, 0.005);
+  EXPECT_NEAR(remapped.pose.theta, truth.theta, 0.002);
+  EXPECT_NEAR(remapped.pose.x, seed.x, 0.005) << "the seed's position along the axis stays";
+  // In a room every direction is well fixed: remapping changes nothing.
+  const llc::IcpTarget room_target(llc::scanPoints(scanAt(room(), Pose2{}), 40.0), options);
+  const Pose2 moved{0.4, -0.2, 0.1};
+  const llc::IcpResult in_room =
+      llc::alignIcp(llc::scanPoints(scanAt(room(), moved), 40.0), room_target, Pose2{0.5, -0.1, 0.05}, options);
+  ASSERT_TRUE(in_room.converged) << in_room.reject_reason;
+  expectPoseNear(in_room.pose, moved, 2e-3, 1e-3);
+  llc::IcpOptions bad;
+  for (const double ratio : {-0.1, 1.0, std::nan("")}) {
+    bad.remap_ratio = ratio;
+    EXPECT_NE(bad.validate().find("remap_ratio"), std::string::npos) << ratio;
+  }
+}
+
 TEST(Icp, WithThePairsFixedFromTheFirstStepStillReachesTheTruth) {
   // The pairs found at the start are kept (moved with the pose) for every later step. Point
   // to line, a point paired with the wrong point of the right wall still pulls the right way,

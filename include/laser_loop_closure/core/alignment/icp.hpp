@@ -21,6 +21,10 @@ struct IcpOptions {
   int min_correspondences = 10;            ///< fewer pairs than this: not converged
   double degeneracy_ratio = 1e-3;          ///< smallest / largest eigenvalue of the normalised
                                            ///< Hessian below this: a direction is unconstrained
+  /// A direction of the normalised Hessian whose eigenvalue is below this x the largest is
+  /// weakly constrained (a corridor's axis): ICP takes no step along it, and the pose keeps the
+  /// seed's there (solution remapping). 0: off.
+  double remap_ratio = 0.0;
   int normal_neighbours = 6;               ///< points used for each target normal
   double normal_radius = 0.6;              ///< m; neighbours beyond this do not shape a normal
   std::size_t max_source_points = 400;     ///< source points paired per step, evenly strided (0 = all)

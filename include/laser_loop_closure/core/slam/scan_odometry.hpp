@@ -16,6 +16,16 @@
 
 namespace llc {
 
+/// ICP's options for scan-matching odometry: IcpOptions' defaults, but with solution remapping
+/// (remap_ratio 0.01) where the seed is the wheels' guess, which along a corridor's axis (where
+/// the scans hardly fix the pose and ICP slid 0.2-0.3 m on ACES) knows better; chosen on the
+/// relations benchmark's logs (docs/mapping.md). Without wheels it is not used.
+inline IcpOptions odometryIcpOptions() {
+  IcpOptions options;
+  options.remap_ratio = 0.01;
+  return options;
+}
+
 struct ScanOdometryOptions {
   double keyframe_distance = 1.0;  ///< m moved since the last keyframe that makes a scan a keyframe
   double keyframe_angle = 0.35;    ///< rad turned since the last keyframe that does it too
@@ -78,7 +88,7 @@ struct ScanOdometryOptions {
   /// played in a loop, a clock reset), placed by its first loop closure; by less it is skipped
   /// as out of order.
   double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
-  IcpOptions icp{};                ///< ICP of consecutive keyframes
+  IcpOptions icp = odometryIcpOptions();  ///< ICP of consecutive keyframes (and of each scan, match_every_scan)
   /// With wheel odometry: when ICP from the wheels' guess fails, moves too far, overlaps too
   /// little or is disputed, a correlative search (correlative.max_translation, .max_rotation)
   /// around the guess and around the same step backwards seeds a second ICP. When the best of
@@ -128,6 +138,8 @@ class ScanOdometry {
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
   static bool samePose(const Pose2& a, const Pose2& b);
+  /// `options` with solution remapping off (for an ICP seeded by the laser itself).
+  static IcpOptions withoutRemapping(IcpOptions options);
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
 

@@ -30,6 +30,7 @@ void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit)
   visit(prefix + "rotation_tolerance", o.rotation_tolerance);
   visit(prefix + "min_correspondences", o.min_correspondences);
   visit(prefix + "degeneracy_ratio", o.degeneracy_ratio);
+  visit(prefix + "remap_ratio", o.remap_ratio);
   visit(prefix + "max_source_points", o.max_source_points);
   visit(prefix + "max_normal_angle", o.max_normal_angle);
   visit(prefix + "fixed_pairs_after", o.fixed_pairs_after);
