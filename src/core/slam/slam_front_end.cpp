@@ -89,12 +89,12 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
 
   const auto start = std::chrono::steady_clock::now();
   std::shared_ptr<const PreparedScan> prepared;
-  // The same wheel reading as the scan before's (to a micrometre and a microradian: a reading
-  // looked up through tf between two equal ones may differ in its last bits): the robot stood,
-  // or the wheels' source stalled (the laser tells which). A new reading ends a stall.
+  // The wheels say the robot hardly moved since the scan before (5 mm, 5 mrad: a stalled
+  // reading looked up through tf between two messages moves by a little): the robot stood or
+  // crept, or the wheels' source stalled (the laser tells which). A moving reading ends a stall.
   const bool repeated = wheel_odometry && has_last_wheels_ && [&] {
     const Pose2 moved = between(last_wheels_, *wheel_odometry);
-    return std::abs(moved.x) <= 1e-6 && std::abs(moved.y) <= 1e-6 && std::abs(moved.theta) <= 1e-6;
+    return std::hypot(moved.x, moved.y) <= 0.005 && std::abs(moved.theta) <= 0.005;
   }();
   if (!repeated) wheels_stalled_ = false;
   if (has_keyframe_) {

@@ -67,8 +67,8 @@ struct ScanOdometryOptions {
   /// (FR079); on a tie (a corridor, where ICP slides) the wheels' guess stands.
   bool track_scans = true;
   double track_min_fit_gain = 0.05;
-  /// With match_every_scan: a wheel reading that repeats the scan before's (to 1e-6 m and rad)
-  /// right after the wheels moved is a robot that stood or a stalled odometry source. ICP runs
+  /// With match_every_scan: a wheel reading within 5 mm and 5 mrad of the scan before's, right
+  /// after the wheels moved, is a robot that stood or a stalled odometry source. ICP runs
   /// from the wheels' guess and from the laser's prediction (the last scan's pose on by the
   /// last matched velocity); when the prediction's result wins (as tracking judges) and the
   /// laser moved since the scan before, the wheels stalled: the scan is the laser's, keyframes
