@@ -112,10 +112,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       // No wheels (or no wheel reference at the newest keyframe: a stall): every scan is
       // matched to the newest keyframe to know when it moved enough, from where the last
       // velocity says it is now.
-      if (wheel_odometry) {
-        last_wheels_ = *wheel_odometry, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
-        wheels_moved_ = !repeated;
-      }
+      if (wheel_odometry) rememberWheels(*wheel_odometry, scan.stamp, repeated);
       if (!prepared) prepared = detector_.aligner().prepare(scan);
       step.odometry = odometry_.match(detector_.prepared(detector_.size() - 1), *prepared, predictedMotion(scan.stamp), false);
       if (step.odometry.matched) updateVelocity(step.odometry.motion, scan.stamp);
@@ -202,8 +199,7 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   // (Only where every scan is matched: the laser's last pose is then the scan before's.)
   const bool maybe_stalled =
       repeated && o.stalled_wheels_as_missing && o.match_every_scan && (wheels_moved_ || wheels_stalled_);
-  wheels_moved_ = !repeated;
-  last_wheels_ = wheels, last_wheels_stamp_ = scan.stamp, has_last_wheels_ = true;
+  rememberWheels(wheels, scan.stamp, repeated);
   // The wheels' guess, and (track_scans) the tracked one: from the last scan ICP placed, on
   // by the wheels' motion since. FR079 turned left while its wheels, slipping for 4 s, said
   // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
@@ -242,6 +238,11 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   }
   wheel_noise_.add(step.odometry.wheel_disagreement);
   return WheelPlacement::kKeyframe;
+}
+
+void SlamFrontEnd::rememberWheels(const Pose2& wheels, double stamp, bool repeated) {
+  last_wheels_ = wheels, last_wheels_stamp_ = stamp, has_last_wheels_ = true;
+  wheels_moved_ = !repeated;
 }
 
 Pose2 SlamFrontEnd::predictedMotion(double stamp) const {

@@ -138,6 +138,8 @@ class SlamFrontEnd {
   /// step.odometry (and `prepared` when it matched).
   WheelPlacement placeWithWheels(const Scan& scan, const Pose2& wheels, bool repeated, FrontEndStep& step,
                                  std::shared_ptr<const PreparedScan>& prepared);
+  /// The wheel reading of this scan, the next one's "scan before" (jumps, stalls).
+  void rememberWheels(const Pose2& wheels, double stamp, bool repeated);
   /// tracked_motion_ carried on by velocity_ to `stamp` (predict_motion, within max_prediction_gap).
   Pose2 predictedMotion(double stamp) const;
   /// velocity_ from the tracked motion at last_scan_stamp_ to `motion` at `stamp` (kept when
