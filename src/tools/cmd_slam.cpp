@@ -447,6 +447,10 @@ int runSlam(const Args& args) {
          << "wheel_odometry_jumps=" << c.wheel_jumps << "  (moved faster than max_speed: left out)\n"
          << "wheel_odometry_stalled_scans=" << c.stalled_wheel_scans
          << "  (a reading repeated while the laser said the robot moved: placed by the laser alone)\n"
+         << "laser_fallback_steps=" << c.laser_fallback_steps
+         << "  (placed by the laser: ICP failed from the predicted pose and held from the last scan's)\n"
+         << "scans_counted_by_motion_clock=" << c.scans_counted
+         << "  (stamps jittering beyond odometry/max_stamp_jitter: the motion model counted scans instead)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"
          << "odometry_steps_recovered=" << c.recovered_steps << "  (the wheels doubted, the laser's motion from a correlative search taken)\n"
          << "odometry_steps_tracked=" << c.tracked_steps << "  (ICP from the tracked scans' pose fitted better than from the wheels', or both agreed: track_scans)\n"

@@ -10,7 +10,8 @@ namespace llc {
 
 SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
                            const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
-    : odometry_(odometry), wheel_noise_(odometry.wheel_noise_window), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops) {}
+    : odometry_(odometry), wheel_noise_(odometry.wheel_noise_window), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops),
+      motion_clock_(odometry.max_stamp_jitter) {}
 
 Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
 
@@ -49,7 +50,8 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   restart_pending_ = !continue_odometry && !keyframes.empty();
   restart_reason_ = "a new chain after a restored session";
   if (has_keyframe_) {
-    last_keyframe_stamp_ = last_scan_stamp_ = keyframes.back().stamp;
+    last_keyframe_stamp_ = last_motion_time_ = keyframes.back().stamp;
+    motion_clock_.reset(last_motion_time_);
     last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
     last_keyframe_wheels_ = keyframes.back().wheel_odometry;
   }
@@ -74,8 +76,11 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   if (wheel_odometry && !isFinite(*wheel_odometry))
     return skip(ScanRefusal::kWheelOdometryNotFinite, "wheel odometry is not finite");
   if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) {
-    if (last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back)
-      return skip(ScanRefusal::kTimeWentBackwards, "time went backwards");
+    // (Stamps that jitter say nothing of the order: the scans are taken as they come.)
+    const bool small_jump = last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back;
+    if (small_jump && !motion_clock_.countingScans()) return skip(ScanRefusal::kTimeWentBackwards, "time went backwards");
+  }
+  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_ - odometry_.options().restart_after_jump_back) {
     // A looped bag or a reset clock: a new chain from this scan on, as after a restored session.
     step.time_jump = "time jumped back " + std::to_string(last_keyframe_stamp_ - scan.stamp) +
                      " s: a new odometry chain, placed by its first loop closure";
@@ -84,10 +89,13 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     restart_pending_ = true;
     restart_reason_ = "a new chain after time jumped back";
     tracked_motion_ = velocity_ = Pose2{};
+    motion_clock_.reset(scan.stamp);
     has_last_wheels_ = has_jump_ = has_wheel_track_ = wheels_moved_ = wheels_stalled_ = false;
   }
 
   const auto start = std::chrono::steady_clock::now();
+  motion_time_ = motion_clock_.tick(scan.stamp);
+  counters_.scans_counted += motion_clock_.countingScans();
   std::shared_ptr<const PreparedScan> prepared;
   // The wheels say the robot hardly moved since the scan before (5 mm, 5 mrad: a stalled
   // reading looked up through tf between two messages moves by a little): the robot stood or
@@ -114,10 +122,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       // velocity says it is now.
       if (wheel_odometry) rememberWheels(*wheel_odometry, scan.stamp, repeated);
       if (!prepared) prepared = detector_.aligner().prepare(scan);
-      step.odometry = odometry_.match(detector_.prepared(detector_.size() - 1), *prepared, predictedMotion(scan.stamp), false);
-      if (step.odometry.matched) updateVelocity(step.odometry.motion, scan.stamp);
-      last_scan_stamp_ = scan.stamp;
-      tracked_motion_ = step.odometry.motion;
+      placeByLaser(*prepared, step);
       if (!odometry_.movedEnough(tracked_motion_)) {
         counters_.seconds_odometry += secondsSince(start);
         setOdometryPose(step);
@@ -139,7 +144,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
 
   has_keyframe_ = true;
   last_keyframe_stamp_ = scan.stamp;
-  last_scan_stamp_ = scan.stamp;
+  last_motion_time_ = motion_time_;
   // A stalled reading is no reference: the scans after it go on by the laser to the next keyframe.
   last_keyframe_has_wheels_ = wheel_odometry != nullptr && !wheels_stalled_;
   if (last_keyframe_has_wheels_) last_keyframe_wheels_ = *wheel_odometry;
@@ -205,7 +210,7 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
   // A reading that may be stalled says nothing of the motion since: the last velocity does.
   const Pose2 guess = between(last_keyframe_wheels_, wheels);
-  const Pose2 tracked = maybe_stalled ? predictedMotion(scan.stamp) : compose(tracked_motion_, between(tracked_wheels_, wheels));
+  const Pose2 tracked = maybe_stalled ? predictedMotion() : compose(tracked_motion_, between(tracked_wheels_, wheels));
   const bool keyframe = odometry_.movedEnough(guess);
   if (!keyframe && !o.match_every_scan) {  // not a keyframe: nothing more to do
     step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
@@ -222,16 +227,16 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
     ++counters_.stalled_wheel_scans;
     step.odometry.disputed = false;
     step.odometry.covariance = odometry_.stepCovariance(step.odometry.motion, true);
-    updateVelocity(step.odometry.motion, scan.stamp);
-    tracked_motion_ = step.odometry.motion, last_scan_stamp_ = scan.stamp;
+    updateVelocity(step.odometry.motion);
+    tracked_motion_ = step.odometry.motion, last_motion_time_ = motion_time_;
     has_wheel_track_ = false;  // tracked_wheels_ would be the stale reading
     return odometry_.movedEnough(step.odometry.motion) ? WheelPlacement::kKeyframe : WheelPlacement::kNotKeyframe;
   }
   if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
     // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
     if (o.track_scans && step.odometry.matched && !step.odometry.disputed) {
-      updateVelocity(step.odometry.motion, scan.stamp);
-      tracked_motion_ = step.odometry.motion, tracked_wheels_ = wheels, last_scan_stamp_ = scan.stamp;
+      updateVelocity(step.odometry.motion);
+      tracked_motion_ = step.odometry.motion, tracked_wheels_ = wheels, last_motion_time_ = motion_time_;
       has_wheel_track_ = true;
     }
     return WheelPlacement::kNotKeyframe;
@@ -245,14 +250,32 @@ void SlamFrontEnd::rememberWheels(const Pose2& wheels, double stamp, bool repeat
   wheels_moved_ = !repeated;
 }
 
-Pose2 SlamFrontEnd::predictedMotion(double stamp) const {
-  const double dt = stamp - last_scan_stamp_;
+void SlamFrontEnd::placeByLaser(const PreparedScan& scan, FrontEndStep& step) {
+  const PreparedScan& keyframe = detector_.prepared(detector_.size() - 1);
+  const Pose2 predicted = predictedMotion();
+  step.odometry = odometry_.match(keyframe, scan, predicted, false);
+  // A velocity from one bad step predicts far off, and ICP from there fails (the Intel log's
+  // turns in place): where the last scan stood may still be near enough.
+  if (!step.odometry.matched && !ScanOdometry::samePose(predicted, tracked_motion_)) {
+    OdometryStep from_last = odometry_.match(keyframe, scan, tracked_motion_, false);
+    if (from_last.matched) {
+      ++counters_.laser_fallback_steps;
+      step.odometry = std::move(from_last);
+    }
+  }
+  if (step.odometry.matched) updateVelocity(step.odometry.motion);
+  last_motion_time_ = motion_time_;
+  tracked_motion_ = step.odometry.motion;
+}
+
+Pose2 SlamFrontEnd::predictedMotion() const {
+  const double dt = motion_time_ - last_motion_time_;
   const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
   return predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt}) : tracked_motion_;
 }
 
-void SlamFrontEnd::updateVelocity(const Pose2& motion, double stamp) {
-  const double dt = stamp - last_scan_stamp_;
+void SlamFrontEnd::updateVelocity(const Pose2& motion) {
+  const double dt = motion_time_ - last_motion_time_;
   if (!(dt >= odometry_.options().min_velocity_interval && dt <= odometry_.options().max_prediction_gap)) return;
   const Pose2 moved = between(tracked_motion_, motion);
   const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};

@@ -75,6 +75,10 @@ struct ScanOdometryOptions {
   /// come as the laser moves, and one made then takes no wheel reference. MIT CSAIL's wheels
   /// report nothing for 1 s mid-turn, then jump 0.87 rad. (false: the stalled reading is the guess.)
   bool stalled_wheels_as_missing = true;
+  /// The motion model's clock (MotionClock): the scans' stamps, or the count of scans times
+  /// their mean interval while the median absolute deviation of the last 64 intervals is
+  /// above this share of their median (the Intel log's stamps: 0.99). 0: always counted.
+  double max_stamp_jitter = 0.5;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/motion_clock.hpp"
 #include "laser_loop_closure/core/common/random.hpp"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/core/slam/scan_odometry.hpp"
@@ -28,6 +29,8 @@ struct FrontEndCounters {
   std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< scans whose repeated wheel reading the laser contradicted: placed without it
+  std::size_t laser_fallback_steps = 0;  ///< laser-placed scans whose ICP failed from the prediction and held from the last scan's pose
+  std::size_t scans_counted = 0;  ///< scans whose motion time counted scans (their stamps jitter: MotionClock)
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
   std::size_t nearby_aligned = 0;        ///< of `aligned`, keyframes the map put near (not the classifier)
@@ -112,6 +115,8 @@ class SlamFrontEnd {
   ClassifierModel model_;
   ScanAlignerOptions aligner_options_;
   LoopDetectorOptions loop_options_;
+  MotionClock motion_clock_;
+  double motion_time_ = 0.0;  ///< the scan being added, on motion_clock_
   FrontEndCounters counters_;
   bool has_keyframe_ = false;
   bool keyframes_full_circle_ = true;  ///< every keyframe's scan covers 360 degrees
@@ -140,11 +145,14 @@ class SlamFrontEnd {
                                  std::shared_ptr<const PreparedScan>& prepared);
   /// The wheel reading of this scan, the next one's "scan before" (jumps, stalls).
   void rememberWheels(const Pose2& wheels, double stamp, bool repeated);
-  /// tracked_motion_ carried on by velocity_ to `stamp` (predict_motion, within max_prediction_gap).
-  Pose2 predictedMotion(double stamp) const;
-  /// velocity_ from the tracked motion at last_scan_stamp_ to `motion` at `stamp` (kept when
+  /// tracked_motion_ carried on by velocity_ to motion_time_ (predict_motion, within max_prediction_gap).
+  Pose2 predictedMotion() const;
+  /// velocity_ from the tracked motion at last_motion_time_ to `motion` at motion_time_ (kept when
   /// the scans are min_velocity_interval apart and no faster than max_speed, max_turn_rate).
-  void updateVelocity(const Pose2& motion, double stamp);
+  void updateVelocity(const Pose2& motion);
+  /// The scan is placed by the laser alone: ICP from the prediction, or from where the last
+  /// scan stood when that fails (a prediction a bad step spoiled). Fills step.odometry.
+  void placeByLaser(const PreparedScan& scan, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
   /// The last matched scan's motion from the newest keyframe: without wheel odometry every
@@ -154,9 +162,10 @@ class SlamFrontEnd {
   Pose2 tracked_wheels_;
   bool has_wheel_track_ = false;
   // The last matched velocity (per second, in the robot's frame; zero after a restore), which
-  // predicts scans without (or with stalled) wheel odometry, and tracked_motion_'s stamp.
+  // predicts scans without (or with stalled) wheel odometry, and tracked_motion_'s time on
+  // motion_clock_.
   Pose2 velocity_;
-  double last_scan_stamp_ = 0.0;
+  double last_motion_time_ = 0.0;
   // The threshold calibration's view of the drive: each keyframe's pose by this front end's
   // own odometry and the length driven to it. Keyframes before chain_start_ (a restored
   // session) have no place in this chain.
