@@ -27,6 +27,8 @@ std::string ScanOdometryOptions::validate() const {
   if (!(translation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_metre >= 0.0) || !(rotation_sigma_per_radian >= 0.0))
     return "the per-metre and per-radian sigmas must be >= 0";
   if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
+  if (!(icp_covariance_scale >= 0.0) || !std::isfinite(icp_covariance_scale))
+    return "icp_covariance_scale must be finite and >= 0";
   if (!(max_stamp_jitter >= 0.0) || std::isnan(max_stamp_jitter)) return "max_stamp_jitter must be >= 0";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
@@ -69,6 +71,16 @@ Eigen::Matrix3d ScanOdometry::stepCovariance(const Pose2& motion, bool matched) 
   const double rotation = scale * (options_.rotation_sigma + options_.rotation_sigma_per_metre * distance +
                                     options_.rotation_sigma_per_radian * std::abs(motion.theta));
   return Eigen::Vector3d(translation * translation, translation * translation, rotation * rotation).asDiagonal();
+}
+
+Eigen::Matrix3d ScanOdometry::stepCovarianceOf(const IcpResult& icp) {
+  // ICP's covariance is of a small motion applied in the keyframe's frame before its pose:
+  // x' = dx + x - y dtheta, y' = dy + y + x dtheta (to first order) in the step's parameters.
+  Eigen::Matrix3d jacobian = Eigen::Matrix3d::Identity();
+  jacobian(0, 2) = -icp.pose.y;
+  jacobian(1, 2) = icp.pose.x;
+  const Eigen::Matrix3d covariance = jacobian * icp.covariance * jacobian.transpose();
+  return covariance.allFinite() ? covariance : Eigen::Matrix3d::Zero();
 }
 
 void WheelNoiseScale::add(double disagreement) {
@@ -178,6 +190,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   step.motion = icp.pose;
   step.matched = true;
   finish("", OdometryRefusal::kNone);
+  step.icp_covariance = stepCovarianceOf(icp);
   if (disputed) {
     // Which one is wrong is not known: on the drifted logs ICP's minimum, on the raw Intel log
     // the wheels (either as the mean measured the same). ICP's step is kept with a covariance

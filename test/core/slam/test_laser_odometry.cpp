@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/slam/slam_front_end.hpp"
 #include "../synthetic_room.hpp"
 #include "../test_util.hpp"
@@ -84,6 +85,67 @@ TEST(LaserOdometry, WhenThePredictionFailsTheScanIsMatchedFromWhereTheLastOneSto
   EXPECT_NEAR(llc::normalizeAngle(run.last_pose.theta - truth.theta), 0.0, 0.02);
   EXPECT_NEAR(run.last_pose.x, truth.x, 0.03);
   EXPECT_NEAR(run.last_pose.y, truth.y, 0.03);
+}
+
+TEST(LaserOdometry, IcpsCovarianceIsCarriedIntoTheStepsParametersByHand) {
+  llc::IcpResult icp;
+  icp.pose = {1.0, 2.0, 0.3};
+  icp.covariance = Eigen::Vector3d(0.01, 0.02, 0.001).asDiagonal();
+  // A small motion (dx, dy, dtheta) before the pose moves (x, y) to (x + dx - y dtheta,
+  // y + dy + x dtheta): with x = 1, y = 2 by hand.
+  const Eigen::Matrix3d c = llc::ScanOdometry::stepCovarianceOf(icp);
+  EXPECT_NEAR(c(0, 0), 0.01 + 4.0 * 0.001, 1e-12);
+  EXPECT_NEAR(c(1, 1), 0.02 + 1.0 * 0.001, 1e-12);
+  EXPECT_NEAR(c(2, 2), 0.001, 1e-12);
+  EXPECT_NEAR(c(0, 1), -2.0 * 0.001, 1e-12);
+  EXPECT_NEAR(c(0, 2), -2.0 * 0.001, 1e-12);
+  EXPECT_NEAR(c(1, 2), 1.0 * 0.001, 1e-12);
+  icp.covariance(0, 0) = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(llc::ScanOdometry::stepCovarianceOf(icp).isZero());
+}
+
+/// The first keyframe step (after scan 0) of a drive along +x through `walls`, 0.1 m a scan,
+/// with or without the true motion as wheel odometry.
+llc::OdometryStep firstKeyframeStep(const std::vector<llc_test::Wall>& walls, bool wheels,
+                                    const llc::ScanOdometryOptions& options = {}) {
+  llc::SlamFrontEnd front(llc_test::defaultModel(), options, llc::ScanAlignerOptions{}, llc::LoopDetectorOptions{});
+  for (int k = 0; k < 30; ++k) {
+    const llc::Pose2 pose{0.1 * k, 0.05 * std::sin(k), 0.003 * k};
+    llc::Scan scan = llc_test::scanAt(walls, pose, 360);
+    scan.stamp = 0.1 * k;
+    const llc::FrontEndStep step = front.addScan(scan, wheels ? &pose : nullptr);
+    if (step.keyframe && k > 0) return step.odometry;
+  }
+  ADD_FAILURE() << "no second keyframe";
+  return {};
+}
+
+TEST(LaserOdometry, ALaserStepAlongACorridorIsUncertainAlongItsAxis) {
+  // Two walls 3 m apart with a pillar every 3 m: ICP finds each step, but along the corridor
+  // only the pillars' few points fix it. Without wheels the step's covariance says so.
+  auto walls = llc_test::corridor();
+  for (int n = 0; n < 4; ++n) {  // pillars 1 m wide standing 0.4 m out, in turn from each wall
+    const double x = -1.0 + 3.0 * n, side = n % 2 ? 1.5 : -1.5, depth = n % 2 ? -0.4 : 0.4;
+    walls.push_back({{x, side}, {x, side + depth}});
+    walls.push_back({{x, side + depth}, {x + 1.0, side + depth}});
+    walls.push_back({{x + 1.0, side + depth}, {x + 1.0, side}});
+  }
+  const llc::OdometryStep laser = firstKeyframeStep(walls, false);
+  ASSERT_TRUE(laser.matched) << laser.reject_reason;
+  EXPECT_GT(laser.icp_covariance(0, 0), 5.0 * laser.icp_covariance(1, 1)) << "ICP's own: along against across";
+  EXPECT_GT(laser.covariance(0, 0), 1.5 * laser.covariance(1, 1)) << "the step's (1.7x when written)";
+  // With the scale at 0, the isotropic step model alone (as before).
+  llc::ScanOdometryOptions off;
+  off.icp_covariance_scale = 0.0;
+  const llc::OdometryStep plain = firstKeyframeStep(walls, false, off);
+  ASSERT_TRUE(plain.matched);
+  EXPECT_NEAR(plain.covariance(0, 0), plain.covariance(1, 1), 1e-12);
+  // With wheels the step keeps the model: they know the axis by themselves.
+  const llc::OdometryStep wheels = firstKeyframeStep(walls, true);
+  ASSERT_TRUE(wheels.matched);
+  EXPECT_NEAR(wheels.covariance(0, 0), wheels.covariance(1, 1), 1e-12);
+  RecordProperty("sigma_along_m", std::to_string(std::sqrt(laser.covariance(0, 0))));
+  RecordProperty("sigma_across_m", std::to_string(std::sqrt(laser.covariance(1, 1))));
 }
 
 }  // namespace

@@ -75,6 +75,13 @@ struct ScanOdometryOptions {
   /// come as the laser moves, and one made then takes no wheel reference. MIT CSAIL's wheels
   /// report nothing for 1 s mid-turn, then jump 0.87 rad. (false: the stalled reading is the guess.)
   bool stalled_wheels_as_missing = true;
+  /// Without wheel odometry (none at all: not a stall), a matched step's covariance also holds
+  /// ICP's own covariance (OdometryStep::icp_covariance) times this.
+  /// ICP's, from point errors taken as independent, is too sure by about the number of points,
+  /// but it has the shape the scans give: long along a corridor, where laser-only odometry
+  /// slides and the loops that mend it must pass the back end's gate. In-sample: chosen on the
+  /// four relations logs (ACES laser-only 0.83 -> 0.24 m; 2000-3000 let wrong loops in). 0: off.
+  double icp_covariance_scale = 500.0;
   /// The motion model's clock (MotionClock): the scans' stamps, or the count of scans times
   /// their mean interval while the median absolute deviation of the last 64 intervals is
   /// above this share of their median (the Intel log's stamps: 0.99). 0: always counted.
@@ -142,6 +149,9 @@ class ScanOdometry {
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
   static bool samePose(const Pose2& a, const Pose2& b);
+  /// ICP's own covariance (IcpResult::covariance) in the step's parameters (x, y, theta);
+  /// zero when it is not finite.
+  static Eigen::Matrix3d stepCovarianceOf(const IcpResult& icp);
   /// `options` with solution remapping off (for an ICP seeded by the laser itself).
   static IcpOptions withoutRemapping(IcpOptions options);
   /// The covariance the noise model gives a step of this motion.

@@ -152,7 +152,9 @@ class SlamFrontEnd {
   void updateVelocity(const Pose2& motion);
   /// The scan is placed by the laser alone: ICP from the prediction, or from where the last
   /// scan stood when that fails (a prediction a bad step spoiled). Fills step.odometry.
-  void placeByLaser(const PreparedScan& scan, FrontEndStep& step);
+  /// Without any wheels (`no_wheels`), the step's covariance also holds ICP's own, scaled
+  /// (icp_covariance_scale).
+  void placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
   /// The last matched scan's motion from the newest keyframe: without wheel odometry every

@@ -79,6 +79,9 @@ struct OdometryStep {
   /// matched from the correlative search's start, over the wheels (correlative_recovery)
   bool recovered = false;
   bool tracked = false;  ///< ICP seeded by the tracked guess (match_every_scan), not the wheels'
+  /// ICP's own covariance of motion (ScanOdometry::stepCovarianceOf) when matched by ICP; zero
+  /// otherwise. Part of `covariance` only without wheels (icp_covariance_scale).
+  Eigen::Matrix3d icp_covariance = Eigen::Matrix3d::Zero();
 };
 
 /// A keyframe the map puts near a new one (a NearbyKeyframes answer).
