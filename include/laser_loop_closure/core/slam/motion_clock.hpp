@@ -8,7 +8,6 @@
 
 #include <array>
 #include <cstddef>
-#include <string>
 
 namespace llc {
 
@@ -32,6 +31,7 @@ class MotionClock {
  private:
   double max_jitter_;
   std::array<double, window> intervals_{};
+  std::array<double, window> scratch_{};  ///< for the median: no allocation per scan
   std::size_t count_ = 0, next_ = 0;
   bool started_ = false, counting_ = false;
   double last_stamp_ = 0.0, time_ = 0.0;
