@@ -105,6 +105,7 @@ llc::RelationErrorResult evaluateRunRelations(const std::vector<llc::Relation>& 
   for (const llc::LoggedScan& s : sequence.scans) {
     track.stamps.push_back(s.stamp);
     track.odometry.push_back(s.odometry);
+    track.scanner_mounts.push_back(s.front_mount);  // the relations give the scanner's motion
   }
   track.poses.resize(sequence.scans.size());
   for (const auto& [index, pose] : scan_poses) {

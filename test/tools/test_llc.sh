@@ -255,6 +255,18 @@ if [ -f "$LOG" ]; then
     check "llc relations on the keyframes, carried by odometry" 0 "^relations_carried=[1-9]" -- "$LLC" relations --log "$MIT" --keyframes "$TMP/mit/trajectory.csv" --relations "${MIT%.log.gz}.relations"
     check "relations: poses of another log" 1 "not in the log" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations"
   fi
+  FR079_BAG="$DATA/rosbag/fr079.bag"
+  if [ -f "$FR079_BAG" ] && [ -f "$DATA/relations/fr079.relations" ]; then
+    # The relations give the scanner's motion; the FR079 bag mounts its scanner 0.04 m ahead of
+    # base_link. Base poses whose scanner moves exactly as relation 46 (a turn of -2.17 rad):
+    # no error against the bag; 0.0707 m against the log, which mounts nothing.
+    awk 'BEGIN { rx = -0.001790; ry = -0.072020; rt = -2.170150
+                 printf "stamp,x,y,theta\n1239.470241,0,0,0\n1242.670535,%.9f,%.9f,%.9f\n", 0.04 + rx - 0.04 * cos(rt), ry - 0.04 * sin(rt), rt }' >"$TMP/fr079_turn.csv"
+    "$LLC" relations --log "$FR079_BAG" --front-topic /scan --keyframes "$TMP/fr079_turn.csv" --relations "$DATA/relations/fr079.relations" --out "$TMP/fr079_bag_errors.csv" >/dev/null 2>&1
+    check "relations on a bag: the scanner's motion (its mount from the bag)" 0 "^46,.*,129,144,0.000000,0.000000,0$" -- cat "$TMP/fr079_bag_errors.csv"
+    "$LLC" relations --log "$DATA/relations/fr079.log.gz" --keyframes "$TMP/fr079_turn.csv" --relations "$DATA/relations/fr079.relations" --out "$TMP/fr079_log_errors.csv" >/dev/null 2>&1
+    check "relations on the log: no mount, the base's turn moves the scanner" 0 "^46,.*,129,144,0.070747,0.000000,0$" -- cat "$TMP/fr079_log_errors.csv"
+  fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
   printf 'a,b,label\n0,99999,1\n' > "$TMP/range.csv"

@@ -38,8 +38,8 @@ std::optional<std::size_t> StampIndex::find(double t, double tolerance) const {
 RelationErrorResult evaluateRelations(const std::vector<Relation>& relations, const ScanTrack& track,
                                       const RelationErrorOptions& options) {
   const std::size_t n = track.stamps.size();
-  if (track.odometry.size() != n || track.poses.size() != n)
-    throw std::invalid_argument("relations: the track's stamps, odometry and poses differ in count");
+  if (track.odometry.size() != n || track.poses.size() != n || (!track.scanner_mounts.empty() && track.scanner_mounts.size() != n))
+    throw std::invalid_argument("relations: the track's stamps, odometry, poses and scanner mounts differ in count");
   RelationErrorResult result;
   result.relations = relations.size();
   // For each scan the nearest scan (in log order) with a pose of its own: earlier or later.
@@ -67,7 +67,9 @@ RelationErrorResult evaluateRelations(const std::vector<Relation>& relations, co
     e.relation = r, e.scan1 = *s1, e.scan2 = *s2;
     const auto p1 = poseOf(*s1, &e.carried), p2 = poseOf(*s2, &e.carried);
     if (!p1 || !p2) continue;
-    const Pose2 estimated = between(*p1, *p2);
+    const Pose2 estimated = track.scanner_mounts.empty()
+                                ? between(*p1, *p2)
+                                : between(compose(*p1, track.scanner_mounts[*s1]), compose(*p2, track.scanner_mounts[*s2]));
     const Pose2& truth = relations[r].motion;
     e.translation = std::hypot(estimated.x - truth.x, estimated.y - truth.y);
     e.rotation = std::abs(normalizeAngle(estimated.theta - truth.theta));

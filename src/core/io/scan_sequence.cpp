@@ -27,6 +27,7 @@ ScanSequence makeScanSequence(const CarmenLog& log, const ScanSequenceOptions& o
     LoggedScan logged;
     logged.stamp = front.stamp;
     logged.odometry = front.odometry;
+    logged.front_mount = front_mount;
     logged.recorded_ranges_key = recordedRangesKey(front.ranges);
     logged.truth = log.front_truth[i] >= 0 ? log.truth[std::size_t(log.front_truth[i])].truth : front.pose;
     logged.scan = scanFromRanges(front.ranges, front.geometry, front_mount, front.stamp);

@@ -132,7 +132,9 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
       }
       llc::LoggedScan logged;
       std::string error;
-      if (!toBaseScan(*front, mountOf(*front), &logged.scan, &error)) {
+      const ScannerMount front_mount = mountOf(*front);
+      logged.front_mount = front_mount.pose;
+      if (!toBaseScan(*front, front_mount, &logged.scan, &error)) {
         skip("front scan at " + std::to_string(stamp) + " s: " + error);
         continue;
       }

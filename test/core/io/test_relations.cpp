@@ -90,6 +90,32 @@ TEST(RelationError, StampsOutOfOrderAndUnmatchedStamps) {
   EXPECT_THROW(llc::evaluateRelations({}, track), std::invalid_argument);
 }
 
+TEST(RelationError, TheMotionComparedIsTheScannersWhenItIsMountedOffTheBase) {
+  // The base turns in place by 90 degrees; a scanner 0.04 m ahead of it swings from (0.04, 0)
+  // to (0, 0.04): in the scanner's first frame it moved by (-0.04, 0.04) and turned 90 degrees.
+  llc::ScanTrack track;
+  track.stamps = {10.0, 11.0};
+  track.odometry = {Pose2{}, Pose2{0.0, 0.0, M_PI / 2}};
+  track.poses = {Pose2{}, Pose2{0.0, 0.0, M_PI / 2}};
+  const std::vector<llc::Relation> scanner_relation{{10.0, 11.0, {-0.04, 0.04, M_PI / 2}}};
+  EXPECT_NEAR(llc::evaluateRelations(scanner_relation, track).translation_mean, 0.04 * std::sqrt(2.0), 1e-12)
+      << "the base's motion against the scanner's relation";
+  track.scanner_mounts = {Pose2{0.04, 0.0, 0.0}, Pose2{0.04, 0.0, 0.0}};
+  const llc::RelationErrorResult r = llc::evaluateRelations(scanner_relation, track);
+  ASSERT_EQ(r.evaluated, 1u);
+  EXPECT_NEAR(r.translation_mean, 0.0, 1e-12);
+  EXPECT_NEAR(r.rotation_mean, 0.0, 1e-12);
+  // A straight drive is the same for the base and a scanner on its axis.
+  llc::ScanTrack straight = straightTrack();
+  straight.scanner_mounts.assign(4, Pose2{0.04, 0.0, 0.0});
+  EXPECT_NEAR(llc::evaluateRelations({{10.0, 13.0, {3.0, 0.0, 0.0}}}, straight).translation_mean, 0.0, 1e-12);
+  // A carried end is carried in the base frame, then mounted: scan 1 carried from scan 0.
+  track.poses[1].reset();
+  EXPECT_NEAR(llc::evaluateRelations(scanner_relation, track).translation_mean, 0.0, 1e-12);
+  track.scanner_mounts.pop_back();
+  EXPECT_THROW(llc::evaluateRelations(scanner_relation, track), std::invalid_argument);
+}
+
 TEST(RelationsFile, ReadsRelationsAndRefusesBadLinesByNumber) {
   llc_test::TempDir dir;
   const std::string good = dir.path() + "/good.relations";

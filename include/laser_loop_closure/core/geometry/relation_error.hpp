@@ -13,6 +13,8 @@ namespace llc {
 
 /// The true motion of the robot from the scan stamped t1 to the scan stamped t2, in the frame
 /// of the first (a line `t1 t2 x y z roll pitch yaw` of a .relations file; z, roll, pitch are 0).
+/// The relations were found by aligning the scans, so the frame that moves is the scanner's:
+/// in the benchmark's CARMEN logs the robot's pose is the scanner's.
 struct Relation {
   double t1 = 0.0, t2 = 0.0;  ///< s
   Pose2 motion;
@@ -24,6 +26,10 @@ struct ScanTrack {
   std::vector<double> stamps;                ///< s, in the log's order (not necessarily sorted)
   std::vector<Pose2> odometry;               ///< the log's raw odometry, one per scan
   std::vector<std::optional<Pose2>> poses;   ///< estimated, one per scan (none: not placed)
+  /// Each scan's scanner pose on the robot (the base frame), one per scan; empty: the scanner
+  /// is the robot's own frame. A bag may mount it off the base (FR079's: 0.04 m ahead), and
+  /// then the base's motion is not the relations' (a turn in place moves the scanner).
+  std::vector<Pose2> scanner_mounts;
 };
 
 struct RelationErrorOptions {
@@ -64,8 +70,9 @@ struct RelationErrorResult {
 /// Evaluates each relation on the track: both ends' scans found by stamp; an end without an
 /// estimated pose is carried from the nearest scan (in log order) that has one, by the raw
 /// odometry between the two; a track with no pose at all evaluates nothing. Means and sample
-/// standard deviations are over the evaluated relations. Throws std::invalid_argument when
-/// the track's vectors differ in length.
+/// standard deviations are over the evaluated relations. The motion compared is the
+/// scanner's: each end's pose composed with its scan's mount. Throws std::invalid_argument
+/// when the track's vectors differ in length (scanner_mounts may be empty).
 RelationErrorResult evaluateRelations(const std::vector<Relation>& relations, const ScanTrack& track,
                                       const RelationErrorOptions& options = {});
 

@@ -17,6 +17,7 @@ struct LoggedScan {
   Pose2 truth;     ///< TRUEPOS when the log has it, else the pose on the laser line
   Pose2 odometry;  ///< odometry pose on the laser line
   double stamp = 0.0;
+  Pose2 front_mount;  ///< the front scanner's pose in the base frame (identity: it is the base)
   /// recordedRangesKey of the front scanner's ranges as the log wrote them (before any mount
   /// or merge), which names the scan in other logs of the same drive; 0 when not known.
   std::uint64_t recorded_ranges_key = 0;
