@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 namespace llc {
 
@@ -15,25 +16,33 @@ std::string ShapeValidationOptions::validate() const {
   return "";
 }
 
-bool FieldOfView::contains(const Point2& p) const {
-  if (!(p.squaredNorm() < max_range * max_range)) return false;
-  if (full_circle) return true;
-  const double bearing = std::atan2(p.y(), p.x());
-  return bearing >= bearing_min && bearing <= bearing_max;
+FieldOfView FieldOfView::fullCircle(double max_range) {
+  FieldOfView view;
+  view.max_range_ = max_range;
+  return view;
+}
+
+FieldOfView FieldOfView::arc(double bearing_min, double bearing_max, double max_range) {
+  if (!(bearing_min >= -M_PI && bearing_min <= bearing_max && bearing_max <= M_PI))
+    throw std::invalid_argument("field of view: bearings must satisfy -pi <= min <= max <= pi");
+  FieldOfView view;
+  view.full_circle_ = false;
+  view.max_range_ = max_range;
+  // p lies at or after edge_min (counter-clockwise) when edge_min x p >= 0, and at or before
+  // edge_max when p x edge_max >= 0; an arc wider than pi is everything not strictly between.
+  view.edge_min_ = Point2(std::cos(bearing_min), std::sin(bearing_min));
+  view.edge_max_ = Point2(std::cos(bearing_max), std::sin(bearing_max));
+  view.wide_ = bearing_max - bearing_min > M_PI;
+  return view;
 }
 
 FieldOfView fieldOfView(const Scan& scan, double max_range) {
-  FieldOfView view;
-  view.max_range = max_range;
-  view.full_circle = scan.full_circle;
-  if (view.full_circle) return view;
+  if (scan.full_circle) return FieldOfView::fullCircle(max_range);
   double lo = M_PI, hi = -M_PI;
   for (double b : scan.bearings)
     if (std::isfinite(b)) lo = std::min(lo, normalizeAngle(b)), hi = std::max(hi, normalizeAngle(b));
   if (lo > hi) lo = hi = 0.0;  // no usable bearing: sees nothing but straight ahead
-  view.bearing_min = lo;
-  view.bearing_max = hi;
-  return view;
+  return FieldOfView::arc(lo, hi, max_range);
 }
 
 FreeSpace freeSpace(const Scan& scan, double max_range) {

@@ -131,11 +131,7 @@ TEST(ShapeValidation, CountsOnlyPointsTheOtherScannerCouldSee) {
   for (int i = -10; i <= 10; ++i) target.emplace_back(2.0, 0.2 * i), source.emplace_back(2.0, 0.2 * i + 0.1);
   for (int i = 0; i < 4; ++i) source.emplace_back(-3.0, double(i));
   const llc::KdTree2 tree(target);
-  llc::FieldOfView view;
-  view.full_circle = false;
-  view.bearing_min = -M_PI / 2;
-  view.bearing_max = M_PI / 2;
-  view.max_range = 40.0;
+  const llc::FieldOfView view = llc::FieldOfView::arc(-M_PI / 2, M_PI / 2, 40.0);
   llc::ShapeValidationOptions options;
   llc::ShapeValidationResult r = llc::validateShape(source, tree, Pose2{}, options, &view);
   EXPECT_EQ(r.points, 21u);
@@ -152,13 +148,13 @@ TEST(ShapeValidation, CountsOnlyPointsTheOtherScannerCouldSee) {
   EXPECT_EQ(r.reject_reason, "no point in the other scan's view");
   // The view of a scan: its bearing span, or everything for a full circle.
   const llc::FieldOfView half = llc::fieldOfView(llc_test::ringScan(std::vector<double>(8, 1.0)), 30.0);
-  EXPECT_TRUE(half.full_circle);
+  EXPECT_TRUE(half.fullCircle());
   EXPECT_TRUE(half.contains(Point2(-5, 0)));
   EXPECT_FALSE(half.contains(Point2(31, 0)));
   llc::Scan front;
   for (int i = 0; i <= 180; ++i) front.bearings.push_back((i - 90) * M_PI / 180), front.ranges.push_back(1.0);
   const llc::FieldOfView f = llc::fieldOfView(front, 30.0);
-  EXPECT_FALSE(f.full_circle);
+  EXPECT_FALSE(f.fullCircle());
   EXPECT_TRUE(f.contains(Point2(1, 0.5)));
   EXPECT_FALSE(f.contains(Point2(-1, 0.5)));
 }
@@ -228,11 +224,7 @@ TEST(Icp, LeavesOutSourcePointsTheTargetCouldNotSee) {
   for (int i = 0; i <= 30; ++i) source.emplace_back(-0.05 - 0.04 * i, -0.3);
   const llc::IcpOptions options;
   const llc::IcpTarget icp_target(target, options);
-  llc::FieldOfView view;
-  view.full_circle = false;
-  view.bearing_min = -M_PI / 2;
-  view.bearing_max = M_PI / 2;
-  view.max_range = 40.0;
+  const llc::FieldOfView view = llc::FieldOfView::arc(-M_PI / 2, M_PI / 2, 40.0);
   const llc::IcpResult seen = llc::alignIcp(source, icp_target, Pose2{}, options, nullptr, &view);
   ASSERT_TRUE(seen.converged) << seen.reject_reason;
   expectPoseNear(seen.pose, Pose2{}, 1e-6, 1e-6);
@@ -674,3 +666,27 @@ TEST(CrfTraining, PerceptronIsDeterministicAndKeepsWeightsNonNegative) {
 }
 
 }  // namespace
+
+TEST(FieldOfView, ContainsAgreesWithTheBearingsOfItsArc) {
+  // The reference: a point is inside when its atan2 bearing lies in [min, max] and it is in
+  // range. Arcs narrow, exactly pi, wide, and of zero width; points on a dense ring of radii.
+  const double arcs[][2] = {{-M_PI / 2, M_PI / 2}, {-0.3, 0.9}, {-2.5, 2.1}, {-M_PI, M_PI}, {0.4, 0.4}, {-3.0, -1.0}, {1.0, 3.1}};
+  for (const auto& arc : arcs) {
+    const llc::FieldOfView view = llc::FieldOfView::arc(arc[0], arc[1], 30.0);
+    for (int i = 0; i < 3600; ++i) {
+      const double bearing = -M_PI + (i + 0.37) * 2.0 * M_PI / 3600.0;  // never exactly an edge
+      for (double r : {0.5, 10.0, 29.9, 30.5}) {
+        const Point2 p(r * std::cos(bearing), r * std::sin(bearing));
+        const double b = std::atan2(p.y(), p.x());
+        const bool inside = r < 30.0 && b >= arc[0] && b <= arc[1];
+        ASSERT_EQ(view.contains(p), inside) << "arc [" << arc[0] << ", " << arc[1] << "], bearing " << b << ", range " << r;
+      }
+    }
+  }
+  EXPECT_FALSE(llc::FieldOfView::arc(0.0, 0.0, 30.0).contains(Point2(-1.0, 0.0))) << "a zero-width arc has no backward ray";
+  EXPECT_TRUE(llc::FieldOfView::arc(0.0, 0.0, 30.0).contains(Point2(1.0, 0.0)));
+  EXPECT_TRUE(llc::FieldOfView::fullCircle(30.0).contains(Point2(-29.0, 0.0)));
+  EXPECT_FALSE(llc::FieldOfView::fullCircle(30.0).contains(Point2(0.0, 31.0)));
+  EXPECT_THROW(llc::FieldOfView::arc(1.0, 0.5, 30.0), std::invalid_argument);
+  EXPECT_THROW(llc::FieldOfView::arc(-4.0, 0.5, 30.0), std::invalid_argument);
+}

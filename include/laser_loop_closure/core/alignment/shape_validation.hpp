@@ -31,12 +31,32 @@ struct ShapeValidationOptions {
 };
 
 /// What a scan's scanner could see, in the scan's own frame: bearings [min, max] from its
-/// origin (everything when full_circle) up to max_range.
-struct FieldOfView {
-  bool full_circle = true;
-  double bearing_min = -M_PI, bearing_max = M_PI;  ///< rad
-  double max_range = 1e9;                          ///< m
-  bool contains(const Point2& p) const;
+/// origin (everything for a full circle) up to max_range.
+class FieldOfView {
+ public:
+  FieldOfView() = default;  ///< the full circle to 1e9 m
+  static FieldOfView fullCircle(double max_range);
+  /// Bearings [bearing_min, bearing_max] (rad, -pi <= min <= max <= pi) up to max_range (m).
+  static FieldOfView arc(double bearing_min, double bearing_max, double max_range);
+  bool fullCircle() const { return full_circle_; }
+  double maxRange() const { return max_range_; }
+  /// Within range and (unless a full circle) between the two edge bearings. ICP asks this
+  /// of every source point in every pairing round: two cross products, no atan2.
+  bool contains(const Point2& p) const {
+    if (!(p.squaredNorm() < max_range_ * max_range_)) return false;
+    if (full_circle_) return true;
+    const bool after_min = edge_min_.x() * p.y() - edge_min_.y() * p.x() >= 0.0;
+    const bool before_max = p.x() * edge_max_.y() - p.y() * edge_max_.x() >= 0.0;
+    if (wide_) return after_min || before_max;
+    // (Not on the far side: an arc of zero width would otherwise hold its backward ray too.)
+    return after_min && before_max && p.dot(edge_min_ + edge_max_) >= 0.0;
+  }
+
+ private:
+  bool full_circle_ = true;
+  double max_range_ = 1e9;
+  Point2 edge_min_{-1.0, 0.0}, edge_max_{-1.0, 0.0};  ///< unit vectors at the edge bearings
+  bool wide_ = false;  ///< the arc spans more than pi: outside only between max and min
 };
 /// The field of view of a scan: its bearing span (full circle when marked so) and max_range.
 FieldOfView fieldOfView(const Scan& scan, double max_range);
