@@ -155,7 +155,19 @@ int runRelations(const Args& args) {
   const std::string log = args.required("log");
   if (args.has("out")) checkOutputFile("out", args.get("out", ""));
   const std::vector<llc::Relation> relations = loadRelationsFile(relations_path);
-  const llc::ScanSequence sequence = loadSequence(log, args);
+  llc::ScanSequence sequence = loadSequence(log, args);
+  if (args.has("mount-from")) {
+    // Poses made on a bag (the nodelets' /path), judged on the log of the same drive, whose
+    // odometry carries them as the log's own runs are carried: the bag's mount, the log's rest.
+    const std::string bag = args.get("mount-from", "");
+    if (bag.size() < 4 || bag.compare(bag.size() - 4, 4, ".bag") != 0)
+      throw UsageError("--mount-from takes the bag the poses were made on (a .bag), not " + bag);
+    const llc::ScanSequence mounted = loadSequence(bag, args);
+    if (mounted.scans.empty()) throw ToolError(bag + ": no scan to take the scanner's mount from");
+    for (llc::LoggedScan& s : sequence.scans) s.front_mount = mounted.scans.front().front_mount;
+    std::cout << "scanner_mount_from=" << bag << " x=" << mounted.scans.front().front_mount.x
+              << " y=" << mounted.scans.front().front_mount.y << " theta=" << mounted.scans.front().front_mount.theta << "\n";
+  }
   const auto poses = args.has("poses") ? readScanPoses(args.get("poses", ""))
                                        : readStampedPoses(args.get("keyframes", ""), sequence);
   const llc::RelationErrorResult result = evaluateRunRelations(relations, sequence, poses);

@@ -101,12 +101,15 @@ const std::vector<Command>& commands() {
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
        "       keeping the truth: moderate as written, strong twice each figure)"},
-      {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out"}, kInputFlags), {},
+      {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out", "mount-from"}, kInputFlags), {},
        "relations --log LOG (--poses DIR/scans.csv | --keyframes CSV) --relations R [--out ERRORS.csv]\n"
+       "      [--mount-from BAG]\n"
        "      (the Kuemmerle et al. 2009 relations metric: mean, std and largest translational (m) and\n"
-       "      rotational (deg) error; --keyframes: poses by stamp, a CSV naming stamp, x, y, theta|yaw such as\n"
-       "      llc slam's trajectory.csv or the nodelets' path.csv; a scan without a pose is carried from the\n"
-       "      nearest one with a pose by the log's odometry)"},
+       "      rotational (deg) error of the scanner's motion, each pose composed with its scan's front mount;\n"
+       "      --keyframes: poses by stamp, a CSV naming stamp, x, y, theta|yaw such as llc slam's\n"
+       "      trajectory.csv or the nodelets' path.csv; a scan without a pose is carried from the nearest one\n"
+       "      with a pose by the log's odometry; --mount-from: the front mount of BAG's /tf_static in place of\n"
+       "      LOG's own, for poses made on BAG but carried by LOG's odometry)"},
       {"train-crf", llc_tool::runTrainCrf,
        with(with({"data", "out", "epochs", "seed"}, llc_tool::kAlignerFlags), kInputFlags), {},
        "train-crf --data LOG:PAIRS [...] --out CRF.yaml [--epochs 8] [--seed 1] [alignment options]"},

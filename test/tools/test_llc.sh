@@ -266,6 +266,10 @@ if [ -f "$LOG" ]; then
     check "relations on a bag: the scanner's motion (its mount from the bag)" 0 "^46,.*,129,144,0.000000,0.000000,0$" -- cat "$TMP/fr079_bag_errors.csv"
     "$LLC" relations --log "$DATA/relations/fr079.log.gz" --keyframes "$TMP/fr079_turn.csv" --relations "$DATA/relations/fr079.relations" --out "$TMP/fr079_log_errors.csv" >/dev/null 2>&1
     check "relations on the log: no mount, the base's turn moves the scanner" 0 "^46,.*,129,144,0.070747,0.000000,0$" -- cat "$TMP/fr079_log_errors.csv"
+    # Poses made on the bag, carried by the log: the bag's mount, the log's odometry.
+    "$LLC" relations --log "$DATA/relations/fr079.log.gz" --mount-from "$FR079_BAG" --front-topic /scan --keyframes "$TMP/fr079_turn.csv" --relations "$DATA/relations/fr079.relations" --out "$TMP/fr079_mounted_errors.csv" >/dev/null 2>&1
+    check "relations on the log with --mount-from the bag" 0 "^46,.*,129,144,0.000000,0.000000,0$" -- cat "$TMP/fr079_mounted_errors.csv"
+    check "relations --mount-from a log, not a bag" 2 "mount-from takes the bag" -- "$LLC" relations --log "$DATA/relations/fr079.log.gz" --mount-from "$DATA/relations/fr079.log.gz" --keyframes "$TMP/fr079_turn.csv" --relations "$DATA/relations/fr079.relations"
   fi
   check "pairs" 0 "pairs=400" -- "$LLC" pairs --log "$LOG" --out "$TMP/pairs.csv"
   head -1 "$TMP/pairs.csv" | grep -qx "a,b,label" && passed=$((passed + 1)) || { failed=$((failed + 1)); echo "FAIL: pair header"; }
