@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "laser_loop_closure/core/common/file_util.hpp"
 #include "laser_loop_closure/core/io/relations_io.hpp"
+#include "laser_loop_closure/ros/io/drive_input.hpp"
 
 namespace llc_tool {
 namespace {
@@ -160,13 +161,13 @@ int runRelations(const Args& args) {
     // Poses made on a bag (the nodelets' /path), judged on the log of the same drive, whose
     // odometry carries them as the log's own runs are carried: the bag's mount, the log's rest.
     const std::string bag = args.get("mount-from", "");
-    if (bag.size() < 4 || bag.compare(bag.size() - 4, 4, ".bag") != 0)
+    if (!llc_ros::isBagPath(bag))
       throw UsageError("--mount-from takes the bag the poses were made on (a .bag), not " + bag);
-    const llc::ScanSequence mounted = loadSequence(bag, args);
-    if (mounted.scans.empty()) throw ToolError(bag + ": no scan to take the scanner's mount from");
-    for (llc::LoggedScan& s : sequence.scans) s.front_mount = mounted.scans.front().front_mount;
-    std::cout << "scanner_mount_from=" << bag << " x=" << mounted.scans.front().front_mount.x
-              << " y=" << mounted.scans.front().front_mount.y << " theta=" << mounted.scans.front().front_mount.theta << "\n";
+    // Read as any bag is (loadDrive throws on one without scans), so the mount is the one the
+    // bag reader, llc slam --bag and the nodelets' MountCache use.
+    const llc::Pose2 mount = loadSequence(bag, args).scans.front().front_mount;
+    for (llc::LoggedScan& s : sequence.scans) s.front_mount = mount;
+    std::cout << "scanner_mount_from=" << bag << " x=" << mount.x << " y=" << mount.y << " theta=" << mount.theta << "\n";
   }
   const auto poses = args.has("poses") ? readScanPoses(args.get("poses", ""))
                                        : readStampedPoses(args.get("keyframes", ""), sequence);

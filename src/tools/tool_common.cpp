@@ -178,8 +178,7 @@ llc::FeatureOptions featureOptions(const Args& args) {
 }
 
 llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& args) {
-  const bool bag = path.size() >= 4 && path.compare(path.size() - 4, 4, ".bag") == 0;  // as loadDrive decides
-  if (args.has("odometry-time-offset") && !bag)
+  if (args.has("odometry-time-offset") && !llc_ros::isBagPath(path))
     throw UsageError("--odometry-time-offset is for a bag (a log's odometry moves by whole scans: --odometry-offset)");
   return bagOptions(args);
 }

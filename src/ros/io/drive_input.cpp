@@ -14,10 +14,12 @@ bool endsWith(const std::string& text, const std::string& end) {
 }
 }  // namespace
 
+bool isBagPath(const std::string& path) { return endsWith(path, ".bag"); }
+
 llc::ScanSequence loadDrive(const std::string& path, const BagReadOptions& bag, std::vector<std::string>* warnings) {
   if (!std::ifstream(path)) throw std::runtime_error(path + ": no such file or not readable");
   llc::ScanSequence sequence;
-  if (endsWith(path, ".bag")) {
+  if (isBagPath(path)) {
     BagReadReport report;
     sequence = readBagSequence(path, bag, &report);  // BagError is a runtime_error
     if (report.skipped_scans > 0 && warnings)

@@ -13,6 +13,9 @@
 
 namespace llc_ros {
 
+/// Whether loadDrive reads `path` as a rosbag (by its .bag suffix) rather than a CARMEN log.
+bool isBagPath(const std::string& path);
+
 /// Reads a drive. Throws std::runtime_error naming the file and the problem (missing file,
 /// malformed log or bag, no laser scan). Problems met but survived (skipped scans, poses from
 /// odometry for lack of truth) are appended to `warnings`.
