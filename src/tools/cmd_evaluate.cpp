@@ -111,9 +111,26 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   if (calibration_count < 0) throw UsageError("--calibration-pairs must be zero or more");
   llc::SystemOptions system;
   applyParameterFlags(args, &system);  // --loops/calibration/{min_distance,drift_per_metre,max_path}
-  llc::ThresholdCalibrationOptions calibration = system.slam.loops.calibration;
-  calibration.target_false_alarm = training.target_false_alarm;
+  // Its target and raise_only as configured (--loops/calibration/target_false_alarm,
+  // --loops/calibration/raise_only), or chosen per held-out log without it:
+  // --calibration-targets T1,T2,... (nested leave-one-log-out, LogOutCalibration).
+  const llc::ThresholdCalibrationOptions calibration = system.slam.loops.calibration;
   if (const std::string invalid = calibration.validate(); !invalid.empty()) throw UsageError(invalid);
+  llc::LogOutCalibration log_out_calibration;
+  log_out_calibration.target_false_alarm = calibration.target_false_alarm;
+  log_out_calibration.raise_only = calibration.raise_only;
+  if (args.has("calibration-targets")) {
+    std::istringstream list(args.get("calibration-targets", ""));
+    for (std::string item; std::getline(list, item, ',');) {
+      char* end = nullptr;
+      const double target = std::strtod(item.c_str(), &end);
+      if (item.empty() || *end != '\0' || !(target > 0.0 && target < 1.0))
+        throw UsageError("--calibration-targets: '" + item + "' is not a rate in (0, 1)");
+      log_out_calibration.candidate_targets.push_back(target);
+    }
+    if (calibration_count == 0) throw UsageError("--calibration-targets needs --calibration-pairs N");
+    if (data.size() < 3) throw UsageError("--calibration-targets needs at least three --data items (each target is chosen on two or more logs besides the held-out one)");
+  }
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   std::vector<llc::TrainingSet> calibration_sets;
   std::ostringstream calibration_purity;  // how many calibration pairs are truly over 10 m apart
@@ -130,11 +147,14 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     calibration_purity << " " << truly_far << "/" << pairs.size();
     calibration_sets.push_back(llc::pairTrainingSet(item.features, pairs, features.feature_set));
   }
+  log_out_calibration.pairs = &calibration_sets;
   std::size_t fitted = 0;
   const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set) {
-    std::cerr << "llc evaluate: model " << ++fitted << " of " << logs.size() << " (" << set.size() << " pairs)\n";
+    // Nested target choice fits n - 1 more models per held-out log.
+    const std::size_t models = logs.size() * (log_out_calibration.candidate_targets.empty() ? 1 : logs.size());
+    std::cerr << "llc evaluate: model " << ++fitted << " of " << models << " (" << set.size() << " pairs)\n";
     return llc::trainClassifierModel(set, features, training).model.classifier;
-  }, &extra, calibration_count ? &calibration_sets : nullptr, calibration.target_false_alarm);
+  }, &extra, calibration_count ? &log_out_calibration : nullptr);
   // --validate: the loop stage held out. Each pair the held-out model's own K lets through
   // (labelled pairs and extra negatives) is aligned and shape-validated, as a robot would;
   // alignment fits nothing, so it needs no holding out itself.
@@ -197,7 +217,8 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   }
   llc::AtomicTextFile csv = openCsv(out_dir + "/leave_one_log_out.csv");
   csv << "log,pairs,positives,training_pairs,k,detection_at_k,realised_false_alarm,false_alarm_negatives,detection_at_1pct_fa,"
-         "detection_at_0pct_fa,auc,calibration_pairs,calibrated_k,detection_at_calibrated_k,realised_false_alarm_calibrated\n";
+         "detection_at_0pct_fa,auc,calibration_pairs,calibration_target,calibrated_k,detection_at_calibrated_k,"
+         "realised_false_alarm_calibrated\n";
   std::ostringstream s;
   s << std::setprecision(4) << std::fixed;
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
@@ -208,7 +229,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
         << log.detection_at_k << ',' << log.realised_false_alarm << ',' << log.false_alarm_negatives << ','
         << log.detection_at_1pct << ',' << log.detection_at_0pct << ',' << log.auc << ',' << log.calibration_pairs << ','
-        << log.calibrated_k << ',' << log.detection_at_calibrated_k << ',' << log.realised_false_alarm_calibrated << '\n';
+        << log.calibration_target << ',' << log.calibrated_k << ',' << log.detection_at_calibrated_k << ',' << log.realised_false_alarm_calibrated << '\n';
     s << "held_out=" << log.name << " pairs=" << log.pairs << " k=" << log.k << " realised_false_alarm=" << log.realised_false_alarm
       << " (of " << log.false_alarm_negatives << " negatives)"
       << " detection_at_k=" << log.detection_at_k << " detection_at_1pct_fa=" << log.detection_at_1pct
@@ -223,7 +244,8 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
           << " through_gate_wrong_pose=" << c.wrong_poses_through;
     }
     if (log.calibration_pairs)
-      s << " calibration_pairs=" << log.calibration_pairs << " calibrated_k=" << log.calibrated_k
+      s << " calibration_pairs=" << log.calibration_pairs << " calibration_target=" << log.calibration_target
+        << " calibrated_k=" << log.calibrated_k
         << " realised_false_alarm_calibrated=" << log.realised_false_alarm_calibrated
         << " detection_at_calibrated_k=" << log.detection_at_calibrated_k;
     s << "\n";
@@ -249,7 +271,10 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
       s << "loop_stage_with_gate: not run (give --drift: the logs' own odometry is their truth)\n";
   }
   if (calibration_count)
-    s << "calibration: min_distance=" << calibration.min_distance << " drift_per_metre=" << calibration.drift_per_metre
+    s << "calibration: target_false_alarm="
+      << (log_out_calibration.candidate_targets.empty() ? std::to_string(calibration.target_false_alarm)
+                                                         : "chosen per held-out log without it (nested)")
+      << " raise_only=" << (calibration.raise_only ? "true" : "false") << " min_distance=" << calibration.min_distance << " drift_per_metre=" << calibration.drift_per_metre
       << " max_path=" << calibration.max_path << " odometry=" << (drift ? "drifted" : "as logged")
       << " truly_over_10m_apart=" << calibration_purity.str() << "\nmean_realised_false_alarm_calibrated="
       << result.mean_realised_false_alarm_calibrated << " best=" << result.best_realised_false_alarm_calibrated

@@ -50,6 +50,7 @@ const std::vector<Command>& commands() {
       {"evaluate", llc_tool::runEvaluate,
        with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
                   "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",
+                  "calibration-targets", "loops/calibration/target_false_alarm", "loops/calibration/raise_only",
                   "loops/calibration/min_distance", "loops/calibration/drift_per_metre", "loops/calibration/max_path"},
                  with(with(kFeatureFlags, llc_tool::kAlignerFlags), llc_tool::kDriftFlags)),
             kInputFlags),
@@ -60,11 +61,14 @@ const std::vector<Command>& commands() {
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
-       "      [--calibration-pairs 0 [--loops/calibration/min_distance 10] [--loops/calibration/drift_per_metre 0.3]\n"
-       "       [--loops/calibration/max_path 50] [--drift moderate|strong ...]]\n"
+       "      [--calibration-pairs 0 [--loops/calibration/target_false_alarm 0.015 | --calibration-targets T1,T2,...]\n"
+       "       [--loops/calibration/raise_only true] [--loops/calibration/min_distance 10]\n"
+       "       [--loops/calibration/drift_per_metre 0.3] [--loops/calibration/max_path 50] [--drift moderate|strong ...]]\n"
        "      [--validate [alignment options]]   (the loop stage held out: pairs at or above K aligned, validated)\n"
        "      (each log scored by a model, stumps and K, trained on the other logs only; with calibration\n"
-       "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry)"},
+       "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry;\n"
+       "       --calibration-targets chooses its target per held-out log on the other logs, each scored by a\n"
+       "       model that saw neither: the smallest target keeping them all within 0.5-2% false alarm)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
       {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},

@@ -79,13 +79,18 @@ void ThresholdCalibrator::add(double score) {
   if (slot < kept_.size()) kept_[slot] = score;
 }
 
-double ThresholdCalibrator::threshold(double fallback) {
-  if (!calibrated()) return fallback;
+double calibratedThreshold(const std::vector<double>& scores, double model_k, const ThresholdCalibrationOptions& options) {
+  const double fitted = thresholdForFalseAlarm(scores, options.target_false_alarm);
+  return options.raise_only ? std::max(fitted, model_k) : fitted;
+}
+
+double ThresholdCalibrator::threshold(double model_k) {
+  if (!calibrated()) return model_k;
   if (fitted_at_ == 0 || double(seen_ - fitted_at_) >= 0.01 * double(fitted_at_)) {
     fitted_ = thresholdForFalseAlarm(kept_, options_.target_false_alarm);
     fitted_at_ = seen_;
   }
-  return fitted_;
+  return options_.raise_only ? std::max(fitted_, model_k) : fitted_;
 }
 
 void ThresholdCalibrator::clear() {

@@ -131,10 +131,13 @@ TEST(LeaveOneLogOut, CalibrationPairsSetTheHeldOutLogsOwnK) {
   // A's own surely-different pairs: one of ten scores 0.5, so K for 1% lies just above 0.5.
   const std::vector<llc::TrainingSet> calibration = {
       oneFeatureLog({0.3, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9}, std::vector<int>(10, 0)), oneFeatureLog({}, {})};
+  llc::LogOutCalibration at_one_percent;
+  at_one_percent.pairs = &calibration;
+  at_one_percent.target_false_alarm = 0.01;
   const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training) {
     EXPECT_TRUE(training.size() == 2u || training.size() == 7u) << "calibration pairs never reach the fitter: " << training.size();
     return model;
-  }, nullptr, &calibration, 0.01);
+  }, nullptr, &at_one_percent);
   const llc::HeldOutLog& ra = result.logs[0];
   EXPECT_NEAR(ra.realised_false_alarm, 0.5, 1e-12);
   EXPECT_NEAR(ra.detection_at_k, 2.0 / 3.0, 1e-12);
@@ -145,8 +148,87 @@ TEST(LeaveOneLogOut, CalibrationPairsSetTheHeldOutLogsOwnK) {
   EXPECT_EQ(result.logs[1].calibration_pairs, 0u);  // no pairs: nothing calibrated
   EXPECT_DOUBLE_EQ(result.worst_realised_false_alarm_calibrated, 0.0);
   const std::vector<llc::TrainingSet> one_set = {calibration[0]};
-  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, nullptr, &one_set),
+  llc::LogOutCalibration too_few = at_one_percent;
+  too_few.pairs = &one_set;
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, nullptr, &too_few),
                std::invalid_argument);
+}
+
+TEST(ThresholdCalibration, RaiseOnlyNeverLowersTheModelsK) {
+  // Ten scores; 1.5% of ten allows none through: K just above the largest, 0.4.
+  const std::vector<double> scores = {0.1, 0.2, 0.4, 0.3, 0.1, 0.2, 0.3, 0.1, 0.2, 0.3};
+  llc::ThresholdCalibrationOptions options;
+  EXPECT_DOUBLE_EQ(options.target_false_alarm, 0.015);
+  EXPECT_TRUE(options.raise_only);
+  const double fitted = std::nextafter(0.4, 1.0);
+  EXPECT_DOUBLE_EQ(llc::calibratedThreshold(scores, 0.6, options), 0.6);     // a building less alike: the model's K stays
+  EXPECT_DOUBLE_EQ(llc::calibratedThreshold(scores, 0.3, options), fitted);  // more alike: K rises
+  options.raise_only = false;
+  EXPECT_DOUBLE_EQ(llc::calibratedThreshold(scores, 0.6, options), fitted);  // up or down
+  // The calibrator as a drive runs it: the model's K until min_pairs scores, then the floor holds.
+  options.raise_only = true;
+  options.enabled = true;
+  options.min_pairs = 10;
+  llc::ThresholdCalibrator calibrator(options);
+  for (std::size_t i = 0; i + 1 < scores.size(); ++i) calibrator.add(scores[i]);
+  EXPECT_DOUBLE_EQ(calibrator.threshold(0.35), 0.35);
+  calibrator.add(scores.back());
+  EXPECT_DOUBLE_EQ(calibrator.threshold(0.35), fitted);
+  EXPECT_DOUBLE_EQ(calibrator.threshold(0.7), 0.7);
+}
+
+/// One positive (0.1) and `negatives` negatives of which one passes a model matching below
+/// 0.5 (0.3; the others 0.9): realised false alarm 1 / negatives at that model's K.
+llc::TrainingSet logWithNegatives(int negatives) {
+  std::vector<double> values = {0.1, 0.3};
+  std::vector<int> labels = {1, 0};
+  for (int i = 1; i < negatives; ++i) values.push_back(0.9), labels.push_back(0);
+  return oneFeatureLog(values, labels);
+}
+
+/// 100 calibration pairs, `high` of them passing that model (score 1), the rest scoring 0.
+llc::TrainingSet calibrationPairs(int high) {
+  std::vector<double> values;
+  for (int i = 0; i < 100; ++i) values.push_back(i < high ? 0.1 : 0.9);
+  return oneFeatureLog(values, std::vector<int>(100, 0));
+}
+
+TEST(LeaveOneLogOut, TheCalibrationTargetIsChosenOnTheOtherLogsByModelsThatNeverSawThem) {
+  // Logs of 11, 12 and 13 rows: a fit's training size tells which logs it was given.
+  const std::vector<llc::TrainingSet> logs = {logWithNegatives(10), logWithNegatives(11), logWithNegatives(12)};
+  std::vector<std::size_t> fit_sizes;
+  const llc::ClassifierFitter fit = [&](const llc::TrainingSet& training) {
+    fit_sizes.push_back(training.size());
+    llc::Stump stump;
+    stump.feature = 0, stump.polarity = 1, stump.threshold = 0.5, stump.alpha = 1.0;
+    return llc::StrongClassifier({stump}, 0.5);
+  };
+  // At target t, floor(100 t) pairs may pass: with fewer than `high` allowed, K is lifted above
+  // 1 (realised 0%); else K stays at the model's 0.5 (raise_only; realised 1/10, 1/11, 1/12).
+  // A band of 5-20% is kept only where K is not lifted: t >= 0.02 for high = 2, t >= 0.01 for 1.
+  const std::vector<llc::TrainingSet> pairs = {calibrationPairs(2), calibrationPairs(1), calibrationPairs(1)};
+  llc::LogOutCalibration calibration;
+  calibration.pairs = &pairs;
+  calibration.candidate_targets = {0.03, 0.005, 0.01};
+  calibration.band_low = 0.05, calibration.band_high = 0.2;
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, {}, fit, nullptr, &calibration);
+  // Per held-out log: its model (the two others), then one per other log (the third alone).
+  EXPECT_EQ(fit_sizes, (std::vector<std::size_t>{25, 13, 12, 24, 13, 11, 23, 12, 11}));
+  // Log 0's others both have high = 1: 0.01 is the smallest keeping them in the band; its own
+  // pairs (high = 2) then lift K. Logs 1 and 2 see log 0 (high = 2) among theirs: 0.03.
+  EXPECT_DOUBLE_EQ(result.logs[0].calibration_target, 0.01);
+  EXPECT_GT(result.logs[0].calibrated_k, 1.0);
+  EXPECT_DOUBLE_EQ(result.logs[0].realised_false_alarm_calibrated, 0.0);
+  for (std::size_t i : {1, 2}) {
+    EXPECT_DOUBLE_EQ(result.logs[i].calibration_target, 0.03);
+    EXPECT_DOUBLE_EQ(result.logs[i].calibrated_k, 0.5);
+    EXPECT_DOUBLE_EQ(result.logs[i].realised_false_alarm_calibrated, result.logs[i].realised_false_alarm);
+  }
+  EXPECT_NEAR(result.logs[1].realised_false_alarm, 1.0 / 11.0, 1e-12);
+  // With two logs no model is left to choose on: refused.
+  const std::vector<llc::TrainingSet> two_pairs = {pairs[0], pairs[1]};
+  calibration.pairs = &two_pairs;
+  EXPECT_THROW(llc::leaveOneLogOut({logs[0], logs[1]}, {}, fit, nullptr, &calibration), std::invalid_argument);
 }
 
 }  // namespace

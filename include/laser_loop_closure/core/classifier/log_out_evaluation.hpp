@@ -29,6 +29,7 @@ struct HeldOutLog {
   // With calibration pairs (ThresholdCalibration): K fitted on the held-out log's own
   // surely-different pairs (by its odometry, no label), and what that K gives.
   std::size_t calibration_pairs = 0;
+  double calibration_target = 0.0;  ///< the target it was fitted for (chosen without this log when nested)
   double calibrated_k = 0.0;
   double detection_at_calibrated_k = 0.0;
   double realised_false_alarm_calibrated = 0.0;  ///< over the same negatives as realised_false_alarm
@@ -49,18 +50,30 @@ struct LeaveOneLogOutResult {
 /// Fits a classifier (stumps and K) on a training set. It must see nothing but its argument.
 using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& training)>;
 
+/// K calibrated per held-out log (ThresholdCalibration), as a robot would in that building.
+struct LogOutCalibration {
+  /// One set per log (labels ignored): pairs of that log that its own odometry says are surely
+  /// two places (sampleSurelyDifferentPairs). Never used for fitting.
+  const std::vector<TrainingSet>* pairs = nullptr;
+  double target_false_alarm = 0.015;  ///< share of those pairs allowed at or above K
+  bool raise_only = true;             ///< never below the model's own K (ThresholdCalibrationOptions)
+  /// Non-empty: the target is chosen for each held-out log H without it (nested): every other
+  /// log O is scored by a model fitted on neither H nor O, and the smallest target here that
+  /// keeps every O's realised false alarm within [band_low, band_high] is taken (if none does,
+  /// the one that leaves the fewest outside). target_false_alarm is then not used.
+  std::vector<double> candidate_targets;
+  double band_low = 0.005, band_high = 0.02;
+};
+
 /// For each log: fit on the rows of every other log, score the log. Needs at least two logs of
 /// one dimension (std::invalid_argument otherwise); names may be empty (then "log N").
 /// extra_negatives (optional, one set per log, label 0): more negatives of that log, scored
 /// only for its realised false-alarm rate (a balanced set of 35 negatives cannot tell 1% from
 /// 2.9%); never used for fitting.
-/// calibration_pairs (optional, one set per log, labels ignored): pairs of that log that its
-/// own odometry says are surely two places (sampleSurelyDifferentPairs); the held-out model's
-/// K is fitted again on their scores for calibration_false_alarm (thresholdForFalseAlarm), as
-/// a robot would in that building, and scored like the model's own K.
+/// calibration (optional, with pairs): the held-out model's K is fitted again on the scores of
+/// the log's calibration pairs (calibratedThreshold) and scored like the model's own K.
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
                                     const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives = nullptr,
-                                    const std::vector<TrainingSet>* calibration_pairs = nullptr,
-                                    double calibration_false_alarm = 0.01);
+                                    const LogOutCalibration* calibration = nullptr);
 
 }  // namespace llc

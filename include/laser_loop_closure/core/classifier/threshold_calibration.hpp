@@ -20,7 +20,14 @@ namespace llc {
 
 struct ThresholdCalibrationOptions {
   bool enabled = false;                ///< false: the model's K (or score_threshold) throughout (see README: off by default)
-  double target_false_alarm = 0.01;    ///< share of surely-different pairs allowed at or above K
+  /// Share of surely-different pairs allowed at or above K. They are near along the path (the
+  /// same corridor further on), so they look more alike than a building's negatives as a whole:
+  /// 1.5% of them gives about 1% of those (chosen by nested leave-one-log-out, docs/results.md).
+  double target_false_alarm = 0.015;
+  /// K may only rise above the model's own: the calibration guards against a building whose
+  /// places look more alike than the training buildings' (MIT's infinite corridor), and never
+  /// loosens a K that holds (lowered, it let 2.1% through on freiburg-101). false: up or down.
+  bool raise_only = true;
   double min_distance = 10.0;          ///< m; apart by odometry beyond this plus the drift allowance
   double drift_per_metre = 0.3;        ///< m of odometry error allowed per metre driven between the two
   double max_path = 50.0;              ///< m; pairs farther apart along the path are not used (drift unbounded)
@@ -48,6 +55,10 @@ std::vector<LabeledPair> sampleSurelyDifferentPairs(const std::vector<Pose2>& od
 /// (score >= K counts as reached). Throws std::invalid_argument for no scores.
 double thresholdForFalseAlarm(std::vector<double> negative_scores, double target);
 
+/// The K that calibration gives from surely-different pairs' scores: thresholdForFalseAlarm at
+/// options.target_false_alarm, and with options.raise_only no lower than model_k.
+double calibratedThreshold(const std::vector<double>& scores, double model_k, const ThresholdCalibrationOptions& options);
+
 /// Gathers scores of surely-different pairs as a drive goes on and fits K from them.
 class ThresholdCalibrator {
  public:
@@ -59,9 +70,10 @@ class ThresholdCalibrator {
   void add(double score);
   std::size_t seen() const { return seen_; }
   bool calibrated() const { return options_.enabled && seen_ >= options_.min_pairs; }
-  /// The calibrated K once calibrated(), else `fallback` (the model's K). Fitted again when
-  /// the scores seen grew by 1% since the last fit (a fit sorts up to max_pairs scores).
-  double threshold(double fallback);
+  /// The calibrated K once calibrated() (calibratedThreshold, model_k the floor when
+  /// raise_only), else model_k. Fitted again when the scores seen grew by 1% since the last
+  /// fit (a fit sorts up to max_pairs scores).
+  double threshold(double model_k);
   /// Forgets every score (a new building, or a model swapped in: the scores were another model's).
   void clear();
 

@@ -100,6 +100,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/rotation_sigma", loops.rotation_sigma);
   visit("loops/calibration/enabled", loops.calibration.enabled);
   visit("loops/calibration/target_false_alarm", loops.calibration.target_false_alarm);
+  visit("loops/calibration/raise_only", loops.calibration.raise_only);
   visit("loops/calibration/min_distance", loops.calibration.min_distance);
   visit("loops/calibration/drift_per_metre", loops.calibration.drift_per_metre);
   visit("loops/calibration/max_path", loops.calibration.max_path);
