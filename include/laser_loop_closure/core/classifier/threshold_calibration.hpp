@@ -19,7 +19,7 @@
 namespace llc {
 
 struct ThresholdCalibrationOptions {
-  bool enabled = false;                ///< false: the model's K (or score_threshold) throughout (see README: off by default)
+  bool enabled = true;                 ///< false: the model's K (or score_threshold) throughout
   /// Share of surely-different pairs allowed at or above K. They are near along the path (the
   /// same corridor further on), so they look more alike than a building's negatives as a whole:
   /// 1.5% of them gives about 1% of those (chosen by nested leave-one-log-out, docs/results.md).
