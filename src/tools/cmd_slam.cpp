@@ -23,6 +23,7 @@
 #include "laser_loop_closure/core/map/map_picture.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
 #include "laser_loop_closure/core/slam/odometry_offset.hpp"
+#include "laser_loop_closure/core/slam/reference_check.hpp"
 #include "laser_loop_closure/core/slam/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 #include "laser_loop_closure/core/geometry/trajectory_error.hpp"
@@ -60,6 +61,7 @@ struct TruthCheck {
   llc::RevisitFates fates;                 ///< where the true revisits not closed were lost
   std::string wrong_loop_lines;            ///< one report line per wrong applied loop
   std::size_t wrong_loops_doubtful = 0;    ///< of the wrong loops, those with an end whose truth is doubtful (--truth)
+  std::size_t wrong_loops_contradicted = 0;  ///< of the wrong loops, those with an end whose truth its own scans contradict
   /// Odometry steps and applied loops against the truth: RMS errors, and the mean of
   /// e^T C^-1 e with the covariance C the back end was given (3 when C is honest).
   double step_rms_m = 0.0, step_rms_rad = 0.0, step_nees = 0.0, loop_nees = 0.0;
@@ -139,6 +141,29 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
         wrong << "; truth doubtful: the ends' carried poses may be off by " << miss_m << " m " << miss_rad * 180.0 / M_PI
               << " deg together";
       }
+    }
+    // The reference itself may be off at an end (a SLAM-corrected log's glitch): its pose
+    // against the keyframes on either side, by their scans.
+    bool contradicted = false;
+    for (const std::size_t end : {record.loop.from, record.loop.to}) {
+      if (contradicted) break;
+      // The three nearest keyframes on either side: a glitch spans a few scans (csail's three).
+      const llc::ScanAligner& aligner = slam.detector().aligner();
+      std::vector<std::shared_ptr<const llc::PreparedScan>> kept;
+      std::vector<llc::ReferenceNeighbour> before, after;
+      for (std::size_t k = end; k-- > 0 && end - k <= 3;)
+        kept.push_back(aligner.prepare(keyframes[k].scan)), before.push_back({kept.back().get(), truth[k]});
+      for (std::size_t k = end + 1; k < keyframes.size() && k - end <= 3; ++k)
+        kept.push_back(aligner.prepare(keyframes[k].scan)), after.push_back({kept.back().get(), truth[k]});
+      const llc::ReferenceCheck reference_check =
+          llc::checkReferencePose(aligner, *aligner.prepare(keyframes[end].scan), truth[end], before, after);
+      if (!reference_check.contradicted) continue;
+      contradicted = true;
+      ++check.wrong_loops_contradicted;
+      wrong << "; truth contradicted by its own scans at scan " << keyframes[end].scan_index
+            << ": ICP from it to keyframes on either side turns " << reference_check.before.turn * 180.0 / M_PI << " and "
+            << reference_check.after.turn * 180.0 / M_PI << " deg and fits better by " << reference_check.before.fit_gain
+            << " and " << reference_check.after.fit_gain;
     }
     wrong << "\n";
   }
@@ -501,6 +526,7 @@ int runSlam(const Args& args) {
            << "true_loop_keyframes_closed=" << truth.closed << "\n"
            << "wrong_loops_accepted=" << truth.wrong_loops << "\n"
            << "wrong_loops_truth_doubtful=" << truth.wrong_loops_doubtful << "  (of those, ones the --truth poses of their ends, carried by odometry, may be too far off to judge)\n"
+           << "wrong_loops_truth_contradicted=" << truth.wrong_loops_contradicted << "  (of those, ones with an end whose truth pose its own scans contradict: ICP from it to one of the 3 keyframes on each side turns over 2.9 deg and fits better by 0.1)\n"
            << "wrong_loop_translation_m=" << truth_options.wrong_translation << "  (an applied loop off the truth by more is wrong)\n"
            << "wrong_loop_rotation_deg=" << truth_options.wrong_rotation * 180.0 / M_PI << "  (or by more than this)\n"
            << "true_pairs_not_aligned=" << truth.true_pairs_not_aligned << "  (candidates the place gate skipped that truly revisit)\n"

@@ -120,6 +120,7 @@ class SlamPipeline {
   /// Returns "" or why not; then nothing changed.
   std::string restore(const SlamSession& session, bool continue_odometry);
   LoopDetector& detector() { return front_.detector(); }
+  const LoopDetector& detector() const { return front_.detector(); }
 
  private:
   SlamOptions options_;
