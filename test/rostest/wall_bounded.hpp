@@ -14,6 +14,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace llc_test {
 
@@ -80,6 +81,35 @@ typename M::ConstPtr waitForMessageWithin(const std::string& topic, double secon
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
   while (!received && ros::WallTime::now() < deadline) queue.callAvailable(ros::WallDuration(0.05));
   return received;
+}
+
+/// True when every topic in `topics` has a subscriber registered with the master. (That the
+/// TCP link to the publisher is up is not visible here; it follows within milliseconds.)
+inline bool everyTopicSubscribed(const std::vector<std::string>& topics) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", args, result, payload, false)) return false;
+  const XmlRpc::XmlRpcValue& subscribers = payload[1];  // [[topic, [node, ...]], ...]
+  for (const std::string& topic : topics) {
+    bool found = false;
+    for (int k = 0; k < subscribers.size() && !found; ++k) {
+      XmlRpc::XmlRpcValue entry = subscribers[k];
+      found = std::string(entry[0]) == topic && entry[1].size() > 0;
+    }
+    if (!found) return false;
+  }
+  return true;
+}
+
+/// Waits at most `seconds` of wall time until `ready()` holds, checking every 0.1 s.
+template <class Ready>
+bool waitUntilReady(double seconds, Ready ready) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (!ready()) {
+    if (ros::WallTime::now() > deadline) return false;
+    ros::WallDuration(0.1).sleep();
+  }
+  return true;
 }
 
 /// A rostest node's main: runs the tests, then leaves at once. A call that never answered is
