@@ -147,16 +147,14 @@ TruthCheck checkAgainstTruth(const llc::SlamPipeline& slam, const llc::ScanSeque
     bool contradicted = false;
     for (const std::size_t end : {record.loop.from, record.loop.to}) {
       if (contradicted) break;
-      // The three nearest keyframes on either side: a glitch spans a few scans (csail's three).
-      const llc::ScanAligner& aligner = slam.detector().aligner();
-      std::vector<std::shared_ptr<const llc::PreparedScan>> kept;
+      // The three nearest keyframes on either side (a glitch spans a few scans: csail's three),
+      // as the detector prepared them.
+      const llc::LoopDetector& detector = slam.detector();
       std::vector<llc::ReferenceNeighbour> before, after;
-      for (std::size_t k = end; k-- > 0 && end - k <= 3;)
-        kept.push_back(aligner.prepare(keyframes[k].scan)), before.push_back({kept.back().get(), truth[k]});
-      for (std::size_t k = end + 1; k < keyframes.size() && k - end <= 3; ++k)
-        kept.push_back(aligner.prepare(keyframes[k].scan)), after.push_back({kept.back().get(), truth[k]});
+      for (std::size_t k = end; k-- > 0 && end - k <= 3;) before.push_back({&detector.prepared(k), truth[k]});
+      for (std::size_t k = end + 1; k < keyframes.size() && k - end <= 3; ++k) after.push_back({&detector.prepared(k), truth[k]});
       const llc::ReferenceCheck reference_check =
-          llc::checkReferencePose(aligner, *aligner.prepare(keyframes[end].scan), truth[end], before, after);
+          llc::checkReferencePose(detector.aligner(), detector.prepared(end), truth[end], before, after);
       if (!reference_check.contradicted) continue;
       contradicted = true;
       ++check.wrong_loops_contradicted;

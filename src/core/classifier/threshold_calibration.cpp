@@ -79,9 +79,17 @@ void ThresholdCalibrator::add(double score) {
   if (slot < kept_.size()) kept_[slot] = score;
 }
 
-double calibratedThreshold(const std::vector<double>& scores, double model_k, const ThresholdCalibrationOptions& options) {
-  const double fitted = thresholdForFalseAlarm(scores, options.target_false_alarm);
+namespace {
+
+/// The fitted K, with the model's K as its floor when raise_only.
+double applyRaiseOnly(double fitted, double model_k, const ThresholdCalibrationOptions& options) {
   return options.raise_only ? std::max(fitted, model_k) : fitted;
+}
+
+}  // namespace
+
+double calibratedThreshold(const std::vector<double>& scores, double model_k, const ThresholdCalibrationOptions& options) {
+  return applyRaiseOnly(thresholdForFalseAlarm(scores, options.target_false_alarm), model_k, options);
 }
 
 double ThresholdCalibrator::threshold(double model_k) {
@@ -90,7 +98,7 @@ double ThresholdCalibrator::threshold(double model_k) {
     fitted_ = thresholdForFalseAlarm(kept_, options_.target_false_alarm);
     fitted_at_ = seen_;
   }
-  return options_.raise_only ? std::max(fitted_, model_k) : fitted_;
+  return applyRaiseOnly(fitted_, model_k, options_);
 }
 
 void ThresholdCalibrator::clear() {
