@@ -148,6 +148,14 @@ TEST(BagRun, MapsTheSimulatedDrive) {
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
+  // The player starts paused: it goes on once the nodelets take the bag's scans and tf and
+  // this node hears what they send, so that no first keyframe is lost to a slow start.
+  std::string start_why;
+  ASSERT_TRUE(llc_test::playWhenConnected(
+      {"/scan_front", "/scan_back", "/tf_static", "/ground_truth"},
+      [&] { return keyframe_sub.getNumPublishers() > 0 && record_sub.getNumPublishers() > 0 && path_sub.getNumPublishers() > 0; },
+      300.0, &start_why))
+      << start_why;
   const ros::WallTime start = ros::WallTime::now();
   while ((ros::WallTime::now() - start).toSec() < max_wall_seconds) {
     ros::WallDuration(1.0).sleep();

@@ -11,7 +11,6 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
-#include <std_srvs/SetBool.h>
 
 #include <cmath>
 #include <fstream>
@@ -104,17 +103,15 @@ TEST(OnlineOffline, NodeletsGiveWhatLlcSlamGives) {
   // The player starts paused. It goes on only when the nodelets are up and subscribed to the
   // bag's topics and this node is subscribed to theirs: on a busy machine a fixed delay can
   // lose the first scan to the nodelets, or the first keyframe to this node.
-  const bool ready = llc_test::waitUntilReady(300.0, [&] {
-    return merger.seen() && front_end.seen() && back_end.seen() && keyframe_sub.getNumPublishers() > 0 &&
-           record_sub.getNumPublishers() > 0 && path_sub.getNumPublishers() > 0 &&
-           llc_test::everyTopicSubscribed({"/scan_front", "/scan_back", "/tf", "/tf_static"});
-  });
-  ASSERT_TRUE(ready) << "the nodelets and this node were not connected within 300 s of wall time";
-  ros::WallDuration(1.0).sleep();  // the TCP links of the subscriptions just registered
   std::string why;
-  std_srvs::SetBool play;
-  play.request.data = false;  // pause_playback(false): go on
-  ASSERT_TRUE(llc_test::callWithin("/player/pause_playback", &play, 60.0, &why)) << why;
+  ASSERT_TRUE(llc_test::playWhenConnected(
+      {"/scan_front", "/scan_back", "/tf", "/tf_static"},
+      [&] {
+        return merger.seen() && front_end.seen() && back_end.seen() && keyframe_sub.getNumPublishers() > 0 &&
+               record_sub.getNumPublishers() > 0 && path_sub.getNumPublishers() > 0;
+      },
+      300.0, &why))
+      << why;
 
   // Until the whole drive went through: the back end holds as many keyframes as llc slam made
   // and nothing waits, three checks in a row; bounded in wall time.

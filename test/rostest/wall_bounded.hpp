@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <std_srvs/SetBool.h>
 
 #include <condition_variable>
 #include <cstdio>
@@ -110,6 +111,22 @@ bool waitUntilReady(double seconds, Ready ready) {
     ros::WallDuration(0.1).sleep();
   }
   return true;
+}
+
+/// For a player started with --pause (node /player): waits at most `seconds` of wall time
+/// until `ready()` holds and every topic of `bag_topics` has a subscriber, then lets it play
+/// (its pause_playback service). A fixed start delay races a busy machine: the nodelets can
+/// miss the first scans, or the test the first messages they send.
+template <class Ready>
+bool playWhenConnected(const std::vector<std::string>& bag_topics, Ready ready, double seconds, std::string* why) {
+  if (!waitUntilReady(seconds, [&] { return ready() && everyTopicSubscribed(bag_topics); })) {
+    *why = "the nodelets and the test were not connected within " + std::to_string(seconds) + " s of wall time";
+    return false;
+  }
+  ros::WallDuration(1.0).sleep();  // the TCP links of the subscriptions just registered
+  std_srvs::SetBool play;
+  play.request.data = false;  // pause_playback(false): go on
+  return callWithin("/player/pause_playback", &play, 60.0, why);
 }
 
 /// A rostest node's main: runs the tests, then leaves at once. A call that never answered is
