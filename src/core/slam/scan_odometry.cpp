@@ -29,6 +29,7 @@ std::string ScanOdometryOptions::validate() const {
   if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
   if (!(icp_covariance_scale >= 0.0) || !std::isfinite(icp_covariance_scale))
     return "icp_covariance_scale must be finite and >= 0";
+  if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "laser_loop_closure/core/alignment/context_check.hpp"
 #include "laser_loop_closure/core/common/file_util.hpp"
 
 namespace llc {
@@ -16,7 +17,7 @@ SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptio
 Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
 
 std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
-                                  bool continue_odometry, bool* features_recomputed) {
+                                  bool continue_odometry, bool* features_recomputed, const std::vector<Pose2>* steps) {
   if (keyframes.size() != features.size())
     return std::to_string(keyframes.size()) + " keyframes but " + std::to_string(features.size()) + " feature vectors";
   LoopDetector detector(detector_.model(), aligner_options_, loop_options_);
@@ -39,8 +40,9 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   chain_.assign(keyframes.size(), Pose2{});
   path_.assign(keyframes.size(), 0.0);
   chain_first_.resize(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k) chain_first_[k] = k;  // their chains are not known here
+  for (std::size_t k = 0; k < keyframes.size(); ++k) chain_first_[k] = k;  // their chains: from `steps`, below
   chain_start_ = keyframes.size();
+  local_map_.reset();
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
@@ -57,6 +59,18 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   has_last_wheels_ = has_jump_ = false;  // a jump is judged between scans of this run only
   wheels_moved_ = wheels_stalled_ = false;
+  if (has_keyframe_ && steps && steps->size() == keyframes.size()) {
+    // The run goes on: its chains are those the measured steps made (as the run that saved
+    // them had them), so the local map, the context and the calibration go on across the restore.
+    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+      const bool chained = isFinite((*steps)[k]);
+      chain_[k] = chained ? compose(chain_[k - 1], (*steps)[k]) : Pose2{};
+      path_[k] = chained ? path_[k - 1] + std::hypot((*steps)[k].x, (*steps)[k].y) : 0.0;
+      chain_first_[k] = chained ? chain_first_[k - 1] : k;
+    }
+    chain_start_ = chain_first_.back();
+    updateLocalMap();
+  }
   return "";
 }
 
@@ -160,6 +174,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
   path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
   chain_first_.push_back(chain_start_);
+  updateLocalMap();
   // The own odometry frame goes on through a new chain (whose motion is the identity).
   const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
   keyframe_in_odometry_ = has_keyframe_in_odometry_ ? compose(keyframe_in_odometry_, motion) : Pose2{};
@@ -217,7 +232,9 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
     return WheelPlacement::kNotKeyframe;
   }
   prepared = detector_.aligner().prepare(scan);
-  step.odometry = odometry_.match(detector_.prepared(detector_.size() - 1), *prepared, guess, true,
+  // A keyframe's step is matched to the local map; the scans between keep to the newest
+  // keyframe (their poses only place them: the map's scans.csv, odom).
+  step.odometry = odometry_.match(keyframe ? matchTarget() : detector_.prepared(detector_.size() - 1), *prepared, guess, true,
                                   wheel_noise_.scale(), has_wheel_track_ || maybe_stalled ? &tracked : nullptr);
   // The laser, predicted on, fits clearly better than where the repeated reading says the
   // robot stood, and it moved since the scan before: the wheels stalled. Their reading is no guess and no reference until it
@@ -269,6 +286,26 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   if (step.odometry.matched) updateVelocity(step.odometry.motion);
   last_motion_time_ = motion_time_;
   tracked_motion_ = step.odometry.motion;
+}
+
+void SlamFrontEnd::buildLocalMap(const std::vector<std::pair<std::size_t, Pose2>>& placed) {
+  local_map_.reset();
+  if (placed.size() < 2) return;
+  std::vector<ContextScan> scans;
+  for (const auto& [keyframe, pose] : placed) scans.push_back({&detector_.prepared(keyframe).points, pose, nullptr});
+  local_map_ = std::make_shared<const PreparedScan>(contextCloud(scans, 0.05), detector_.aligner().options(),
+                                                    detector_.prepared(placed.front().first).view);
+}
+
+void SlamFrontEnd::updateLocalMap() {
+  const std::size_t wanted = odometry_.options().local_map_keyframes;
+  std::vector<std::pair<std::size_t, Pose2>> placed;
+  if (wanted > 1 && detector_.size() > 0 && chain_.size() == detector_.size()) {
+    const std::size_t newest = detector_.size() - 1;
+    for (std::size_t k = newest + 1; k-- > 0 && newest - k < wanted && chain_first_[k] == chain_first_[newest];)
+      placed.push_back({k, between(chain_[newest], chain_[k])});
+  }
+  buildLocalMap(placed);
 }
 
 Pose2 SlamFrontEnd::predictedMotion() const {

@@ -1,7 +1,9 @@
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 
+#include <Eigen/LU>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 namespace llc {
@@ -135,7 +137,18 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
   // The back end first: it is the one that can still refuse (a graph that cannot be rebuilt).
   std::string error = back_.restore(session);
   if (!error.empty()) return error;
-  error = front_.restore(session.keyframes, session.features, continue_odometry);
+  // Each keyframe's measured odometry step: the first constraint from the keyframe before it
+  // (added with the keyframe, before any loop), unless it is a loose link (none measured).
+  const Eigen::Matrix3d loose_information = looseLinkCovariance().inverse();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Pose2> steps(session.keyframes.size(), Pose2{nan, nan, nan});
+  std::vector<char> seen(session.keyframes.size(), 0);
+  for (const PoseEdge& edge : session.constraints) {
+    if (edge.to != edge.from + 1 || edge.to >= steps.size() || seen[edge.to]) continue;
+    seen[edge.to] = 1;
+    if (edge.information(0, 0) > 2.0 * loose_information(0, 0)) steps[edge.to] = edge.measurement;
+  }
+  error = front_.restore(session.keyframes, session.features, continue_odometry, nullptr, &steps);
   if (!error.empty()) return error;
   loops_ = session.loops;
   placements_.clear();  // the scans of another run: their keyframes are gone

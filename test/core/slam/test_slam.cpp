@@ -672,6 +672,46 @@ TEST_P(SlamOnShortDrive, ScanMatchingBeatsDeadReckoning) {
 
 INSTANTIATE_TEST_SUITE_P(WheelsOrNot, SlamOnShortDrive, ::testing::Bool());
 
+/// The local map (odometry/local_map_keyframes): keyframe steps matched to the newest keyframes
+/// merged average the scan-to-scan errors that drift between loops. On a simulated drive with
+/// drifting wheels and no loop, the front end's chain of keyframe poses drifts less with it
+/// than matched to the newest keyframe alone, and the keyframes are the same scans.
+TEST(LocalMap, DriftsLessThanTheNewestKeyframeAlone) {
+  llc::SimDriveOptions drive_options;
+  drive_options.length_m = 150.0;
+  drive_options.odometry_scale_bias = 0.03;
+  drive_options.odometry_turn_bias = 0.003;
+  const llc::SimWorld world(llc::simWorldOptions(drive_options));
+  const llc::SimDrive drive = llc::simulateDrive(world, drive_options);
+  auto chainError = [&](std::size_t local_map_keyframes, std::vector<double>* stamps) {
+    llc::SlamOptions options;
+    options.odometry.local_map_keyframes = local_map_keyframes;
+    options.loops.min_keyframe_gap = 1000000;  // no loop: the front end's chain alone
+    llc::SlamPipeline slam(defaultModel(), options);
+    std::vector<llc::Pose2> truth;
+    for (std::size_t i = 0; i < drive.frames.size(); ++i) {
+      const llc::SimFrame& frame = drive.frames[i];
+      const llc::SlamStepResult step = slam.addScan(frameScan(drive, frame), i, &frame.odometry);
+      if (step.keyframe) truth.push_back(frame.truth), stamps->push_back(frame.stamp);
+    }
+    EXPECT_EQ(slam.counters().loops_accepted, 0u);
+    EXPECT_EQ(slam.counters().matched_steps, truth.size() - 1);
+    return llc::alignedRmsError(slam.poses(), truth);
+  };
+  std::vector<double> alone_stamps, local_stamps;
+  const double alone = chainError(1, &alone_stamps);
+  const double local = chainError(5, &local_stamps);
+  std::cout << "rms error: newest keyframe alone " << alone << " m, local map of 5 " << local << " m\n";
+  EXPECT_EQ(local_stamps, alone_stamps);  // keyframes are chosen by the wheels either way
+  EXPECT_LT(local, alone);
+  EXPECT_THROW(llc::ScanOdometry([] {
+                 llc::ScanOdometryOptions o;
+                 o.local_map_keyframes = 0;
+                 return o;
+               }()),
+               std::invalid_argument);
+}
+
 TEST(SlamPipeline, PlaceGateSparesAlignmentsButNoTrueLoop) {
   const llc::SimDrive drive = simulatedDrive(500.0);
   struct Run {

@@ -93,8 +93,12 @@ class SlamFrontEnd {
   /// chain whose first keyframe is linked to the newest restored one by a motion of almost no
   /// information (restartCovariance), so that its first loop closure places it. Returns ""
   /// or why not (keyframes and features of different counts); then nothing changed.
+  /// steps (with continue_odometry): per keyframe, the odometry step from the one before
+  /// (non-finite where none was measured), which places the restored local map as the run
+  /// that saved it had it (local_map_keyframes).
   std::string restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
-                      bool continue_odometry, bool* features_recomputed = nullptr);
+                      bool continue_odometry, bool* features_recomputed = nullptr,
+                      const std::vector<Pose2>* steps = nullptr);
   /// Covariance of the link between a restored session and a new chain (m^2, rad^2).
   static Eigen::Matrix3d restartCovariance();
 
@@ -170,11 +174,20 @@ class SlamFrontEnd {
   double last_motion_time_ = 0.0;
   // The threshold calibration's view of the drive: each keyframe's pose by this front end's
   // own odometry and the length driven to it. Keyframes before chain_start_ (a restored
-  // session) have no place in this chain.
+  // session started anew) have no place in this chain; a session continued (restore with its
+  // steps) goes on in the chain it saved.
   std::vector<Pose2> chain_;
   std::vector<double> path_;
   std::vector<std::size_t> chain_first_;  ///< per keyframe, the first keyframe of its chain (restored ones: itself)
   std::size_t chain_start_ = 0;
+  /// local_map_keyframes > 1: the newest keyframes of the chain merged in the newest's frame,
+  /// what scans are matched to (null: the newest keyframe alone).
+  std::shared_ptr<const PreparedScan> local_map_;
+  /// The local map of the newest keyframe from `placed`: the newest keyframes of its chain in
+  /// its frame, the newest first (fewer than two: none).
+  void buildLocalMap(const std::vector<std::pair<std::size_t, Pose2>>& placed);
+  void updateLocalMap();
+  const PreparedScan& matchTarget() const { return local_map_ ? *local_map_ : detector_.prepared(detector_.size() - 1); }
   /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
   std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
   Random calibration_random_{1};

@@ -74,6 +74,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/track_min_fit_gain", odometry.track_min_fit_gain);
   visit("odometry/stalled_wheels_as_missing", odometry.stalled_wheels_as_missing);
   visit("odometry/icp_covariance_scale", odometry.icp_covariance_scale);
+  visit("odometry/local_map_keyframes", odometry.local_map_keyframes);
   visit("odometry/max_stamp_jitter", odometry.max_stamp_jitter);
   visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visit("odometry/max_speed", odometry.max_speed);
