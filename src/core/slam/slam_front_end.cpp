@@ -43,6 +43,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   for (std::size_t k = 0; k < keyframes.size(); ++k) chain_first_[k] = k;  // their chains: from `steps`, below
   chain_start_ = keyframes.size();
   local_map_.reset();
+  local_map_of_ = std::size_t(-1);
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
@@ -69,7 +70,6 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
       chain_first_[k] = chained ? chain_first_[k - 1] : k;
     }
     chain_start_ = chain_first_.back();
-    updateLocalMap();
   }
   return "";
 }
@@ -174,7 +174,6 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
   path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
   chain_first_.push_back(chain_start_);
-  updateLocalMap();
   // The own odometry frame goes on through a new chain (whose motion is the identity).
   const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
   keyframe_in_odometry_ = has_keyframe_in_odometry_ ? compose(keyframe_in_odometry_, motion) : Pose2{};
@@ -234,7 +233,7 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   prepared = detector_.aligner().prepare(scan);
   // A keyframe's step is matched to the local map; the scans between keep to the newest
   // keyframe (their poses only place them: the map's scans.csv, odom).
-  step.odometry = odometry_.match(keyframe ? matchTarget() : detector_.prepared(detector_.size() - 1), *prepared, guess, true,
+  step.odometry = odometry_.match(keyframe ? keyframeStepTarget() : detector_.prepared(detector_.size() - 1), *prepared, guess, true,
                                   wheel_noise_.scale(), has_wheel_track_ || maybe_stalled ? &tracked : nullptr);
   // The laser, predicted on, fits clearly better than where the repeated reading says the
   // robot stood, and it moved since the scan before: the wheels stalled. Their reading is no guess and no reference until it
@@ -288,24 +287,20 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   tracked_motion_ = step.odometry.motion;
 }
 
-void SlamFrontEnd::buildLocalMap(const std::vector<std::pair<std::size_t, Pose2>>& placed) {
-  local_map_.reset();
-  if (placed.size() < 2) return;
-  std::vector<ContextScan> scans;
-  for (const auto& [keyframe, pose] : placed) scans.push_back({&detector_.prepared(keyframe).points, pose, nullptr});
-  local_map_ = std::make_shared<const PreparedScan>(contextCloud(scans, 0.05), detector_.aligner().options(),
-                                                    detector_.prepared(placed.front().first).view);
-}
-
-void SlamFrontEnd::updateLocalMap() {
+const PreparedScan& SlamFrontEnd::keyframeStepTarget() {
+  const std::size_t newest = detector_.size() - 1;
   const std::size_t wanted = odometry_.options().local_map_keyframes;
-  std::vector<std::pair<std::size_t, Pose2>> placed;
-  if (wanted > 1 && detector_.size() > 0 && chain_.size() == detector_.size()) {
-    const std::size_t newest = detector_.size() - 1;
+  if (wanted > 1 && local_map_of_ != newest) {
+    local_map_of_ = newest;
+    local_map_.reset();
+    std::vector<ContextScan> scans;  // the newest keyframe's points first (the 5 cm grid keeps the first)
     for (std::size_t k = newest + 1; k-- > 0 && newest - k < wanted && chain_first_[k] == chain_first_[newest];)
-      placed.push_back({k, between(chain_[newest], chain_[k])});
+      scans.push_back({&detector_.prepared(k).points, between(chain_[newest], chain_[k]), nullptr});
+    if (scans.size() >= 2)
+      local_map_ = std::make_shared<const PreparedScan>(contextCloud(scans, 0.05), detector_.aligner().options(),
+                                                        detector_.prepared(newest).view);
   }
-  buildLocalMap(placed);
+  return wanted > 1 && local_map_ ? *local_map_ : detector_.prepared(newest);
 }
 
 Pose2 SlamFrontEnd::predictedMotion() const {

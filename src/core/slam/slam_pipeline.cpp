@@ -1,6 +1,5 @@
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 
-#include <Eigen/LU>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -139,14 +138,14 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
   if (!error.empty()) return error;
   // Each keyframe's measured odometry step: the first constraint from the keyframe before it
   // (added with the keyframe, before any loop), unless it is a loose link (none measured).
-  const Eigen::Matrix3d loose_information = looseLinkCovariance().inverse();
+  const double loose_information = 1.0 / looseLinkCovariance()(0, 0);  // its x variance, diagonal
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<Pose2> steps(session.keyframes.size(), Pose2{nan, nan, nan});
   std::vector<char> seen(session.keyframes.size(), 0);
   for (const PoseEdge& edge : session.constraints) {
     if (edge.to != edge.from + 1 || edge.to >= steps.size() || seen[edge.to]) continue;
     seen[edge.to] = 1;
-    if (edge.information(0, 0) > 2.0 * loose_information(0, 0)) steps[edge.to] = edge.measurement;
+    if (edge.information(0, 0) > 2.0 * loose_information) steps[edge.to] = edge.measurement;
   }
   error = front_.restore(session.keyframes, session.features, continue_odometry, nullptr, &steps);
   if (!error.empty()) return error;

@@ -180,14 +180,13 @@ class SlamFrontEnd {
   std::vector<double> path_;
   std::vector<std::size_t> chain_first_;  ///< per keyframe, the first keyframe of its chain (restored ones: itself)
   std::size_t chain_start_ = 0;
-  /// local_map_keyframes > 1: the newest keyframes of the chain merged in the newest's frame,
-  /// what scans are matched to (null: the newest keyframe alone).
+  /// local_map_keyframes > 1: the newest keyframes of keyframe local_map_of_'s chain merged in
+  /// its frame (null: fewer than two in its chain), made when a keyframe step first needs it.
   std::shared_ptr<const PreparedScan> local_map_;
-  /// The local map of the newest keyframe from `placed`: the newest keyframes of its chain in
-  /// its frame, the newest first (fewer than two: none).
-  void buildLocalMap(const std::vector<std::pair<std::size_t, Pose2>>& placed);
-  void updateLocalMap();
-  const PreparedScan& matchTarget() const { return local_map_ ? *local_map_ : detector_.prepared(detector_.size() - 1); }
+  std::size_t local_map_of_ = std::size_t(-1);
+  /// What a keyframe step with wheels is matched to: the newest keyframe's local map, or the
+  /// newest keyframe alone.
+  const PreparedScan& keyframeStepTarget();
   /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
   std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
   Random calibration_random_{1};
