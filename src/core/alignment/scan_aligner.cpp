@@ -30,9 +30,11 @@ std::string ScanAlignerOptions::validate() const {
   return "";
 }
 
+MatchTarget::MatchTarget(Points2 points_in, const IcpOptions& icp, const FieldOfView& view_in)
+    : points(std::move(points_in)), view(view_in), icp_target(points, icp) {}
+
 PreparedScan::PreparedScan(Points2 points_in, const ScanAlignerOptions& options, const FieldOfView& view_in)
-    : points(std::move(points_in)), view(view_in), crf(describeForCrf(points, options.crf)),
-      icp_target(points, options.icp),
+    : MatchTarget(std::move(points_in), options.icp, view_in), crf(describeForCrf(points, options.crf)),
       global(describeForGlobalSearch(points, icp_target.normals, options.global)) {}
 
 ScanAligner::ScanAligner(const ScanAlignerOptions& options) : options_(options) {

@@ -101,7 +101,7 @@ double WheelNoiseScale::scale() const {
   return std::max(1.0, sorted[sorted.size() / 2] / 2.366);
 }
 
-OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
                                  bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked) const {
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
@@ -202,7 +202,7 @@ OdometryStep ScanOdometry::match(const PreparedScan& previous, const PreparedSca
   return step;
 }
 
-std::optional<Pose2> ScanOdometry::recoverFromWheels(const PreparedScan& previous, const PreparedScan& current,
+std::optional<Pose2> ScanOdometry::recoverFromWheels(const MatchTarget& previous, const MatchTarget& current,
                                                      const Pose2& guess, const IcpResult& icp,
                                                      const ShapeValidationOptions& overlap, double wheel_scale) const {
   // Two windows: around the wheels' guess (a slip, a gap between scans, a turn mismeasured)

@@ -287,7 +287,7 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   tracked_motion_ = step.odometry.motion;
 }
 
-const PreparedScan& SlamFrontEnd::keyframeStepTarget() {
+const MatchTarget& SlamFrontEnd::keyframeStepTarget() {
   const std::size_t newest = detector_.size() - 1;
   const std::size_t wanted = odometry_.options().local_map_keyframes;
   if (wanted > 1 && local_map_of_ != newest) {
@@ -297,8 +297,8 @@ const PreparedScan& SlamFrontEnd::keyframeStepTarget() {
     for (std::size_t k = newest + 1; k-- > 0 && newest - k < wanted && chain_first_[k] == chain_first_[newest];)
       scans.push_back({&detector_.prepared(k).points, between(chain_[newest], chain_[k]), nullptr});
     if (scans.size() >= 2)
-      local_map_ = std::make_shared<const PreparedScan>(contextCloud(scans, 0.05), detector_.aligner().options(),
-                                                        detector_.prepared(newest).view);
+      local_map_ = std::make_shared<const MatchTarget>(contextCloud(scans, 0.05), detector_.aligner().options().icp,
+                                                       detector_.prepared(newest).view);
   }
   return wanted > 1 && local_map_ ? *local_map_ : detector_.prepared(newest);
 }

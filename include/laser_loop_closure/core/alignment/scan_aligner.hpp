@@ -40,13 +40,20 @@ struct ScanAlignerOptions {
   std::string validate() const;  ///< names the stage whose option is wrong
 };
 
-/// Everything the aligner needs of one scan, computed once (a keyframe keeps it).
-struct PreparedScan {
-  PreparedScan(Points2 points, const ScanAlignerOptions& options, const FieldOfView& view = {});
+/// What ICP from a guess and shape validation need of a scan (scan-matching odometry's target,
+/// e.g. a local map of several keyframes, which no search with no guess ever aligns).
+struct MatchTarget {
+  MatchTarget(Points2 points, const IcpOptions& icp, const FieldOfView& view = {});
   Points2 points;
-  FieldOfView view;  ///< what its scanner could see (for shape validation)
+  FieldOfView view;     ///< what its scanner could see (for shape validation)
+  IcpTarget icp_target;  ///< its k-d tree also serves shape validation
+};
+
+/// Everything the aligner needs of one scan, computed once (a keyframe keeps it): a
+/// MatchTarget, and the descriptors of the searches with no guess.
+struct PreparedScan : MatchTarget {
+  PreparedScan(Points2 points, const ScanAlignerOptions& options, const FieldOfView& view = {});
   CrfScan crf;
-  IcpTarget icp_target;     ///< its k-d tree also serves shape validation
   GlobalSearchScan global;  ///< thinned points and normal directions (from icp_target's normals)
   FreeSpace free_space;  ///< where its beams ended (prepare() fills it when the seen-through test is on)
 };

@@ -151,7 +151,7 @@ class ScanOdometry {
   /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
   /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
   /// max_wheel_disagreement and for a disputed step.
-  OdometryStep match(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+  OdometryStep match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
                      bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
@@ -166,7 +166,7 @@ class ScanOdometry {
 
  private:
   /// correlative_recovery: the laser's motion when it fits clearly better than the wheels' guess.
-  std::optional<Pose2> recoverFromWheels(const PreparedScan& previous, const PreparedScan& current, const Pose2& guess,
+  std::optional<Pose2> recoverFromWheels(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
                                          const IcpResult& icp, const ShapeValidationOptions& overlap,
                                          double wheel_scale) const;
 

@@ -182,11 +182,11 @@ class SlamFrontEnd {
   std::size_t chain_start_ = 0;
   /// local_map_keyframes > 1: the newest keyframes of keyframe local_map_of_'s chain merged in
   /// its frame (null: fewer than two in its chain), made when a keyframe step first needs it.
-  std::shared_ptr<const PreparedScan> local_map_;
+  std::shared_ptr<const MatchTarget> local_map_;
   std::size_t local_map_of_ = std::size_t(-1);
   /// What a keyframe step with wheels is matched to: the newest keyframe's local map, or the
   /// newest keyframe alone.
-  const PreparedScan& keyframeStepTarget();
+  const MatchTarget& keyframeStepTarget();
   /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
   std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
   Random calibration_random_{1};
