@@ -199,12 +199,17 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
                << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
   llc::AtomicTextFile loops(dir + "/loops.csv");
-  loops << "a,b,accepted,score,inlier_share\n";
+  loops << "a,b,accepted,score,inlier_share,reason\n";
   std::vector<llc::PictureLoop> picture_loops;
   for (const llc::LoopRecord& record : slam.loops()) {
+    // Why it was refused, as one quoted CSV field (the stage first: "validation: ...",
+    // "context: ...", "backend: ..."); empty when applied.
+    std::string reason = record.applied ? "" : record.reject_reason;
+    std::replace(reason.begin(), reason.end(), '"', '\'');
+    std::replace(reason.begin(), reason.end(), '\n', ' ');
     loops << keyframes[record.loop.from].scan_index << "," << keyframes[record.loop.to].scan_index << ","
           << (record.applied ? 1 : 0) << "," << std::setprecision(4) << record.loop.score << "," << record.loop.inlier_share
-          << "\n";
+          << ",\"" << reason << "\"\n";
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
     if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
   }
