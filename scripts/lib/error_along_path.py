@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Where along the drive a map is wrong: the keyframes of an `llc slam --truth` (or `--evaluate`
 with a truth) run against their true poses, after the rigid alignment report.txt's rms_error_m
-uses, block by block of keyframes, with the loops applied there and the true revisits left open.
+uses, block by block of keyframes, with the loops applied there and the returns to a place left open.
 
   scripts/lib/error_along_path.py RUN_DIR [--block 25] [--radius 3] [--gap 30]
 
@@ -30,27 +30,37 @@ def main(argv):
         if value is None or flag not in ("--block", "--radius", "--gap"):
             print(__doc__.strip(), file=sys.stderr)
             return 2
-        if flag == "--block":
-            block = int(value)
-        elif flag == "--radius":
-            radius = float(value)
-        else:
-            gap = int(value)
+        try:
+            if flag == "--block":
+                block = int(value)
+            elif flag == "--radius":
+                radius = float(value)
+            else:
+                gap = int(value)
+        except ValueError:
+            block = 0
+        if block < 1 or not radius > 0 or gap < 1:
+            print("error_along_path: %s %s: --block and --gap must be whole numbers >= 1, --radius > 0 m" % (flag, value),
+                  file=sys.stderr)
+            return 2
         args = args[2:]
     try:
         keyframes = list(csv.DictReader(open(run + "/trajectory.csv")))
         truth = {int(r["index"]): r for r in csv.DictReader(open(run + "/truth.csv"))}
         loops = [r for r in csv.DictReader(open(run + "/loops.csv")) if r["accepted"] == "1"]
-    except (OSError, KeyError) as error:
-        print("error_along_path: %s" % error, file=sys.stderr)
+        scans = [int(r["index"]) for r in keyframes]
+        if any(s not in truth for s in scans):
+            raise ValueError("a keyframe's scan has no truth pose in truth.csv")
+        est = [(float(r["x"]), float(r["y"])) for r in keyframes]
+        ref = [(float(truth[s]["x"]), float(truth[s]["y"])) for s in scans]
+        heading = [float(truth[s]["theta"]) for s in scans]
+        if not est:
+            raise ValueError("trajectory.csv holds no keyframe")
+        if not all(math.isfinite(v) for p in est + ref for v in p) or not all(math.isfinite(h) for h in heading):
+            raise ValueError("a pose that is not finite (nan or inf)")
+    except (OSError, KeyError, TypeError, ValueError) as error:  # missing file, column or value; not a number
+        print("error_along_path: %s: %s" % (run, error), file=sys.stderr)
         return 1
-    scans = [int(r["index"]) for r in keyframes]
-    if any(s not in truth for s in scans):
-        print("error_along_path: a keyframe's scan has no truth pose in truth.csv", file=sys.stderr)
-        return 1
-    est = [(float(r["x"]), float(r["y"])) for r in keyframes]
-    ref = [(float(truth[s]["x"]), float(truth[s]["y"])) for s in scans]
-    heading = [float(truth[s]["theta"]) for s in scans]
     n = len(est)
     # Rigid alignment (rotation and translation, least squares), as llc slam's rms_error_m.
     me = (sum(p[0] for p in est) / n, sum(p[1] for p in est) / n)

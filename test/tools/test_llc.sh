@@ -76,6 +76,9 @@ check "slam --truth: truth.csv" 0 "^index,stamp,x,y,theta,matched$" -- head -1 "
 # scripts/lib/error_along_path.py aligns the keyframes to the truth as llc slam does: the same RMS.
 check "error_along_path: llc slam's RMS" 0 "^rms_error_m=$(sed -n 's/^rms_error_m=//p' "$TMP/slam_truth/report.txt") over " -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth"
 check "error_along_path: a run without truth.csv" 1 "error_along_path: .*truth.csv" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_drift"
+mkdir -p "$TMP/eap_nan" && cp "$TMP/slam_truth/"{truth,loops}.csv "$TMP/eap_nan/" && sed '3s/^\([^,]*\),\([^,]*\),[^,]*,/\1,\2,nan,/' "$TMP/slam_truth/trajectory.csv" > "$TMP/eap_nan/trajectory.csv"
+check "error_along_path: a pose of nan" 1 "error_along_path: .*not finite" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/eap_nan"
+check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth" --block 0
 check "slam --truth: a missing reference, before the run" 1 "--truth: .*none.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/none.log"
 printf 'FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.0 host 1.0\nFLASER 3 1.5 2.5 3.5 1 0 0 1 0 0 2.0 host 2.0\n' > "$TMP/elsewhere.log"
 check "slam --truth: a log of another drive" 1 "reference truth: 0 scan\(s\) of .*elsewhere.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/elsewhere.log" --quiet
