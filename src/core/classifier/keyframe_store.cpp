@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <queue>
 #include <stdexcept>
 #include <thread>
 
@@ -255,7 +257,7 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   limit = std::min(limit, size_);
   std::vector<LoopCandidate> candidates;
   const double alpha_sum = classifier.alphaSum();
-  if (alpha_sum <= 0.0 || limit == 0) return candidates;
+  if (alpha_sum <= 0.0 || limit == 0 || max_candidates == 0) return candidates;
   const std::size_t n = columns_.size();
   const StumpLayout layout{n, signatureCount(set_), profilePairFeature(set_)};
   const std::size_t offset = signatureOffset(set_);
@@ -292,10 +294,24 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
   };
   std::vector<double> remaining(cheap.size() + 1, profile_alpha);  // alpha of cheap[i..] and profile
   for (std::size_t i = cheap.size(); i-- > 0;) remaining[i] = remaining[i + 1] + cheap[i].alpha;
-  // A keyframe is dropped when even every stump to come cannot lift it to K; the margin keeps
-  // one whose reordered sum rounds just below K.
-  const double needed = classifier.thresholdK() * alpha_sum - 1e-9 * alpha_sum;
+  // A keyframe is dropped when even every stump to come cannot lift it to the bar: K, or once
+  // some thread holds max_candidates scores, the lowest of them (no keyframe below it can be
+  // among the best max_candidates, and a query asked for few finds many above K in a large
+  // store). Threads share the highest such bar. The margin keeps a keyframe whose reordered
+  // sum rounds just below the bar.
+  std::atomic<double> bar{classifier.thresholdK()};
+  auto neededNow = [&] { return bar.load(std::memory_order_relaxed) * alpha_sum - 1e-9 * alpha_sum; };
+  auto raiseBar = [&](double score) {
+    double current = bar.load(std::memory_order_relaxed);
+    while (score > current && !bar.compare_exchange_weak(current, score, std::memory_order_relaxed)) {
+    }
+  };
   constexpr std::size_t kCheckEvery = 4;
+  // Dense passes until fewer than 1 in kSparseBelow keyframes of a block is in the race: a
+  // vector pass over all of them costs about what one over a few scattered ones does
+  // (BM_QueryKeyframes at 1e6: 1 in 4 took 43-45 ms with 2 threads, 1 in 8 to 1 in 32 and
+  // never 31-38 ms, 2026-11-28).
+  constexpr std::size_t kSparseBelow = 8;
 
   // Each thread takes the next block not yet taken until none is left, with its own work
   // arrays: a thread slowed by the machine then simply takes fewer blocks.
@@ -318,8 +334,10 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
       return signatureFromSums(distance[g * kBlock + k], query_magnitude[g], magnitudes_[g][begin + k], layout.relative(f));
     };
 
+    std::priority_queue<double, std::vector<double>, std::greater<double>> best;  // this thread's top scores
     for (std::size_t block = next_block++; block * kBlock < limit; block = next_block++) {
       const std::size_t begin = block * kBlock, width = std::min(limit, begin + kBlock) - begin;
+      const double needed = neededNow();
       std::fill(partial.begin(), partial.begin() + long(width), 0.0);
       std::fill(signature_ready.begin(), signature_ready.end(), 0);
       // Dense: every keyframe of the block, while most of them are still in the race.
@@ -340,13 +358,17 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
         if (i % kCheckEvery == 0 || i == cheap.size()) {
           const std::size_t in_race = countInRace(partial.data(), width, remaining[i], needed);
           dead = in_race == 0;
-          sparse = dead || in_race * 4 < width || i == cheap.size();
+          sparse = dead || in_race * kSparseBelow < width || i == cheap.size();
         }
       }
       if (dead) continue;
-      alive.clear();
-      for (std::size_t k = 0; k < width; ++k)
-        if (partial[k] + remaining[i] >= needed) alive.push_back(k);
+      alive.resize(width);
+      std::size_t in_race = 0;
+      for (std::size_t k = 0; k < width; ++k) {
+        alive[in_race] = k;
+        in_race += partial[k] + remaining[i] >= needed;
+      }
+      alive.resize(in_race);
       // Sparse: the rest of the cheap stumps on the keyframes still in the race, one by one.
       for (; i < cheap.size() && !alive.empty(); ++i) {
         const Stump& s = cheap[i];
@@ -364,7 +386,8 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
                                       magnitudes_[g][begin + k], layout.relative(f));
           }
           partial[k] += s.votesMatch(value) ? s.alpha : 0.0;
-          if (partial[k] + remaining[i + 1] >= needed) alive[kept++] = k;
+          alive[kept] = k;  // branch-free: survival is close to a coin toss, a branch mispredicts
+          kept += partial[k] + remaining[i + 1] >= needed;
         }
         alive.resize(kept);
       }
@@ -392,7 +415,11 @@ std::vector<LoopCandidate> KeyframeStore::query(const StrongClassifier& classifi
       }
       for (std::size_t k : alive) {
         const double score = partial[k] / alpha_sum;
-        if (score >= classifier.thresholdK()) found->push_back({begin + k, score});
+        if (score < classifier.thresholdK()) continue;
+        found->push_back({begin + k, score});
+        best.push(score);
+        if (best.size() > max_candidates) best.pop();
+        if (best.size() == max_candidates) raiseBar(best.top());
       }
     }
   };

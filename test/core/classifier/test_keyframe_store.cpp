@@ -100,6 +100,35 @@ TEST(KeyframeStore, QueryFindsExactlyTheKeyframesScoringAtLeastK) {
   }
 }
 
+// A capped query raises its bar to the lowest score it holds (shared among threads): it must
+// still return exactly the head of the uncapped answer, ties broken by keyframe, whatever the
+// number of threads. Low K, so that far more keyframes than the cap pass it.
+TEST(KeyframeStore, CappedQueryIsTheHeadOfTheFullAnswerForAnyThreadCount) {
+  llc::Random random(12);
+  const llc::FeatureSet set = llc::FeatureSet::kExtended;
+  const std::size_t count = 9000;  // several blocks per thread
+  const auto rows = randomKeyframes(count, 8);
+  llc::KeyframeStore store(set);
+  for (const auto& row : rows) store.add(row.data());
+  for (double k : {0.2, 0.4, 0.6}) {
+    const llc::StrongClassifier classifier = mixedClassifier(random, k, k > 0.3);
+    for (std::size_t q : {std::size_t(5), std::size_t(4321)}) {
+      const auto all = store.query(classifier, rows[q].data(), count, count);
+      ASSERT_GT(all.size(), 50u) << "K " << k << ": too few pass K to test the cap";
+      for (std::size_t cap : {std::size_t(1), std::size_t(3), std::size_t(17), all.size() - 1})
+        for (std::size_t threads : {std::size_t(1), std::size_t(2), std::size_t(3)}) {
+          const auto top = store.query(classifier, rows[q].data(), count, cap, threads);
+          ASSERT_EQ(top.size(), cap) << "K " << k << " cap " << cap << " threads " << threads;
+          for (std::size_t i = 0; i < cap; ++i) {
+            EXPECT_EQ(top[i].keyframe, all[i].keyframe) << "K " << k << " cap " << cap << " threads " << threads;
+            EXPECT_EQ(top[i].score, all[i].score);
+          }
+        }
+      EXPECT_TRUE(store.query(classifier, rows[q].data(), count, 0).empty());
+    }
+  }
+}
+
 TEST(KeyframeStore, AKeyframeAlwaysMatchesItself) {
   const auto rows = randomKeyframes(50, 6);
   llc::KeyframeStore store(llc::FeatureSet::kExtended);

@@ -41,9 +41,11 @@ class KeyframeStore {
   void scoreAll(const StrongClassifier& classifier, const double* query, std::size_t limit,
                 std::vector<double>* scores) const;
 
-  /// Keyframes k < limit with score >= K, best first, at most max_candidates of them. Cheap
-  /// stumps run first and a keyframe is dropped as soon as the stumps still to come cannot lift
-  /// it to K, so the costly ones (signatures, profile) run on few keyframes. Scores agree with
+  /// Keyframes k < limit with score >= K, best first (ties: lower index first), at most
+  /// max_candidates of them. Cheap stumps run first and a keyframe is dropped as soon as the
+  /// stumps still to come cannot lift it to the bar (K, or the lowest of max_candidates scores
+  /// already found once there are that many), so the costly ones (signatures, profile) run on
+  /// few keyframes; a small max_candidates is therefore faster. Scores agree with
   /// scoreAll to rounding (the sum runs in another order). `threads` > 1 splits the keyframes
   /// among that many threads (the calling one included); the result does not depend on it.
   std::vector<LoopCandidate> query(const StrongClassifier& classifier, const double* query,
