@@ -31,6 +31,12 @@ std::vector<std::vector<double>> randomKeyframes(std::size_t count, std::uint64_
   return rows;
 }
 
+llc::KeyframeStore storeOf(const std::vector<std::vector<double>>& rows) {
+  llc::KeyframeStore store(llc::FeatureSet::kExtended);
+  for (const auto& row : rows) store.add(row.data());
+  return store;
+}
+
 /// A classifier over every kind of pair feature: scalar, relative, signature, profile.
 /// With profile_below, every profile stump votes "match" below its threshold (the case in which
 /// the query may stop a profile distance at the largest threshold).
@@ -69,11 +75,9 @@ TEST(KeyframeStore, ScoresEqualTheClassifierOnPairFeaturesOfTheStoredKeyframe) {
 
 TEST(KeyframeStore, QueryFindsExactlyTheKeyframesScoringAtLeastK) {
   llc::Random random(5);
-  const llc::FeatureSet set = llc::FeatureSet::kExtended;
   const std::size_t count = 7000;
   const auto rows = randomKeyframes(count, 4);
-  llc::KeyframeStore store(set);
-  for (const auto& row : rows) store.add(row.data());
+  const llc::KeyframeStore store = storeOf(rows);
   for (double k : {0.3, 0.5, 0.7, 0.9, 0.3, 0.5, 0.7, 0.9}) {
     static int round = 0;
     const llc::StrongClassifier classifier = mixedClassifier(random, k, round++ >= 4);
@@ -105,11 +109,9 @@ TEST(KeyframeStore, QueryFindsExactlyTheKeyframesScoringAtLeastK) {
 // number of threads. Low K, so that far more keyframes than the cap pass it.
 TEST(KeyframeStore, CappedQueryIsTheHeadOfTheFullAnswerForAnyThreadCount) {
   llc::Random random(12);
-  const llc::FeatureSet set = llc::FeatureSet::kExtended;
   const std::size_t count = 9000;  // several blocks per thread
   const auto rows = randomKeyframes(count, 8);
-  llc::KeyframeStore store(set);
-  for (const auto& row : rows) store.add(row.data());
+  const llc::KeyframeStore store = storeOf(rows);
   for (double k : {0.2, 0.4, 0.6}) {
     const llc::StrongClassifier classifier = mixedClassifier(random, k, k > 0.3);
     for (std::size_t q : {std::size_t(5), std::size_t(4321)}) {
@@ -131,8 +133,7 @@ TEST(KeyframeStore, CappedQueryIsTheHeadOfTheFullAnswerForAnyThreadCount) {
 
 TEST(KeyframeStore, AKeyframeAlwaysMatchesItself) {
   const auto rows = randomKeyframes(50, 6);
-  llc::KeyframeStore store(llc::FeatureSet::kExtended);
-  for (const auto& row : rows) store.add(row.data());
+  const llc::KeyframeStore store = storeOf(rows);
   const std::vector<double> own = store.features(20);
   const std::vector<double> pair = llc::pairFeatures(llc::FeatureSet::kExtended, own, own);
   for (double v : pair) EXPECT_EQ(v, 0.0);
