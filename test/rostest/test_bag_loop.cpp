@@ -18,9 +18,16 @@ TEST(BagLoop, MappingGoesOnThroughEveryPass) {
   std::string bag;
   pnh.getParam("bag", bag);
   if (!std::ifstream(bag).good()) GTEST_SKIP() << "no bag at '" << bag << "' (scripts/test simulates it)";
-  const llc_test::HealthWatch front_end(nh, "loop closure");
+  const llc_test::HealthWatch merger(nh, "scan merger"), front_end(nh, "loop closure"), back_end(nh, "esdf backend");
   ros::AsyncSpinner spinner(1);
   spinner.start();
+  // The player starts paused and goes on once the nodelets take the bag's topics: the passes
+  // are counted from the front end's diagnostics, which must be there from the first scan.
+  std::string why;
+  ASSERT_TRUE(llc_test::playWhenConnected({"/scan_front", "/scan_back", "/tf", "/tf_static"},
+                                          [&] { return merger.seen() && front_end.seen() && back_end.seen(); }, 200.0,
+                                          &why))
+      << why;
 
   // Keyframes seen when the front end had counted each jump back (index = jumps so far).
   std::vector<double> keyframes_at_jump;

@@ -21,6 +21,12 @@ TEST(DemoBag, MapsTheRoomOutOfTheBox) {
   const llc_test::HealthWatch merger(nh, "scan merger"), front_end(nh, "loop closure"), back_end(nh, "esdf backend");
   ros::AsyncSpinner spinner(1);
   spinner.start();
+  // The player starts paused: a fixed start delay on a busy machine can lose the first scans
+  // to a merger not yet subscribed, and 300 of the 360 must get through.
+  std::string why;
+  ASSERT_TRUE(llc_test::playWhenConnected({"/scan"}, [&] { return merger.seen() && front_end.seen() && back_end.seen(); },
+                                          200.0, &why))
+      << why;
   // The bag has 360 scans; done when the back end's keyframes stand still for 6 s after some came.
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(200.0);
   double last = -1.0;
