@@ -79,6 +79,10 @@ check "error_along_path: a run without truth.csv" 1 "error_along_path: .*truth.c
 mkdir -p "$TMP/eap_nan" && cp "$TMP/slam_truth/"{truth,loops}.csv "$TMP/eap_nan/" && sed '3s/^\([^,]*\),\([^,]*\),[^,]*,/\1,\2,nan,/' "$TMP/slam_truth/trajectory.csv" > "$TMP/eap_nan/trajectory.csv"
 check "error_along_path: a pose of nan" 1 "error_along_path: .*not finite" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/eap_nan"
 check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth" --block 0
+# scripts/lib/triangle_closure.py: on the simulated drive ICP's steps close their triangles and
+# agree with the truth to well under a milliradian (real 180-degree logs: several milliradians).
+check "triangle_closure: the simulated drive's steps close" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/triangle_closure.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --llc '$LLC' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"triangles\"] > 100 && v[\"triangles_gross\"] < 0.05 * v[\"triangles\"] && v[\"closure_heading_rms_rad\"] < 0.001 && v[\"truth_heading_rms_rad\"] < 0.001 ? \"ok\" : \"not ok\")}'"
+check "triangle_closure: a run without trajectory.csv" 1 "triangle_closure: no .*trajectory.csv" -- /usr/bin/python3 "$REPO/scripts/lib/triangle_closure.py" "$TMP/none_run" "$TMP/sim/sim.log"
 check "slam --truth: a missing reference, before the run" 1 "--truth: .*none.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/none.log"
 printf 'FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.0 host 1.0\nFLASER 3 1.5 2.5 3.5 1 0 0 1 0 0 2.0 host 2.0\n' > "$TMP/elsewhere.log"
 check "slam --truth: a log of another drive" 1 "reference truth: 0 scan\(s\) of .*elsewhere.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/elsewhere.log" --quiet
