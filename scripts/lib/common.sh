@@ -58,3 +58,10 @@ llc_setup() {
 }
 
 LLC_BIN="$WS/devel/lib/laser_loop_closure"
+
+# Drift seeds (scripts/drifted_logs, scripts/self_training): "1,2,3" into the array seed_list,
+# or the message and the usage ($2) on stderr and exit 2.
+llc_seed_list() {
+  [[ "$1" =~ ^[0-9]+(,[0-9]+)*$ ]] || { echo "--seeds: a comma-separated list of integers, not '$1'" >&2; echo "$2" >&2; exit 2; }
+  IFS=, read -r -a seed_list <<<"$1"
+}

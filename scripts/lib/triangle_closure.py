@@ -18,6 +18,7 @@ are counted and left out. Options after `--` go to `llc align` (e.g.
 import csv
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -48,6 +49,15 @@ def rms(values):
     return math.sqrt(sum(v * v for v in values) / len(values)) if values else float("nan")
 
 
+def read_poses(path, key):
+    """{row[key]: (x, y, theta)} of a CSV of poses; ValueError naming the file when malformed."""
+    try:
+        with open(path) as f:
+            return {int(r[key]): (float(r["x"]), float(r["y"]), float(r["theta"])) for r in csv.DictReader(f)}
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError("%s: not a CSV of %s,x,y,theta poses (%s)" % (path, key, error))
+
+
 def main(argv):
     if len(argv) < 2 or argv[0].startswith("-"):
         print(__doc__.strip(), file=sys.stderr)
@@ -74,13 +84,29 @@ def main(argv):
     if not os.path.isfile(trajectory):
         print("triangle_closure: no %s" % trajectory, file=sys.stderr)
         return 1
-    with open(trajectory) as f:
-        scans = [int(row["index"]) for row in csv.DictReader(f)]
+    try:
+        with open(trajectory) as f:
+            scans = [int(row["index"]) for row in csv.DictReader(f)]
+    except (KeyError, TypeError, ValueError) as error:
+        print("triangle_closure: %s: no integer index column (%s)" % (trajectory, error), file=sys.stderr)
+        return 1
     if len(scans) < 3:
         print("triangle_closure: fewer than 3 keyframes in %s" % trajectory, file=sys.stderr)
         return 1
     work = keep or tempfile.mkdtemp(prefix="triangle_closure_")
     os.makedirs(work, exist_ok=True)
+    try:
+        return measure(run, log, llc, align_options, scans, work)
+    except ValueError as error:
+        print("triangle_closure: %s" % error, file=sys.stderr)
+        return 1
+    finally:
+        if not keep:
+            shutil.rmtree(work, ignore_errors=True)
+
+
+def measure(run, log, llc, align_options, scans, work):
+    """Aligns the triangles' pairs in `work` and prints the figures; 0, or 1 when llc fails."""
     pairs_path, aligned_path = os.path.join(work, "pairs.csv"), os.path.join(work, "aligned.csv")
     wanted = []
     for k in range(len(scans) - 2):
@@ -97,11 +123,8 @@ def main(argv):
         return 1
     with open(aligned_path) as f:
         aligned = {(int(r["a"]), int(r["b"])): (float(r["x"]), float(r["y"]), float(r["theta"])) for r in csv.DictReader(f)}
-    truth = None
     truth_path = os.path.join(run, "truth.csv")
-    if os.path.isfile(truth_path):
-        with open(truth_path) as f:
-            truth = {int(r["index"]): (float(r["x"]), float(r["y"]), float(r["theta"])) for r in csv.DictReader(f)}
+    truth = read_poses(truth_path, "index") if os.path.isfile(truth_path) else None
     heading, position, gross = [], [], 0
     truth_heading, truth_position = [], []
     for k in range(len(scans) - 2):
@@ -126,7 +149,7 @@ def main(argv):
             step = aligned[(a, b)]
             truth_heading.append(wrap(step[2] - t[2]))
             truth_position.append(math.hypot(step[0] - t[0], step[1] - t[1]))
-    print("triangles=%d  (keyframes k, k+1, k+2 of %s)" % (len(scans) - 2, trajectory))
+    print("triangles=%d  (keyframes k, k+1, k+2 of %s)" % (len(scans) - 2, os.path.join(run, "trajectory.csv")))
     print("triangles_gross=%d  (an alignment missing or turning over %g rad, or the three disagreeing by over %g rad or %g m)" %
           (gross, MAX_TURN_RAD, GROSS_RAD, GROSS_M))
     print("closure_heading_rms_rad=%.5f" % rms(heading))
