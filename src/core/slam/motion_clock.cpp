@@ -12,7 +12,7 @@ MotionClock::MotionClock(double max_jitter) : max_jitter_(max_jitter) {
 
 void MotionClock::reset(double stamp) {
   count_ = next_ = 0;
-  counting_ = false;
+  counting_ = steady_ = false;
   started_ = true;
   last_stamp_ = time_ = stamp;
   offset_ = 0.0;
@@ -28,7 +28,7 @@ double MotionClock::tick(double stamp) {
   intervals_[next_] = interval;
   next_ = (next_ + 1) % window;
   count_ = std::min(count_ + 1, window);
-  counting_ = false;
+  counting_ = steady_ = false;
   double mean = 0.0;
   if (count_ >= min_intervals) {
     const auto first = scratch_.begin(), last = first + std::ptrdiff_t(count_);
@@ -43,6 +43,7 @@ double MotionClock::tick(double stamp) {
     std::nth_element(first, middle, last);
     // (No steady interval to count by, e.g. every stamp the same: the stamps as they are.)
     counting_ = median > 0.0 && mean > 0.0 && *middle > max_jitter_ * median;
+    steady_ = median > 0.0 && !counting_;
   }
   // Exactly the stamps while they are steady; on by the mean interval, from where the clock
   // stood, while they jitter.

@@ -31,6 +31,7 @@ std::string ScanOdometryOptions::validate() const {
     return "icp_covariance_scale must be finite and >= 0";
   if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
+  if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
@@ -102,7 +103,8 @@ double WheelNoiseScale::scale() const {
 }
 
 OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked) const {
+                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked,
+                                 bool prior_on_guess) const {
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
   step.motion = guess;
@@ -122,7 +124,9 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   // never learn a motion along a corridor.
   const IcpOptions laser_seeded = withoutRemapping(options_.icp);
   const IcpOptions& seeded = guess_from_wheels ? options_.icp : laser_seeded;
-  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals);
+  const IcpPrior prior{guess, prior_on_guess && !guess_from_wheels ? options_.motion_prior_weight : 0.0};
+  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals, nullptr,
+                           prior.weight > 0.0 ? &prior : nullptr);
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;

@@ -269,7 +269,8 @@ void SlamFrontEnd::rememberWheels(const Pose2& wheels, double stamp, bool repeat
 void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step) {
   const PreparedScan& keyframe = detector_.prepared(detector_.size() - 1);
   const Pose2 predicted = predictedMotion();
-  step.odometry = odometry_.match(keyframe, scan, predicted, false);
+  // The prediction is as good as the stamps: unless they were judged steady it pulls nothing.
+  step.odometry = odometry_.match(keyframe, scan, predicted, false, 1.0, nullptr, motion_clock_.stampsSteady());
   // A velocity from one bad step predicts far off, and ICP from there fails (the Intel log's
   // turns in place): where the last scan stood may still be near enough.
   if (!step.odometry.matched && !ScanOdometry::samePose(predicted, tracked_motion_)) {

@@ -17,6 +17,8 @@ TEST(MotionClock, SteadyStampsAreTheClockExactly) {
     const double stamp = 1000.0 + 0.1 * k + ((k % 3) ? 0.001 : -0.001);
     EXPECT_EQ(clock.tick(stamp), stamp) << "scan " << k;
     EXPECT_FALSE(clock.countingScans()) << "scan " << k;
+    // Judged steady once min_intervals intervals are known (the motion prior's condition).
+    EXPECT_EQ(clock.stampsSteady(), k >= int(llc::MotionClock::min_intervals)) << "scan " << k;
   }
 }
 
@@ -29,6 +31,7 @@ TEST(MotionClock, JitteringStampsAreCountedAtTheirMeanInterval) {
   int counted = 0, first_counted_scan = -1;
   for (int k = 0; k < 300; ++k) {
     const double time = clock.tick(50.0 + 0.2 * k + late[k % 11]);
+    if (k >= 20) EXPECT_FALSE(clock.stampsSteady()) << "scan " << k;
     if (!clock.countingScans()) continue;
     if (counted++ == 0) first_counted = time, first_counted_scan = k;
     EXPECT_GT(time, previous) << "scan " << k << ": counted time never goes back";
@@ -47,6 +50,7 @@ TEST(MotionClock, EqualStampsAreNotCountedAndResetStartsAgain) {
   llc::MotionClock clock;
   for (int k = 0; k < 40; ++k) EXPECT_EQ(clock.tick(7.0), 7.0);  // no interval to count by
   EXPECT_FALSE(clock.countingScans());
+  EXPECT_FALSE(clock.stampsSteady()) << "stamps that stand still predict nothing";
   clock.reset(10.0);
   const double late[] = {0.0, 0.3, 0.05, 0.25, 0.0, 0.28, 0.02, 0.1, 0.3, 0.0, 0.2};
   for (int k = 0; k < 40; ++k) clock.tick(10.0 + 0.2 * k + late[k % 11]);
@@ -54,6 +58,7 @@ TEST(MotionClock, EqualStampsAreNotCountedAndResetStartsAgain) {
   // After a reset (a restored session, a bag played again) nothing is known: the stamps rule.
   clock.reset(3.0);
   EXPECT_FALSE(clock.countingScans());
+  EXPECT_FALSE(clock.stampsSteady());
   EXPECT_EQ(clock.tick(3.5), 3.5);
   EXPECT_EQ(clock.tick(3.6), 3.6);
 }

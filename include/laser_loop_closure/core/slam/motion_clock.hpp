@@ -27,13 +27,16 @@ class MotionClock {
   void reset(double stamp);
   /// Whether the last tick counted a scan instead of reading its stamp.
   bool countingScans() const { return counting_; }
+  /// Whether the last tick read a stamp judged steady: min_intervals seen, their median above
+  /// 0, their jitter within max_jitter (a prediction from such stamps is as good as the motion).
+  bool stampsSteady() const { return steady_; }
 
  private:
   double max_jitter_;
   std::array<double, window> intervals_{};
   std::array<double, window> scratch_{};  ///< for the median: no allocation per scan
   std::size_t count_ = 0, next_ = 0;
-  bool started_ = false, counting_ = false;
+  bool started_ = false, counting_ = false, steady_ = false;
   double last_stamp_ = 0.0, time_ = 0.0;
   double offset_ = 0.0;  ///< motion time minus stamp, changed only while scans are counted
 };

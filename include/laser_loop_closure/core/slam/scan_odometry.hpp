@@ -93,6 +93,14 @@ struct ScanOdometryOptions {
   /// their mean interval while the median absolute deviation of the last 64 intervals is
   /// above this share of their median (the Intel log's stamps: 0.99). 0: always counted.
   double max_stamp_jitter = 0.5;
+  /// Without wheel odometry, while the motion clock reads the scans' stamps (not counting
+  /// scans: their prediction is then as good as the stamps), ICP from the motion model's
+  /// prediction is pulled towards it by this share of its pairs' weight (IcpPrior): along a
+  /// corridor, where the scans fit anywhere, the prediction stands instead of a slide of a
+  /// metre per scan (ACES). Where the stamps jitter (Intel) the prediction is 0.3-0.4 m off as
+  /// a rule and no prior is used. Position only (IcpPrior). In-sample: chosen on ACES laser-only
+  /// (0.02-0.05 give 0.057-0.063 m there against 0.237 without; docs/benchmark.md). 0: off.
+  double motion_prior_weight = 0.03;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
@@ -150,9 +158,11 @@ class ScanOdometry {
   /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
   /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
   /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
-  /// max_wheel_disagreement and for a disputed step.
+  /// max_wheel_disagreement and for a disputed step. prior_on_guess (a laser-made guess only):
+  /// ICP is pulled towards the guess by motion_prior_weight.
   OdometryStep match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
+                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr,
+                     bool prior_on_guess = false) const;
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
   static bool samePose(const Pose2& a, const Pose2& b);
