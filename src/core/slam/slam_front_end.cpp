@@ -269,8 +269,9 @@ void SlamFrontEnd::rememberWheels(const Pose2& wheels, double stamp, bool repeat
 void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step) {
   const PreparedScan& keyframe = detector_.prepared(detector_.size() - 1);
   const Pose2 predicted = predictedMotion();
-  // The prediction is as good as the stamps: unless they were judged steady it pulls nothing.
-  step.odometry = odometry_.match(keyframe, scan, predicted, false, 1.0, nullptr, motion_clock_.stampsSteady());
+  // The prediction is as good as the stamps: unless they were judged steady, or where no
+  // velocity predicts (a gap: the last pose stands in), it pulls nothing.
+  step.odometry = odometry_.match(keyframe, scan, predicted, false, 1.0, nullptr, predictsMotion() && motion_clock_.stampsSteady());
   // A velocity from one bad step predicts far off, and ICP from there fails (the Intel log's
   // turns in place): where the last scan stood may still be near enough.
   if (!step.odometry.matched && !ScanOdometry::samePose(predicted, tracked_motion_)) {
@@ -304,10 +305,14 @@ const MatchTarget& SlamFrontEnd::keyframeStepTarget() {
   return wanted > 1 && local_map_ ? *local_map_ : detector_.prepared(newest);
 }
 
+bool SlamFrontEnd::predictsMotion() const {
+  const double dt = motion_time_ - last_motion_time_;
+  return odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
+}
+
 Pose2 SlamFrontEnd::predictedMotion() const {
   const double dt = motion_time_ - last_motion_time_;
-  const bool predict = odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
-  return predict ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt}) : tracked_motion_;
+  return predictsMotion() ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt}) : tracked_motion_;
 }
 
 void SlamFrontEnd::updateVelocity(const Pose2& motion) {

@@ -151,6 +151,8 @@ class SlamFrontEnd {
   void rememberWheels(const Pose2& wheels, double stamp, bool repeated);
   /// tracked_motion_ carried on by velocity_ to motion_time_ (predict_motion, within max_prediction_gap).
   Pose2 predictedMotion() const;
+  /// Whether predictedMotion() is a velocity's prediction (not the last pose standing in).
+  bool predictsMotion() const;
   /// velocity_ from the tracked motion at last_motion_time_ to `motion` at motion_time_ (kept when
   /// the scans are min_velocity_interval apart and no faster than max_speed, max_turn_rate).
   void updateVelocity(const Pose2& motion);
