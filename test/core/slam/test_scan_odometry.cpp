@@ -666,7 +666,9 @@ namespace {
 TEST(ScanOdometry, TheMotionPriorHoldsThePredictionOnlyWhereTheScansHardlyFixThePosition) {
   const std::vector<Wall> walls = corridor();
   const llc::ScanAligner aligner;
-  const llc::ScanOdometry odometry;
+  llc::ScanOdometryOptions with_prior;
+  with_prior.motion_prior_weight = 0.03;  // (off by default)
+  const llc::ScanOdometry odometry(with_prior);
   auto steps = [&](int k) {
     const auto first = aligner.prepare(corridorScan(walls, k));
     const auto second = aligner.prepare(corridorScan(walls, k + 1));

@@ -98,9 +98,10 @@ struct ScanOdometryOptions {
   /// prediction is pulled towards it by this share of its pairs' weight (IcpPrior): along a
   /// corridor, where the scans fit anywhere, the prediction stands instead of a slide of a
   /// metre per scan (ACES). Where the stamps jitter (Intel) the prediction is 0.3-0.4 m off as
-  /// a rule and no prior is used. Position only (IcpPrior). In-sample: chosen on ACES laser-only
-  /// (0.02-0.05 give 0.057-0.063 m there against 0.237 without; docs/benchmark.md). 0: off.
-  double motion_prior_weight = 0.03;
+  /// a rule and no prior is used. Position only (IcpPrior). Off by default: 0.03 takes ACES's
+  /// log laser-only 0.237 -> 0.063 m (in-sample) but the simulated drive without wheels
+  /// 0.080 -> 0.213 m RMS, and not the ACES bag (docs/benchmark.md). 0: off.
+  double motion_prior_weight = 0.0;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
