@@ -142,17 +142,15 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
     if (!(eigen(0) > options.degeneracy_ratio * eigen(2))) return finish("degenerate geometry");
     Eigen::Matrix3d system = hessian;
     if (prior && prior->weight > 0.0) {
-      // The position's residual under a small motion (dx, dy, dtheta) applied in the target
-      // frame: (x - dtheta y + dx, y + dtheta x + dy) to first order.
-      Eigen::Matrix3d jacobian;
-      jacobian << 1.0, 0.0, -result.pose.y, 0.0, 1.0, result.pose.x, 0.0, 0.0, 1.0;
-      const Eigen::Vector3d residual(result.pose.x - prior->pose.x, result.pose.y - prior->pose.y,
-                                     normalizeAngle(result.pose.theta - prior->pose.theta));
-      // Position only: the scans fix the heading wherever they fix anything (pulling it too
-      // made MIT CSAIL's and ACES's rotational errors worse).
-      const Eigen::Matrix3d strength = prior->weight * double(pairs.size()) * Eigen::Vector3d(1.0, 1.0, 0.0).asDiagonal();
-      system += jacobian.transpose() * strength * jacobian;
-      gradient += jacobian.transpose() * strength * residual;
+      // Position only (the scans fix the heading wherever they fix anything; pulling it too made
+      // MIT CSAIL's and ACES's rotational errors worse). The position under a small motion
+      // (dx, dy, dtheta) applied in the target frame: (x - dtheta y + dx, y + dtheta x + dy).
+      Eigen::Matrix<double, 2, 3> jacobian;
+      jacobian << 1.0, 0.0, -result.pose.y, 0.0, 1.0, result.pose.x;
+      const Eigen::Vector2d residual(result.pose.x - prior->pose.x, result.pose.y - prior->pose.y);
+      const double strength = prior->weight * double(pairs.size());
+      system += strength * jacobian.transpose() * jacobian;
+      gradient += strength * jacobian.transpose() * residual;
     }
     Eigen::Vector3d step = -system.ldlt().solve(gradient);
     if (options.remap_ratio > 0.0) {

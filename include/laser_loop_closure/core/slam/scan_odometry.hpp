@@ -93,8 +93,8 @@ struct ScanOdometryOptions {
   /// their mean interval while the median absolute deviation of the last 64 intervals is
   /// above this share of their median (the Intel log's stamps: 0.99). 0: always counted.
   double max_stamp_jitter = 0.5;
-  /// Without wheel odometry, while the motion clock reads the scans' stamps (not counting
-  /// scans: their prediction is then as good as the stamps), ICP from the motion model's
+  /// Without wheel odometry, while the motion clock reads stamps it judged steady
+  /// (MotionClock::stampsSteady: a prediction is then as good as the stamps), ICP from the motion model's
   /// prediction is pulled towards it by this share of its pairs' weight (IcpPrior): along a
   /// corridor, where the scans fit anywhere, the prediction stands instead of a slide of a
   /// metre per scan (ACES). Where the stamps jitter (Intel) the prediction is 0.3-0.4 m off as
