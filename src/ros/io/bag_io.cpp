@@ -156,7 +156,8 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         ++sequence.merged_count;
       }
       logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
-      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : odometry.at(stamp + options.odometry_time_offset);
+      logged.odometry =
+          odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(stamp + options.odometry_time_offset));
       logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
       sequence.scans.push_back(std::move(logged));
     }

@@ -1,5 +1,7 @@
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
+#include <cmath>
+
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/exceptions.h>
 
@@ -68,6 +70,13 @@ bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const
     *error = e.what();
     return false;
   }
+}
+
+llc::Pose2 canonicalWheelPose(const llc::Pose2& pose) {
+  // 1e9 x (|value| < 9e6 m) stays an exact integer in a double: the grid is the same everywhere.
+  const auto snap = [](double value) { return std::round(value * 1e9) / 1e9; };
+  // (The heading may end up to 5e-10 rad beyond pi: every later step normalises it.)
+  return {snap(pose.x), snap(pose.y), snap(llc::normalizeAngle(pose.theta))};
 }
 
 }  // namespace llc_ros

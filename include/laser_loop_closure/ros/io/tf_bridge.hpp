@@ -57,4 +57,13 @@ class MountCache {
 bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const std::string& child,
                  const ros::Time& stamp, llc::Pose2* pose, std::string* error);
 
+/// Wheel odometry as the pipeline takes it, from tf (the nodelets) or from a bag's odometry
+/// (`llc slam --bag`): x and y on a grid of 1e-9 m, the heading on one of 1e-9 rad. tf gives
+/// the pose at a stamp that has a transform of its own as it is only while nothing newer has
+/// come; once something has, it slerps to it at ratio 0 and may land one unit in the last place
+/// away. Which of the two a scan gets depends on when it is looked up (the play rate, the load),
+/// and the front end carries a last bit on into other loops (MIT CSAIL's bag with wheels: 20
+/// loops at 8x, 25 at 2x). On the grid both are one pose, as is a bag's own interpolation.
+llc::Pose2 canonicalWheelPose(const llc::Pose2& pose);
+
 }  // namespace llc_ros
