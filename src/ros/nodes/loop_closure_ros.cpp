@@ -143,24 +143,24 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
 
 bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose,
                                          std::string* error) {
-  // On canonicalWheelPose's grid: what tf answers must not depend on when it is asked.
-  const auto found = [pose](bool ok) {
-    if (ok) *pose = canonicalWheelPose(*pose);
-    return ok;
-  };
   const ros::Time& stamp = msg.header.stamp;
-  if (options_.odometry_time_offset == 0.0)
-    return found(lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error));
   const double shifted = stamp.toSec() + options_.odometry_time_offset;  // never 0: tf reads that as "latest"
-  if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, shifted > 1e-9 ? ros::Time(shifted) : ros::Time(0, 1),
-                  pose, error))
-    return found(true);
-  // Before the first odometry (the drive's first scans), or after a gap in tf: the odometry at
-  // the scan's own stamp, which its tf filter found (the bag reader holds its first message;
-  // on sim.bag, whose odometry starts with the scans, the two agree: online_offline.test).
-  if (!lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error)) return false;
-  ++odometry_at_scan_stamp_;
-  return found(true);
+  bool found = false;
+  if (options_.odometry_time_offset == 0.0) {
+    found = lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
+  } else if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id,
+                         shifted > 1e-9 ? ros::Time(shifted) : ros::Time(0, 1), pose, error)) {
+    found = true;
+  } else {
+    // Before the first odometry (the drive's first scans), or after a gap in tf: the odometry at
+    // the scan's own stamp, which its tf filter found (the bag reader holds its first message;
+    // on sim.bag, whose odometry starts with the scans, the two agree: online_offline.test).
+    found = lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
+    odometry_at_scan_stamp_ += found;
+  }
+  // On canonicalWheelPose's grid: what tf answers must not depend on when it is asked.
+  if (found) *pose = canonicalWheelPose(*pose);
+  return found;
 }
 
 void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) {
