@@ -344,7 +344,9 @@ int runSlam(const Args& args) {
   } catch (const llc::ModelError& e) {
     throw ToolError(e.what());
   }
-  llc::ScanSequence sequence = loadSequence(input, args);
+  // With wheels, the scans the nodelets would get no odometry for are left out as they are
+  // there (a bag's first scan before its first odometry message: FR079).
+  llc::ScanSequence sequence = loadSequence(input, args, !args.has("no-wheel-odometry"));
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
   // Decided before any odometry shift: a log whose true poses are its odometry has no truth
   // (unless its odometry is drifted below: then those poses are the truth).

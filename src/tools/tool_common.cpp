@@ -183,10 +183,11 @@ llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& ar
   return bagOptions(args);
 }
 
-llc::ScanSequence loadSequence(const std::string& path, const Args& args) {
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool skip_scans_outside_odometry) {
   std::vector<std::string> warnings;
   llc::ScanSequence sequence;
-  const llc_ros::BagReadOptions bag_options = driveReadOptions(path, args);  // a bad flag: UsageError, not ToolError
+  llc_ros::BagReadOptions bag_options = driveReadOptions(path, args);  // a bad flag: UsageError, not ToolError
+  bag_options.skip_scans_outside_odometry = skip_scans_outside_odometry;
   try {
     sequence = llc_ros::loadDrive(path, bag_options, &warnings);
   } catch (const std::runtime_error& e) {

@@ -85,7 +85,9 @@ llc_ros::BagReadOptions bagOptions(const Args& args);
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
 /// bagOptions, after checking that the flags only a bag takes come with a bag (UsageError).
 llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& args);
-llc::ScanSequence loadSequence(const std::string& path, const Args& args);
+/// skip_scans_outside_odometry: a bag's scans the nodelets would get no odometry for are left
+/// out (BagReadOptions; for mapping with wheel odometry).
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool skip_scans_outside_odometry = false);
 using llc_ros::extractAll;
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args);

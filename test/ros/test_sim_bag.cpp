@@ -9,6 +9,8 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -251,6 +253,64 @@ TEST(SimBag, TheOdometryTimeOffsetReadsTheWheelsThatMuchBeforeTheScan) {
   EXPECT_GT(checked, frames.size() / 2);
   options.odometry_time_offset = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(llc_ros::readBagSequence(dir.file("sim.bag"), options), llc_ros::BagError);
+}
+
+TEST(SimBag, ScansOutsideTheOdometrysSpanAreSkippedForMappingAsTheNodeletsGiveThemUp) {
+  // Odometry at 100.05, 100.2, 100.3 s (x = 0.5, 2, 3 m: 10 m/s, so x = 1 m at 100.1 s);
+  // scans at 100.0 ... 100.4 s. tf answers within that span only, so the nodelets give up the
+  // first scan and wait for ever with the last (FR079's bag starts with a scan 10 ms before
+  // its first odometry).
+  llc_test::TempDir dir;
+  {
+    rosbag::Bag bag(dir.file("span.bag"), rosbag::bagmode::Write);
+    for (const auto& [t, x] : std::vector<std::pair<double, double>>{{100.05, 0.5}, {100.2, 2.0}, {100.3, 3.0}}) {
+      nav_msgs::Odometry odom;
+      odom.header.stamp = ros::Time(t);
+      odom.header.frame_id = "odom";
+      odom.child_frame_id = "base_link";
+      odom.pose.pose.position.x = x;
+      odom.pose.pose.orientation.w = 1.0;
+      bag.write("/odom", ros::Time(t), odom);
+    }
+    for (int i = 0; i <= 4; ++i) {
+      const double t = 100.0 + 0.1 * i;
+      sensor_msgs::LaserScan scan;
+      scan.header.stamp = ros::Time(t);
+      scan.header.frame_id = "base_link";
+      scan.angle_min = -0.5f, scan.angle_increment = 0.5f, scan.angle_max = 0.5f;
+      scan.range_min = 0.1f, scan.range_max = 30.0f;
+      scan.ranges = {2.0f, 3.0f, 4.0f};
+      bag.write("/scan_front", ros::Time(t), scan);
+    }
+    bag.close();
+  }
+  llc_ros::BagReadReport report;
+  const llc::ScanSequence held = llc_ros::readBagSequence(dir.file("span.bag"), {}, &report);
+  ASSERT_EQ(held.scans.size(), 5u) << "off (pairs, features, laser-only mapping): every scan, the ends held";
+  EXPECT_EQ(report.skipped_scans, 0u);
+  EXPECT_NEAR(held.scans[0].odometry.x, 0.5, 1e-6);
+  EXPECT_NEAR(held.scans[2].odometry.x, 2.0, 1e-6);
+  EXPECT_NEAR(held.scans[4].odometry.x, 3.0, 1e-6);
+
+  llc_ros::BagReadOptions mapping;
+  mapping.skip_scans_outside_odometry = true;
+  const llc::ScanSequence kept = llc_ros::readBagSequence(dir.file("span.bag"), mapping, &report);
+  ASSERT_EQ(kept.scans.size(), 3u);
+  EXPECT_NEAR(kept.scans.front().stamp, 100.1, 1e-6);
+  EXPECT_NEAR(kept.scans.back().stamp, 100.3, 1e-6);
+  EXPECT_EQ(report.skipped_scans, 2u);
+  EXPECT_EQ(report.scans_outside_odometry, 2u);
+  EXPECT_NE(report.first_problem.find("before the first odometry message"), std::string::npos) << report.first_problem;
+  for (std::size_t k = 0; k < kept.scans.size(); ++k) EXPECT_NEAR(kept.scans[k].odometry.x, 1.0 + k, 1e-6) << k;
+
+  // With an offset the wheels are read that much earlier, and where the odometry does not
+  // reach that far (the first scan) at the scan's own stamp, as the nodelets fall back to.
+  mapping.odometry_time_offset = -0.1;
+  const llc::ScanSequence shifted = llc_ros::readBagSequence(dir.file("span.bag"), mapping);
+  ASSERT_EQ(shifted.scans.size(), 3u);
+  EXPECT_NEAR(shifted.scans[0].odometry.x, 1.0, 1e-6) << "at its own stamp, not held at the first message (0.5)";
+  EXPECT_NEAR(shifted.scans[1].odometry.x, 1.0, 1e-6);
+  EXPECT_NEAR(shifted.scans[2].odometry.x, 2.0, 1e-6);
 }
 
 TEST(SimBag, BadBagsAndTopicsGiveAClearError) {

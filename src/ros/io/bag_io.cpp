@@ -30,6 +30,10 @@ struct PoseTrack {
   void add(double stamp, const llc::Pose2& pose) {
     if (samples.empty() || stamp > samples.back().first) samples.emplace_back(stamp, pose);
   }
+  /// Whether a stamp lies within the samples' span (where tf answers without extrapolating).
+  bool covers(double stamp) const {
+    return !samples.empty() && stamp >= samples.front().first && stamp <= samples.back().first;
+  }
   /// Linear in position, shortest arc in heading; held at the ends.
   llc::Pose2 at(double stamp) const {
     auto after = std::lower_bound(samples.begin(), samples.end(), stamp,
@@ -130,6 +134,18 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         skip("a front scan at " + std::to_string(stamp) + " s is not newer than the one before it");
         continue;
       }
+      // Where the nodelets read the wheels: at stamp + offset, or at the stamp itself where
+      // the odometry does not reach that far (the start of a drive); a scan whose own stamp the
+      // odometry does not reach they never get odometry for (tf does not extrapolate).
+      const double shifted = stamp + options.odometry_time_offset;
+      const double odometry_stamp = odometry.covers(shifted) || !odometry.covers(stamp) ? shifted : stamp;
+      if (options.skip_scans_outside_odometry && !odometry.samples.empty() && !odometry.covers(stamp)) {
+        ++r.scans_outside_odometry;
+        skip("front scan at " + std::to_string(stamp) + " s: " +
+             (stamp < odometry.samples.front().first ? "before the first" : "after the last") +
+             " odometry message (the nodelets get no odometry for it either: tf does not extrapolate)");
+        continue;
+      }
       llc::LoggedScan logged;
       std::string error;
       const ScannerMount front_mount = mountOf(*front);
@@ -156,8 +172,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         ++sequence.merged_count;
       }
       logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
-      logged.odometry =
-          odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(stamp + options.odometry_time_offset));
+      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(odometry_stamp));
       logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
       sequence.scans.push_back(std::move(logged));
     }

@@ -32,12 +32,19 @@ struct BagReadOptions {
   /// whose stamps come d s after the wheels' (stamped on arrival) wants -d. As the nodelets'
   /// odometry_time_offset; `llc slam --odometry-offset auto` suggests it.
   double odometry_time_offset = 0.0;
+  /// Skip the front scans that the nodelets give up for want of odometry: those whose own
+  /// stamp lies before the first or after the last odometry message (tf never extrapolates),
+  /// counted in the report. For mapping with wheel odometry, so that `llc slam --bag` sees the
+  /// scans the nodelets see; off, such a scan gets the first or last reading (held).
+  bool skip_scans_outside_odometry = false;
 };
 
 /// What the reader met besides the scans it returns.
 struct BagReadReport {
   std::size_t front_messages = 0, back_messages = 0, odom_messages = 0, truth_messages = 0;
   std::size_t skipped_scans = 0;  ///< front scans that could not be used (reason in first_problem)
+  /// Of those, scans outside the odometry's time span (skip_scans_outside_odometry).
+  std::size_t scans_outside_odometry = 0;
   std::string first_problem;
   bool truth_from_odometry = false;  ///< no truth topic: poses for labelling came from odometry
   std::vector<std::string> fallback_frames;  ///< scanner frames /tf_static did not mount: on fallback_mount
@@ -53,7 +60,8 @@ class BagError : public std::runtime_error {
 /// with the back scan nearest in time within max_merge_gap into a 360-degree scan in the base
 /// frame. Scanner mountings come from /tf_static (level or upside-down mounts; a tilted one is
 /// an error). Truth and odometry poses are interpolated at each scan's stamp (the odometry at the
-/// stamp + odometry_time_offset; a non-finite offset is a BagError). Front scans
+/// stamp + odometry_time_offset, or, as the nodelets do, at the stamp itself where the odometry
+/// does not reach stamp + offset but reaches the stamp; a non-finite offset is a BagError). Front scans
 /// that are malformed (see toScan) or older than the scan before them are skipped and counted.
 llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions& options = {},
                                   BagReadReport* report = nullptr);
