@@ -479,6 +479,8 @@ int runSlam(const Args& args) {
          << "  (a reading repeated while the laser said the robot moved: placed by the laser alone)\n"
          << "laser_fallback_steps=" << c.laser_fallback_steps
          << "  (placed by the laser: ICP failed from the predicted pose and held from the last scan's)\n"
+         << "odometry_steps_ambiguous=" << c.ambiguous_steps
+         << "  (laser-only keyframe steps widened along a direction the scans leave open: odometry/ambiguity_score_drop)\n"
          << "scans_counted_by_motion_clock=" << c.scans_counted
          << "  (stamps jittering beyond odometry/max_stamp_jitter: the motion model counted scans instead)\n"
          << "odometry_steps_disputed=" << c.disputed_steps << "  (ICP and wheels disagreed: covariance widened to hold both)\n"

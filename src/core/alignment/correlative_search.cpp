@@ -100,6 +100,24 @@ double correlativeScore(const LikelihoodField& field, const Points2& source, con
   return sum / double(points.size());
 }
 
+double ambiguousShift(const LikelihoodField& field, const Points2& source, const Pose2& pose, const Point2& direction,
+                      double max_shift, double step, double max_drop, std::size_t max_points) {
+  if (field.empty() || source.empty() || !isFinite(pose) || !direction.allFinite() || !(step > 0.0)) return 0.0;
+  const Points2 points = strided(source, max_points);
+  const double floor = correlativeScore(field, points, pose, 0) - max_drop;
+  double longest = 0.0;
+  for (const double sign : {1.0, -1.0}) {
+    const int steps = int(std::floor(max_shift / step + 1e-9));
+    for (int i = 1; i <= steps; ++i) {
+      const double t = sign * step * i;
+      const Pose2 moved{pose.x + t * direction.x(), pose.y + t * direction.y(), pose.theta};
+      if (correlativeScore(field, points, moved, 0) < floor) break;
+      longest = std::max(longest, step * i);
+    }
+  }
+  return longest;
+}
+
 CorrelativeSearchResult searchCorrelative(const LikelihoodField& field, const Points2& source, const Pose2& centre,
                                           const CorrelativeSearchOptions& options) {
   const auto start = std::chrono::steady_clock::now();

@@ -1,6 +1,7 @@
 #include "laser_loop_closure/core/slam/scan_odometry.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <limits>
@@ -29,6 +30,8 @@ std::string ScanOdometryOptions::validate() const {
   if (!(wheel_sigma_scale >= 1.0)) return "wheel_sigma_scale must be >= 1";
   if (!(icp_covariance_scale >= 0.0) || !std::isfinite(icp_covariance_scale))
     return "icp_covariance_scale must be finite and >= 0";
+  if (!(ambiguity_score_drop >= 0.0 && ambiguity_score_drop <= 1.0)) return "ambiguity_score_drop must be in [0, 1] (0: off)";
+  if (!(ambiguity_max_shift > 0.0) || !std::isfinite(ambiguity_max_shift)) return "ambiguity_max_shift must be finite and > 0";
   if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
   if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";
@@ -83,6 +86,23 @@ Eigen::Matrix3d ScanOdometry::stepCovarianceOf(const IcpResult& icp) {
   jacobian(1, 2) = icp.pose.x;
   const Eigen::Matrix3d covariance = jacobian * icp.covariance * jacobian.transpose();
   return covariance.allFinite() ? covariance : Eigen::Matrix3d::Zero();
+}
+
+bool ScanOdometry::widenAlongAmbiguity(const LikelihoodField& field, const Points2& scan, OdometryStep& step) const {
+  if (!(options_.ambiguity_score_drop > 0.0) || !step.matched || !step.icp_covariance.allFinite() ||
+      !(step.icp_covariance.topLeftCorner<2, 2>().trace() > 0.0))  // (no ICP covariance: no direction)
+    return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(step.icp_covariance.topLeftCorner<2, 2>());
+  if (axes.info() != Eigen::Success) return false;
+  const Point2 longest = axes.eigenvectors().col(1);  // eigenvalues ascend
+  step.ambiguous_shift = ambiguousShift(field, scan, step.motion, longest, options_.ambiguity_max_shift,
+                                        options_.correlative.translation_step, options_.ambiguity_score_drop,
+                                        options_.correlative.max_points);
+  const double held = longest.dot(step.covariance.topLeftCorner<2, 2>() * longest);
+  const double wanted = step.ambiguous_shift * step.ambiguous_shift;
+  if (!(wanted > held)) return false;
+  step.covariance.topLeftCorner<2, 2>() += (wanted - held) * longest * longest.transpose();
+  return true;
 }
 
 void WheelNoiseScale::add(double disagreement) {

@@ -284,6 +284,17 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   // ICP's covariance, too sure but shaped as the scans are (long along a corridor), lets the
   // loops that mend a laser-only chain's slides pass the gate.
   if (no_wheels) step.odometry.covariance += odometry_.options().icp_covariance_scale * step.odometry.icp_covariance;
+  // A keyframe step: how far along the corridor could it be? (The scans between are placed
+  // only; their covariance goes nowhere.)
+  if (no_wheels && step.odometry.matched && odometry_.options().ambiguity_score_drop > 0.0 &&
+      odometry_.movedEnough(step.odometry.motion)) {
+    const std::size_t newest = detector_.size() - 1;
+    if (!ambiguity_field_ || ambiguity_field_of_ != newest) {
+      ambiguity_field_ = std::make_shared<const LikelihoodField>(keyframe.points, odometry_.options().correlative);
+      ambiguity_field_of_ = newest;
+    }
+    counters_.ambiguous_steps += odometry_.widenAlongAmbiguity(*ambiguity_field_, scan.points, step.odometry);
+  }
   if (step.odometry.matched) updateVelocity(step.odometry.motion);
   last_motion_time_ = motion_time_;
   tracked_motion_ = step.odometry.motion;

@@ -116,6 +116,50 @@ TEST(CorrelativeSearch, RefusesWhatItCannotSearch) {
   EXPECT_FALSE(bad_centre.reject_reason.empty());
 }
 
+/// How far a scan can slide and fit as well: along two bare walls as far as it is asked, across
+/// them and in a room hardly at all; a door in one wall ends the slide there.
+TEST(AmbiguousShift, IsLongAlongACorridorAndShortWhereTheScansFixThePose) {
+  const CorrelativeSearchOptions options;
+  const Pose2 at{0.3, 0.1, 0.02};
+  // A hall 10 m wide (within 20 m, the field joins its walls' points: seen more than 10 degrees
+  // off the beam). Source points within 10 m: shifted 5 m they stay within the field's 20 m.
+  const std::vector<llc_test::Wall> hall = {{{-100, -5}, {100, -5}}, {{-100, 5}, {100, 5}}};
+  const Points2 target = llc::scanPoints(llc_test::scanAt(hall, Pose2{0, 0, 0}, 360, 0.01, 1), 20.0);
+  const Points2 source = llc::scanPoints(llc_test::scanAt(hall, at, 360, 0.01, 2), 10.0);
+  const LikelihoodField field(target, options);
+  // Bare walls 200 m long: every shift along them fits as well, and none across them.
+  EXPECT_DOUBLE_EQ(llc::ambiguousShift(field, source, at, Point2(1, 0), 5.0, 0.1, 0.02, 180), 5.0);
+  EXPECT_LE(llc::ambiguousShift(field, source, at, Point2(0, 1), 5.0, 0.1, 0.02, 180), 0.1);
+  // Asking for a larger drop lets more through, never less.
+  EXPECT_GE(llc::ambiguousShift(field, source, at, Point2(0, 1), 5.0, 0.1, 0.5, 180),
+            llc::ambiguousShift(field, source, at, Point2(0, 1), 5.0, 0.1, 0.02, 180));
+
+  // An irregular room fixes every direction.
+  const Points2 room_target = roomPoints(Pose2{0, 0, 0}, 3);
+  const Points2 room_source = roomPoints(at, 4);
+  const LikelihoodField room_field(room_target, options);
+  for (const Point2& direction : {Point2(1, 0), Point2(0, 1), Point2(std::sqrt(0.5), std::sqrt(0.5))})
+    EXPECT_LE(llc::ambiguousShift(room_field, room_source, at, direction, 5.0, 0.1, 0.02, 180), 0.1) << direction.transpose();
+
+  // A corridor with a recess 2 m ahead in one wall: the slide stops short of it.
+  std::vector<llc_test::Wall> walls = {{{-100, -1.5}, {100, -1.5}}, {{-100, 1.5}, {2, 1.5}}, {{2, 1.5}, {2, 3}},
+                                       {{2, 3}, {3, 3}}, {{3, 3}, {3, 1.5}}, {{3, 1.5}, {100, 1.5}}};
+  const Points2 recess_target = llc::scanPoints(llc_test::scanAt(walls, Pose2{0, 0, 0}, 360), 20.0);
+  const Points2 recess_source = llc::scanPoints(llc_test::scanAt(walls, at, 360), 20.0);
+  const double recess = llc::ambiguousShift(LikelihoodField(recess_target, options), recess_source, at, Point2(1, 0), 5.0, 0.1, 0.02, 180);
+  EXPECT_LT(recess, 1.0);
+}
+
+TEST(AmbiguousShift, IsZeroForWhatItCannotScore) {
+  const CorrelativeSearchOptions options;
+  const LikelihoodField field({Point2(1.0, 0.0), Point2(1.0, 0.05)}, options);
+  EXPECT_EQ(llc::ambiguousShift(field, Points2{}, Pose2{}, Point2(1, 0), 5.0, 0.1, 0.02, 0), 0.0);
+  EXPECT_EQ(llc::ambiguousShift(LikelihoodField(Points2{}, options), {Point2(1, 0)}, Pose2{}, Point2(1, 0), 5.0, 0.1, 0.02, 0), 0.0);
+  EXPECT_EQ(llc::ambiguousShift(field, {Point2(1, 0)}, Pose2{std::nan(""), 0, 0}, Point2(1, 0), 5.0, 0.1, 0.02, 0), 0.0);
+  EXPECT_EQ(llc::ambiguousShift(field, {Point2(1, 0)}, Pose2{}, Point2(std::nan(""), 0), 5.0, 0.1, 0.02, 0), 0.0);
+  EXPECT_EQ(llc::ambiguousShift(field, {Point2(1, 0)}, Pose2{}, Point2(1, 0), 5.0, 0.0, 0.02, 0), 0.0);  // no step
+}
+
 TEST(CorrelativeSearchOptions, ValidateNamesWhatIsWrong) {
   EXPECT_EQ(CorrelativeSearchOptions{}.validate(), "");
   CorrelativeSearchOptions o;

@@ -120,16 +120,23 @@ llc::OdometryStep firstKeyframeStep(const std::vector<llc_test::Wall>& walls, bo
   return {};
 }
 
+/// Two walls 3 m apart with `pillars` pillars, one every 3 m from x = -1, 1 m wide and
+/// standing `depth` m out, in turn from each wall.
+std::vector<llc_test::Wall> pillaredCorridor(int pillars = 4, double depth = 0.4) {
+  auto walls = llc_test::corridor();
+  for (int n = 0; n < pillars; ++n) {
+    const double x = -1.0 + 3.0 * n, side = n % 2 ? 1.5 : -1.5, out = n % 2 ? -depth : depth;
+    walls.push_back({{x, side}, {x, side + out}});
+    walls.push_back({{x, side + out}, {x + 1.0, side + out}});
+    walls.push_back({{x + 1.0, side + out}, {x + 1.0, side}});
+  }
+  return walls;
+}
+
 TEST(LaserOdometry, ALaserStepAlongACorridorIsUncertainAlongItsAxis) {
   // Two walls 3 m apart with a pillar every 3 m: ICP finds each step, but along the corridor
   // only the pillars' few points fix it. Without wheels the step's covariance says so.
-  auto walls = llc_test::corridor();
-  for (int n = 0; n < 4; ++n) {  // pillars 1 m wide standing 0.4 m out, in turn from each wall
-    const double x = -1.0 + 3.0 * n, side = n % 2 ? 1.5 : -1.5, depth = n % 2 ? -0.4 : 0.4;
-    walls.push_back({{x, side}, {x, side + depth}});
-    walls.push_back({{x, side + depth}, {x + 1.0, side + depth}});
-    walls.push_back({{x + 1.0, side + depth}, {x + 1.0, side}});
-  }
+  const auto walls = pillaredCorridor();
   const llc::OdometryStep laser = firstKeyframeStep(walls, false);
   ASSERT_TRUE(laser.matched) << laser.reject_reason;
   EXPECT_GT(laser.icp_covariance(0, 0), 5.0 * laser.icp_covariance(1, 1)) << "ICP's own: along against across";
@@ -137,6 +144,7 @@ TEST(LaserOdometry, ALaserStepAlongACorridorIsUncertainAlongItsAxis) {
   // With the scale at 0, the isotropic step model alone (as before).
   llc::ScanOdometryOptions off;
   off.icp_covariance_scale = 0.0;
+  off.ambiguity_score_drop = 0.0;
   const llc::OdometryStep plain = firstKeyframeStep(walls, false, off);
   ASSERT_TRUE(plain.matched);
   EXPECT_NEAR(plain.covariance(0, 0), plain.covariance(1, 1), 1e-12);
@@ -146,6 +154,76 @@ TEST(LaserOdometry, ALaserStepAlongACorridorIsUncertainAlongItsAxis) {
   EXPECT_NEAR(wheels.covariance(0, 0), wheels.covariance(1, 1), 1e-12);
   RecordProperty("sigma_along_m", std::to_string(std::sqrt(laser.covariance(0, 0))));
   RecordProperty("sigma_across_m", std::to_string(std::sqrt(laser.covariance(1, 1))));
+}
+
+TEST(LaserOdometry, AKeyframeStepAlongACorridorIsWidenedAsFarAsTheScanFitsAsWell) {
+  const llc::ScanOdometryOptions options;
+  const llc::OdometryStep laser = firstKeyframeStep(pillaredCorridor(1, 0.1), false, options);
+  ASSERT_TRUE(laser.matched) << laser.reject_reason;
+  RecordProperty("ambiguous_shift_m", std::to_string(laser.ambiguous_shift));
+  // (One pillar 0.1 m deep: ICP is posed by it, but the scan fits within 0.02 of its best
+  // over 0.4 m along the walls.)
+  EXPECT_GE(laser.ambiguous_shift, 0.3);
+  // Along the corridor (ICP's weakest direction) the step now holds that shift; across it,
+  // and in heading, nothing changed.
+  llc::ScanOdometryOptions off = options;
+  off.ambiguity_score_drop = 0.0;
+  const llc::OdometryStep plain = firstKeyframeStep(pillaredCorridor(1, 0.1), false, off);
+  ASSERT_TRUE(plain.matched);
+  EXPECT_EQ(plain.ambiguous_shift, 0.0);
+  EXPECT_NEAR(laser.covariance(0, 0), laser.ambiguous_shift * laser.ambiguous_shift, 0.05 * laser.covariance(0, 0));
+  EXPECT_GT(laser.covariance(0, 0), 10.0 * plain.covariance(0, 0));
+  EXPECT_NEAR(laser.covariance(1, 1), plain.covariance(1, 1), 0.01);
+  EXPECT_DOUBLE_EQ(laser.covariance(2, 2), plain.covariance(2, 2));
+  // The irregular room fixes the step: nothing to widen.
+  const llc::OdometryStep room = firstKeyframeStep(llc_test::room(), false, options);
+  const llc::OdometryStep room_plain = firstKeyframeStep(llc_test::room(), false, off);
+  ASSERT_TRUE(room.matched);
+  EXPECT_LE(room.ambiguous_shift, 0.1);
+  EXPECT_TRUE(room.covariance.isApprox(room_plain.covariance, 1e-12));
+  // With wheels they know the axis: not looked at.
+  const llc::OdometryStep wheels = firstKeyframeStep(pillaredCorridor(1, 0.1), true, options);
+  EXPECT_EQ(wheels.ambiguous_shift, 0.0);
+}
+
+TEST(LaserOdometry, AmbiguityLeavesStepsWithoutAnIcpCovarianceAlone) {
+  const llc::ScanOdometry odometry;
+  // A hall 10 m wide, its walls joined in the field within its 20 m; the scan's points within 8
+  // m: shifted 10 m on from 1 m they stay within them.
+  const std::vector<llc_test::Wall> hall = {{{-100, -5}, {100, -5}}, {{-100, 5}, {100, 5}}};
+  const llc::LikelihoodField field(llc::scanPoints(llc_test::scanAt(hall, llc::Pose2{}, 360), 20.0),
+                                   odometry.options().correlative);
+  const llc::Points2 scan = llc::scanPoints(llc_test::scanAt(hall, llc::Pose2{1.0, 0, 0}, 360), 8.0);
+  llc::OdometryStep step;
+  step.motion = llc::Pose2{1.0, 0.0, 0.0};
+  step.covariance = 0.01 * Eigen::Matrix3d::Identity();
+  step.matched = true;  // but no ICP covariance: no direction to widen along
+  EXPECT_FALSE(odometry.widenAlongAmbiguity(field, scan, step));
+  step.icp_covariance = Eigen::Vector3d(1e-4, 1e-6, 1e-6).asDiagonal();
+  step.matched = false;  // the guess, not ICP's
+  EXPECT_FALSE(odometry.widenAlongAmbiguity(field, scan, step));
+  step.matched = true;
+  step.icp_covariance(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(odometry.widenAlongAmbiguity(field, scan, step));
+  EXPECT_TRUE(step.covariance.isApprox(0.01 * Eigen::Matrix3d::Identity()));
+  step.icp_covariance(0, 0) = 1e-4;  // along x: the hall's axis, as far as it is asked
+  EXPECT_TRUE(odometry.widenAlongAmbiguity(field, scan, step));
+  EXPECT_DOUBLE_EQ(step.ambiguous_shift, odometry.options().ambiguity_max_shift);
+  EXPECT_NEAR(step.covariance(0, 0), 100.0, 1e-9);
+  EXPECT_NEAR(step.covariance(1, 1), 0.01, 1e-12);
+}
+
+TEST(ScanOdometryOptions, AmbiguityOptionsAreChecked) {
+  llc::ScanOdometryOptions o;
+  o.ambiguity_score_drop = -0.1;
+  EXPECT_NE(o.validate().find("ambiguity_score_drop"), std::string::npos);
+  o.ambiguity_score_drop = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(o.validate().find("ambiguity_score_drop"), std::string::npos);
+  o = llc::ScanOdometryOptions{};
+  o.ambiguity_max_shift = 0.0;
+  EXPECT_NE(o.validate().find("ambiguity_max_shift"), std::string::npos);
+  o.ambiguity_max_shift = std::numeric_limits<double>::infinity();
+  EXPECT_NE(o.validate().find("ambiguity_max_shift"), std::string::npos);
 }
 
 }  // namespace

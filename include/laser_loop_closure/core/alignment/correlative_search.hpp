@@ -60,6 +60,14 @@ class LikelihoodField {
 /// point lies on a target point, 0 when none is within a few sigma.
 double correlativeScore(const LikelihoodField& field, const Points2& source, const Pose2& pose, std::size_t max_points);
 
+/// How far the source can be moved from `pose` along the unit vector `direction` (either way,
+/// in steps of `step`, up to `max_shift`) while its correlativeScore stays within `max_drop`
+/// of the score at `pose`: the longer of the two sides, in m (0 when the first step already
+/// falls further, or for no source points, an empty field or a pose that is not finite).
+/// Along a corridor, where the scans cannot tell where the robot is, it is long.
+double ambiguousShift(const LikelihoodField& field, const Points2& source, const Pose2& pose, const Point2& direction,
+                      double max_shift, double step, double max_drop, std::size_t max_points);
+
 /// The best pose within the window around centre (ties: the one nearest the centre).
 CorrelativeSearchResult searchCorrelative(const LikelihoodField& field, const Points2& source, const Pose2& centre,
                                           const CorrelativeSearchOptions& options);

@@ -82,6 +82,17 @@ struct ScanOdometryOptions {
   /// slides and the loops that mend it must pass the back end's gate. In-sample: chosen on the
   /// four relations logs (ACES laser-only 0.83 -> 0.24 m; 2000-3000 let wrong loops in). 0: off.
   double icp_covariance_scale = 500.0;
+  /// Without wheel odometry: a keyframe step's covariance along the direction ICP's own is
+  /// longest (a corridor's axis) is widened to cover every shift along it, up to
+  /// ambiguity_max_shift, at which the scan still scores within this of its own correlativeScore
+  /// against the keyframe (ambiguousShift; of the mean likelihood, 0..1). ICP's covariance,
+  /// even scaled, held the Intel log's 6 m slides to 0.5 m, and the back end's gate refused
+  /// the loops that mend them. Chosen on the relations logs (in-sample: Intel laser-only
+  /// 0.100 -> 0.050 m at any value from 0.01 to 0.2) and the simulated drive without wheels
+  /// (not tuned on: 296 loops at 0.02, 251 at 0.1, since the nearby candidates need a known
+  /// relative position). 0: off.
+  double ambiguity_score_drop = 0.02;
+  double ambiguity_max_shift = 10.0;  ///< m; the farthest shift ambiguity_score_drop looks at (in steps of correlative.translation_step)
   /// With wheel odometry, a keyframe's step is matched to the points of the newest this many
   /// keyframes of the chain (placed by the front end's own odometry, merged on a 5 cm grid,
   /// the newest keyframe's points first) instead of the newest keyframe alone: a local map,
@@ -174,6 +185,11 @@ class ScanOdometry {
   static IcpOptions withoutRemapping(IcpOptions options);
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
+  /// ambiguity_score_drop: widens a matched step's covariance along the direction its ICP
+  /// covariance is longest to (ambiguousShift there)^2, `field` being the likelihood field of
+  /// the step's target (made with `correlative`). Records the shift in step.ambiguous_shift;
+  /// returns whether the covariance grew (never for an unmatched step or with the option off).
+  bool widenAlongAmbiguity(const LikelihoodField& field, const Points2& scan, OdometryStep& step) const;
 
  private:
   /// correlative_recovery: the laser's motion when it fits clearly better than the wheels' guess.

@@ -30,6 +30,7 @@ struct FrontEndCounters {
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< scans whose repeated wheel reading the laser contradicted: placed without it
   std::size_t laser_fallback_steps = 0;  ///< laser-placed scans whose ICP failed from the prediction and held from the last scan's pose
+  std::size_t ambiguous_steps = 0;  ///< laser-only keyframe steps whose covariance was widened along an ambiguous direction (ambiguity_score_drop)
   std::size_t scans_counted = 0;  ///< scans whose motion time counted scans (their stamps jitter: MotionClock)
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
   std::size_t pairs_classified = 0, candidates = 0, aligned = 0;
@@ -185,6 +186,9 @@ class SlamFrontEnd {
   /// local_map_keyframes > 1: the newest keyframes of keyframe local_map_of_'s chain merged in
   /// its frame (null: fewer than two in its chain), made when a keyframe step first needs it.
   std::shared_ptr<const MatchTarget> local_map_;
+  /// The newest keyframe's likelihood field, for ScanOdometry::widenAlongAmbiguity (made once per keyframe).
+  std::shared_ptr<const LikelihoodField> ambiguity_field_;
+  std::size_t ambiguity_field_of_ = std::size_t(-1);
   std::size_t local_map_of_ = std::size_t(-1);
   /// What a keyframe step with wheels is matched to: the newest keyframe's local map, or the
   /// newest keyframe alone.

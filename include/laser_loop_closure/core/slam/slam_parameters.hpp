@@ -74,6 +74,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/track_min_fit_gain", odometry.track_min_fit_gain);
   visit("odometry/stalled_wheels_as_missing", odometry.stalled_wheels_as_missing);
   visit("odometry/icp_covariance_scale", odometry.icp_covariance_scale);
+  visit("odometry/ambiguity_score_drop", odometry.ambiguity_score_drop);
+  visit("odometry/ambiguity_max_shift", odometry.ambiguity_max_shift);
   visit("odometry/local_map_keyframes", odometry.local_map_keyframes);
   visit("odometry/max_stamp_jitter", odometry.max_stamp_jitter);
   visit("odometry/motion_prior_weight", odometry.motion_prior_weight);

@@ -82,6 +82,9 @@ struct OdometryStep {
   /// ICP's own covariance of motion (ScanOdometry::stepCovarianceOf) when matched by ICP; zero
   /// otherwise. Part of `covariance` only without wheels (icp_covariance_scale).
   Eigen::Matrix3d icp_covariance = Eigen::Matrix3d::Zero();
+  /// m; how far the scan could shift along ICP's weakest direction and fit as well
+  /// (ScanOdometry::widenAlongAmbiguity; 0 where not looked at).
+  double ambiguous_shift = 0.0;
 };
 
 /// A keyframe the map puts near a new one (a NearbyKeyframes answer).
