@@ -44,6 +44,8 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   chain_start_ = keyframes.size();
   local_map_.reset();
   local_map_of_ = std::size_t(-1);
+  ambiguity_field_.reset();  // another run's keyframe of the same index is another scan
+  ambiguity_field_of_ = std::size_t(-1);
   counters_ = FrontEndCounters{};
   counters_.keyframes = keyframes.size();
   tracked_motion_ = Pose2{};
