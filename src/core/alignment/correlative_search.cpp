@@ -105,9 +105,9 @@ double ambiguousShift(const LikelihoodField& field, const Points2& source, const
   if (field.empty() || source.empty() || !isFinite(pose) || !direction.allFinite() || !(step > 0.0)) return 0.0;
   const Points2 points = strided(source, max_points);
   const double floor = correlativeScore(field, points, pose, 0) - max_drop;
+  const int steps = int(std::floor(max_shift / step + 1e-9));
   double longest = 0.0;
   for (const double sign : {1.0, -1.0}) {
-    const int steps = int(std::floor(max_shift / step + 1e-9));
     for (int i = 1; i <= steps; ++i) {
       const double t = sign * step * i;
       const Pose2 moved{pose.x + t * direction.x(), pose.y + t * direction.y(), pose.theta};
