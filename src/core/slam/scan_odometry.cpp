@@ -31,7 +31,10 @@ std::string ScanOdometryOptions::validate() const {
   if (!(icp_covariance_scale >= 0.0) || !std::isfinite(icp_covariance_scale))
     return "icp_covariance_scale must be finite and >= 0";
   if (!(ambiguity_score_drop >= 0.0 && ambiguity_score_drop <= 1.0)) return "ambiguity_score_drop must be in [0, 1] (0: off)";
-  if (!(ambiguity_max_shift > 0.0) || !std::isfinite(ambiguity_max_shift)) return "ambiguity_max_shift must be finite and > 0";
+  // Shifted farther than twice the field's range, no point is left in it: nothing to learn,
+  // and a shift of kilometres would score millions of poses for each keyframe.
+  if (!(ambiguity_max_shift > 0.0 && ambiguity_max_shift <= 2.0 * correlative.max_range))
+    return "ambiguity_max_shift must be > 0 and at most twice correlative/max_range";
   if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
   if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";

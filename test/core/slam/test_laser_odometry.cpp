@@ -224,6 +224,10 @@ TEST(ScanOdometryOptions, AmbiguityOptionsAreChecked) {
   EXPECT_NE(o.validate().find("ambiguity_max_shift"), std::string::npos);
   o.ambiguity_max_shift = std::numeric_limits<double>::infinity();
   EXPECT_NE(o.validate().find("ambiguity_max_shift"), std::string::npos);
+  o.ambiguity_max_shift = 1e9;  // a slip of a digit: millions of poses scored per keyframe
+  EXPECT_NE(o.validate().find("ambiguity_max_shift"), std::string::npos);
+  o.ambiguity_max_shift = 2.0 * o.correlative.max_range;
+  EXPECT_EQ(o.validate(), "");
 }
 
 }  // namespace

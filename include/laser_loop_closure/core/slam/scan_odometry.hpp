@@ -92,7 +92,7 @@ struct ScanOdometryOptions {
   /// (not tuned on: 296 loops at 0.02, 251 at 0.1, since the nearby candidates need a known
   /// relative position). 0: off.
   double ambiguity_score_drop = 0.02;
-  double ambiguity_max_shift = 10.0;  ///< m; the farthest shift ambiguity_score_drop looks at (in steps of correlative.translation_step)
+  double ambiguity_max_shift = 10.0;  ///< m; the farthest shift ambiguity_score_drop looks at (in steps of correlative.translation_step; at most 2 x correlative.max_range)
   /// With wheel odometry, a keyframe's step is matched to the points of the newest this many
   /// keyframes of the chain (placed by the front end's own odometry, merged on a 5 cm grid,
   /// the newest keyframe's points first) instead of the newest keyframe alone: a local map,
