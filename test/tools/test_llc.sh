@@ -83,6 +83,19 @@ check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/p
 # agree with the truth to well under a milliradian (real 180-degree logs: several milliradians).
 check "triangle_closure: the simulated drive's steps close" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/triangle_closure.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --llc '$LLC' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"triangles\"] > 100 && v[\"triangles_gross\"] < 0.05 * v[\"triangles\"] && v[\"closure_heading_rms_rad\"] < 0.001 && v[\"truth_heading_rms_rad\"] < 0.001 ? \"ok\" : \"not ok\")}'"
 check "triangle_closure: a run without trajectory.csv" 1 "triangle_closure: no .*trajectory.csv" -- /usr/bin/python3 "$REPO/scripts/lib/triangle_closure.py" "$TMP/none_run" "$TMP/sim/sim.log"
+# scripts/lib/relation_tail.py on a hand-made run: relation 4 (5 m) spans keyframes 0 -> 2,
+# whose step 2 no scan placed and whose step 1 was widened to 3.5 m; without it the mean is 0.2.
+mkdir -p "$TMP/tail"
+printf 'relation,t1,t2,scan1,scan2,translation_m,rotation_deg,carried\n1,0,1,0,1,0.1,1,0\n2,1,2,1,2,0.3,1,0\n3,3,4,3,4,0.2,1,0\n4,2,7,2,7,5.0,2,0\n' > "$TMP/tail/relation_errors.csv"
+{ echo 'scan,stamp,x,y,theta,keyframe'; for i in 0 1 2 3 4 5 6 7 8 9; do echo "$i,$i,0,0,0,$((i < 3 ? 0 : i < 6 ? 1 : 2))"; done; } > "$TMP/tail/scans.csv"
+check "relation_tail: without odometry_steps.csv" 0 "^4,2,7,0,2,5,2,2,-,-$" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 1
+printf 'keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,error_theta,sigma_x,sigma_y,sigma_theta,wheel_dx,wheel_dy,wheel_dtheta,ambiguous_shift_m\n1,3,1,0.9,1,0,0,0,0,0,3.5,0.1,0.01,nan,nan,nan,3.5\n2,6,0,0,1,0,0,0,0,0,0.15,0.15,0.02,nan,nan,nan,0\n' > "$TMP/tail/odometry_steps.csv"
+check "relation_tail: the mean without the largest" 0 "^without_largest_1_m=0.2 " -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 1
+check "relation_tail: the steps between the largest one's ends" 0 "^4,2,7,0,2,5,2,2,2,1:3.5$" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 1
+check "relation_tail: --top 0" 2 "relation_tail: --top 0: must be a whole number >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 0
+sed -i 's/^4,2,7,2,7,5.0,/4,2,7,2,7,nan,/' "$TMP/tail/relation_errors.csv"
+check "relation_tail: an error of nan" 1 "relation_tail: .*relation 4: translation_m is not finite" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail"
+check "relation_tail: a run without relation_errors.csv" 1 "relation_tail: .*relation_errors.csv" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/slam_truth"
 check "slam --truth: a missing reference, before the run" 1 "--truth: .*none.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/none.log"
 printf 'FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.0 host 1.0\nFLASER 3 1.5 2.5 3.5 1 0 0 1 0 0 2.0 host 2.0\n' > "$TMP/elsewhere.log"
 check "slam --truth: a log of another drive" 1 "reference truth: 0 scan\(s\) of .*elsewhere.log" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth2" --truth "$TMP/elsewhere.log" --quiet
@@ -270,6 +283,7 @@ if [ -f "$LOG" ]; then
     mean="$(sed -n 's/^relation_translation_mean_m=//p' "$TMP/mit/report.txt")"
     check "llc relations on scans.csv gives slam's figure" 0 "^relation_translation_mean_m=$mean$" -- "$LLC" relations --log "$MIT" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations" --out "$TMP/mit/errors.csv"
     check "llc relations on the keyframes, carried by odometry" 0 "^relations_carried=[1-9]" -- "$LLC" relations --log "$MIT" --keyframes "$TMP/mit/trajectory.csv" --relations "${MIT%.log.gz}.relations"
+    check "relation_tail on MIT CSAIL: every relation, and where its largest ones hang" 0 "^relations=1172 " -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/mit"
     check "relations: poses of another log" 1 "not in the log" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations"
   fi
   FR079_BAG="$DATA/rosbag/fr079.bag"

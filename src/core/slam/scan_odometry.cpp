@@ -105,6 +105,7 @@ bool ScanOdometry::widenAlongAmbiguity(const LikelihoodField& field, const Point
   const double wanted = step.ambiguous_shift * step.ambiguous_shift;
   if (!(wanted > held)) return false;
   step.covariance.topLeftCorner<2, 2>() += (wanted - held) * longest * longest.transpose();
+  step.widened_along_ambiguity = true;
   return true;
 }
 

@@ -164,6 +164,7 @@ TEST(LaserOdometry, AKeyframeStepAlongACorridorIsWidenedAsFarAsTheScanFitsAsWell
   // (One pillar 0.1 m deep: ICP is posed by it, but the scan fits within 0.02 of its best
   // over 0.4 m along the walls.)
   EXPECT_GE(laser.ambiguous_shift, 0.3);
+  EXPECT_TRUE(laser.widened_along_ambiguity);
   // Along the corridor (ICP's weakest direction) the step now holds that shift; across it,
   // and in heading, nothing changed.
   llc::ScanOdometryOptions off = options;
@@ -181,9 +182,11 @@ TEST(LaserOdometry, AKeyframeStepAlongACorridorIsWidenedAsFarAsTheScanFitsAsWell
   ASSERT_TRUE(room.matched);
   EXPECT_LE(room.ambiguous_shift, 0.1);
   EXPECT_TRUE(room.covariance.isApprox(room_plain.covariance, 1e-12));
+  EXPECT_FALSE(room.widened_along_ambiguity);
   // With wheels they know the axis: not looked at.
   const llc::OdometryStep wheels = firstKeyframeStep(pillaredCorridor(1, 0.1), true, options);
   EXPECT_EQ(wheels.ambiguous_shift, 0.0);
+  EXPECT_FALSE(wheels.widened_along_ambiguity);
 }
 
 TEST(LaserOdometry, AmbiguityLeavesStepsWithoutAnIcpCovarianceAlone) {
@@ -206,11 +209,13 @@ TEST(LaserOdometry, AmbiguityLeavesStepsWithoutAnIcpCovarianceAlone) {
   step.icp_covariance(0, 0) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(odometry.widenAlongAmbiguity(field, scan, step));
   EXPECT_TRUE(step.covariance.isApprox(0.01 * Eigen::Matrix3d::Identity()));
+  EXPECT_FALSE(step.widened_along_ambiguity);
   step.icp_covariance(0, 0) = 1e-4;  // along x: the hall's axis, as far as it is asked
   EXPECT_TRUE(odometry.widenAlongAmbiguity(field, scan, step));
   EXPECT_DOUBLE_EQ(step.ambiguous_shift, odometry.options().ambiguity_max_shift);
   EXPECT_NEAR(step.covariance(0, 0), 100.0, 1e-9);
   EXPECT_NEAR(step.covariance(1, 1), 0.01, 1e-12);
+  EXPECT_TRUE(step.widened_along_ambiguity);
 }
 
 TEST(ScanOdometryOptions, AmbiguityOptionsAreChecked) {

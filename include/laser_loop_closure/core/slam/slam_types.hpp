@@ -85,6 +85,7 @@ struct OdometryStep {
   /// m; how far the scan could shift along ICP's weakest direction and fit as well
   /// (ScanOdometry::widenAlongAmbiguity; 0 where not looked at).
   double ambiguous_shift = 0.0;
+  bool widened_along_ambiguity = false;  ///< its covariance was widened to ambiguous_shift there
 };
 
 /// A keyframe the map puts near a new one (a NearbyKeyframes answer).
