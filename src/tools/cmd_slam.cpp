@@ -480,6 +480,8 @@ int runSlam(const Args& args) {
          << "  (a reading repeated while the laser said the robot moved: placed by the laser alone)\n"
          << "laser_fallback_steps=" << c.laser_fallback_steps
          << "  (placed by the laser: ICP failed from the predicted pose and held from the last scan's)\n"
+         << "scans_placed_by_prediction=" << c.scans_placed_by_prediction
+         << "  (scans between keyframes disputed with the wheels, placed by ICP from the laser's own prediction)\n"
          << "odometry_steps_ambiguous=" << c.ambiguous_steps
          << "  (laser-only keyframe steps widened along a direction the scans leave open: odometry/ambiguity_score_drop)\n"
          << "scans_counted_by_motion_clock=" << c.scans_counted

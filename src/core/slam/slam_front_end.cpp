@@ -251,6 +251,7 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
     return odometry_.movedEnough(step.odometry.motion) ? WheelPlacement::kKeyframe : WheelPlacement::kNotKeyframe;
   }
   if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
+    if (o.track_scans && step.odometry.disputed) placeDisputedScanByPrediction(*prepared, guess, step);
     // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
     if (o.track_scans && step.odometry.matched && !step.odometry.disputed) {
       updateVelocity(step.odometry.motion);
@@ -300,6 +301,24 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   if (step.odometry.matched) updateVelocity(step.odometry.motion);
   last_motion_time_ = motion_time_;
   tracked_motion_ = step.odometry.motion;
+}
+
+void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step) {
+  // Disputed: the wheels or ICP are wrong. Where the wheels are (FR079 reversing while they
+  // count forward), ICP from their guess and from the tracked pose, carried on by the same
+  // wheels, can both end in a wrong minimum; the velocity of the scans the laser placed before
+  // predicts from elsewhere. Nothing new to try where the prediction is one of those seeds.
+  if (!predictsMotion()) return;
+  const Pose2 predicted = predictedMotion();
+  if (ScanOdometry::samePose(predicted, wheel_guess) || ScanOdometry::samePose(predicted, step.odometry.motion)) return;
+  OdometryStep from_prediction = odometry_.match(detector_.prepared(detector_.size() - 1), scan, predicted, false);
+  if (!from_prediction.matched ||
+      !(from_prediction.overlap_share >= step.odometry.overlap_share + odometry_.options().track_min_fit_gain))
+    return;
+  // Still disputed with the wheels: not tracked on from, as the result it replaces.
+  from_prediction.disputed = true;
+  step.odometry = std::move(from_prediction);
+  ++counters_.scans_placed_by_prediction;
 }
 
 const MatchTarget& SlamFrontEnd::keyframeStepTarget() {

@@ -59,7 +59,7 @@ SlamCounters SlamPipeline::counters() const {
   c.tracked_steps = f.tracked_steps;
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps, c.stalled_wheel_scans = f.stalled_wheel_scans;
   c.laser_fallback_steps = f.laser_fallback_steps, c.scans_counted = f.scans_counted;
-  c.ambiguous_steps = f.ambiguous_steps;
+  c.ambiguous_steps = f.ambiguous_steps, c.scans_placed_by_prediction = f.scans_placed_by_prediction;
   c.pairs_classified = f.pairs_classified, c.candidates = f.candidates, c.aligned = f.aligned;
   c.nearby_aligned = f.nearby_aligned, c.nearby_found = f.nearby_found;
   c.context_checked = f.context_checked, c.context_unchecked = f.context_unchecked;

@@ -30,6 +30,7 @@ struct FrontEndCounters {
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< scans whose repeated wheel reading the laser contradicted: placed without it
   std::size_t laser_fallback_steps = 0;  ///< laser-placed scans whose ICP failed from the prediction and held from the last scan's pose
+  std::size_t scans_placed_by_prediction = 0;  ///< scans between keyframes disputed with the wheels, placed by ICP from the laser's prediction
   std::size_t ambiguous_steps = 0;  ///< laser-only keyframe steps whose covariance was widened along an ambiguous direction (ambiguity_score_drop)
   std::size_t scans_counted = 0;  ///< scans whose motion time counted scans (their stamps jitter: MotionClock)
   std::size_t time_jumps = 0;      ///< stamps that jumped back (restart_after_jump_back): new chains
@@ -162,6 +163,9 @@ class SlamFrontEnd {
   /// Without any wheels (`no_wheels`), the step's covariance also holds ICP's own, scaled
   /// (icp_covariance_scale).
   void placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step);
+  /// A scan between keyframes whose ICP disputes the wheels: ICP from the laser's own prediction
+  /// too, its result taken when it fits clearly better (track_min_fit_gain).
+  void placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
   /// The last matched scan's motion from the newest keyframe: without wheel odometry every

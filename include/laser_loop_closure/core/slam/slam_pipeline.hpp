@@ -52,6 +52,7 @@ struct SlamCounters {
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< repeated wheel readings the laser contradicted: placed without them
   std::size_t laser_fallback_steps = 0;  ///< laser-placed scans matched from the last scan's pose, the prediction failing
+  std::size_t scans_placed_by_prediction = 0;  ///< scans between keyframes disputed with the wheels, placed from the laser's prediction
   std::size_t ambiguous_steps = 0;  ///< laser-only keyframe steps widened along an ambiguous direction (ambiguity_score_drop)
   std::size_t scans_counted = 0;  ///< scans the motion model timed by counting (jittering stamps)
   std::size_t time_jumps = 0;      ///< stamps that jumped back: new odometry chains
