@@ -83,6 +83,16 @@ check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/p
 # agree with the truth to well under a milliradian (real 180-degree logs: several milliradians).
 check "triangle_closure: the simulated drive's steps close" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/triangle_closure.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --llc '$LLC' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"triangles\"] > 100 && v[\"triangles_gross\"] < 0.05 * v[\"triangles\"] && v[\"closure_heading_rms_rad\"] < 0.001 && v[\"truth_heading_rms_rad\"] < 0.001 ? \"ok\" : \"not ok\")}'"
 check "triangle_closure: a run without trajectory.csv" 1 "triangle_closure: no .*trajectory.csv" -- /usr/bin/python3 "$REPO/scripts/lib/triangle_closure.py" "$TMP/none_run" "$TMP/sim/sim.log"
+# scripts/lib/wall_directions.py: the simulated town's walls meet at right angles, so by its
+# truth (the TRUEPOS after each FLASER) every block's walls keep one direction, and the run's
+# heading (0.5 m RMS at most) stays with them. The FLASER poses (odometry) would be degrees off.
+check "wall_directions: the simulated town's walls straight, the run's heading with them" 0 "^ok [1-9]" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/wall_directions.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --block 100 | awk -F, 'NR > 2 { n++; r = \$3 < 0 ? -\$3 : \$3; h = \$7 < 0 ? -\$7 : \$7; if (r > 0.5 || h > 0.5) bad++ } END { print (n && !bad ? \"ok \" n : \"not ok: \" bad \" of \" n \" blocks\") }'"
+check "wall_directions: --block 0" 2 "wall_directions: --block 0: --block must be a whole number >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/slam_truth" "$TMP/sim/sim.log" --block 0
+check "wall_directions: a run without trajectory.csv" 1 "wall_directions: .*trajectory.csv" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/none_run" "$TMP/sim/sim.log"
+printf 'FLASER 10 1 1 1 1 1 1 1 1 1 1 0 0 0 0 0 0 1.0 host 1.0\nFLASER 10 1 1 1 1 1 1 1 1 1 1 0 0 0 0 0 0 2.0 host 2.0\n' > "$TMP/two_scans.log"
+check "wall_directions: keyframes of another log" 1 "wall_directions: keyframe index [0-9]+: the log has 2 FLASER scans" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/slam_truth" "$TMP/two_scans.log"
+printf 'FLASER 3 1 2 3 0 0 0 0 0 0 1.0 host 1.0\n' > "$TMP/three_beams.log"
+check "wall_directions: a scan of 3 beams" 1 "wall_directions: .*three_beams.log:1: FLASER with 3 beams" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/slam_truth" "$TMP/three_beams.log"
 # scripts/lib/relation_tail.py on a hand-made run: relation 4 (5 m) spans keyframes 0 -> 2,
 # whose step 2 no scan placed and whose step 1 was widened to 3.5 m; without it the mean is 0.2.
 mkdir -p "$TMP/tail"
