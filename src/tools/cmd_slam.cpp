@@ -480,6 +480,8 @@ int runSlam(const Args& args) {
          << "  (a reading repeated while the laser said the robot moved: placed by the laser alone)\n"
          << "laser_fallback_steps=" << c.laser_fallback_steps
          << "  (placed by the laser: ICP failed from the predicted pose and held from the last scan's)\n"
+         << "odometry_steps_realigned=" << c.realigned_steps
+         << "  (keyframe steps whose ICP overlapped little, aligned with no guess: odometry/realign_below_overlap)\n"
          << "scans_placed_by_prediction=" << c.scans_placed_by_prediction
          << "  (scans between keyframes disputed with the wheels, placed by ICP from the laser's own prediction)\n"
          << "odometry_steps_ambiguous=" << c.ambiguous_steps

@@ -46,6 +46,8 @@ std::string ScanOdometryOptions::validate() const {
   if (!(track_min_fit_gain >= 0.0 && track_min_fit_gain <= 1.0)) return "track_min_fit_gain must be in [0, 1]";
   if (!(correlative_min_score_gain >= 0.0 && correlative_min_score_gain <= 1.0))
     return "correlative_min_score_gain must be in [0, 1]";
+  if (!(realign_below_overlap >= 0.0 && realign_below_overlap <= 1.0)) return "realign_below_overlap must be in [0, 1]";
+  if (!(realign_min_fit_gain >= 0.0 && realign_min_fit_gain <= 1.0)) return "realign_min_fit_gain must be in [0, 1]";
   const std::string correlative_error = correlative.validate();
   if (!correlative_error.empty()) return "correlative: " + correlative_error;
   const std::string error = icp.validate();

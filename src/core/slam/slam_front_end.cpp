@@ -148,6 +148,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     ++(step.odometry.matched ? counters_.matched_steps : counters_.wheel_steps);
     counters_.disputed_steps += step.odometry.disputed;
     counters_.recovered_steps += step.odometry.recovered;
+    counters_.realigned_steps += step.odometry.realigned;
     counters_.tracked_steps += step.odometry.tracked;
   } else if (restart_pending_) {
     step.odometry.covariance = restartCovariance();
@@ -260,6 +261,7 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
     }
     return WheelPlacement::kNotKeyframe;
   }
+  realignDoubtedStep(*prepared, guess, step);
   wheel_noise_.add(step.odometry.wheel_disagreement);
   return WheelPlacement::kKeyframe;
 }
@@ -319,6 +321,33 @@ void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const
   from_prediction.disputed = true;
   step.odometry = std::move(from_prediction);
   ++counters_.scans_placed_by_prediction;
+}
+
+void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step) {
+  const ScanOdometryOptions& o = odometry_.options();
+  OdometryStep& odometry = step.odometry;
+  if (!odometry.matched || !(odometry.overlap_share < o.realign_below_overlap)) return;
+  // The loop aligner's own search, from no guess: ICP from the wheels' (or the tracked) seed
+  // can end in a wrong minimum that still overlaps (FR079 turning, scan 4483: 0.36 rad off at
+  // 0.65 overlap, where a no-guess alignment fits at 0.84 against 0.23).
+  const PreparedScan& newest = detector_.prepared(detector_.size() - 1);
+  const ScanAligner& aligner = detector_.aligner();
+  const ScanAlignmentResult aligned = aligner.align(newest, scan);
+  if (!aligned.accepted) return;
+  // Only where the wheels could be, as correlative recovery searches: farther, a look-alike
+  // room turned 90 degrees fits as well (the drifted Intel log: fit 1.0, 1.56 rad off).
+  const CorrelativeSearchOptions& window = o.correlative;
+  if (std::abs(aligned.pose.x - wheel_guess.x) > window.max_translation ||
+      std::abs(aligned.pose.y - wheel_guess.y) > window.max_translation ||
+      std::abs(normalizeAngle(aligned.pose.theta - wheel_guess.theta)) > window.max_rotation)
+    return;
+  if (!(aligner.fit(newest, scan, aligned.pose) >= aligner.fit(newest, scan, odometry.motion) + o.realign_min_fit_gain))
+    return;
+  odometry.motion = aligned.pose;
+  // Found where matching was hard: no more certain than a wheel step (as a recovered one).
+  odometry.covariance = odometry_.stepCovariance(aligned.pose, false);
+  odometry.disputed = false;
+  odometry.realigned = true;
 }
 
 const MatchTarget& SlamFrontEnd::keyframeStepTarget() {

@@ -55,7 +55,7 @@ SlamCounters SlamPipeline::counters() const {
   c.scans = f.scans, c.skipped_scans = f.skipped_scans, c.keyframes = b.keyframes;
   c.scans_skipped = f.scans_skipped, c.steps_not_matched = f.steps_not_matched;
   c.matched_steps = f.matched_steps, c.wheel_steps = f.wheel_steps, c.disputed_steps = f.disputed_steps;
-  c.recovered_steps = f.recovered_steps;
+  c.recovered_steps = f.recovered_steps, c.realigned_steps = f.realigned_steps;
   c.tracked_steps = f.tracked_steps;
   c.wheel_jumps = f.wheel_jumps, c.time_jumps = f.time_jumps, c.stalled_wheel_scans = f.stalled_wheel_scans;
   c.laser_fallback_steps = f.laser_fallback_steps, c.scans_counted = f.scans_counted;

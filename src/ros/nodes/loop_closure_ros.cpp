@@ -526,6 +526,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("laser steps matched from the last scan's pose (the prediction failed)", c.laser_fallback_steps);
   status.add("laser keyframe steps widened along an ambiguous direction", c.ambiguous_steps);
   status.add("scans disputed with the wheels, placed from the laser's prediction", c.scans_placed_by_prediction);
+  status.add("keyframe steps realigned with no guess (ICP overlapped little)", c.realigned_steps);
   status.add("scans timed by counting (stamps jitter beyond max_stamp_jitter)", c.scans_counted);
   status.add("stamps that jumped back (new odometry chains)", c.time_jumps);
   status.add("pairs classified", c.pairs_classified);

@@ -486,6 +486,13 @@ TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
   options.correlative.translation_step = 0.0;
   EXPECT_NE(options.validate().find("correlative: translation_step"), std::string::npos);
   EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
+  options = {};
+  options.realign_below_overlap = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(options.validate().find("realign_below_overlap must be in [0, 1]"), std::string::npos);
+  options.realign_below_overlap = 0.0;  // off
+  EXPECT_EQ(options.validate(), "");
+  options.realign_min_fit_gain = -0.1;
+  EXPECT_NE(options.validate().find("realign_min_fit_gain must be in [0, 1]"), std::string::npos);
 }
 
 TEST(WheelNoiseScale, IsUnknownUntilTwentyStepsThenTheMedianOverTheChiSquareMedianAtLeastOne) {

@@ -139,6 +139,15 @@ struct ScanOdometryOptions {
   bool correlative_recovery = true;
   double correlative_min_score_gain = 0.1;  ///< of the mean likelihood (0..1) of the scan's points
   CorrelativeSearchOptions correlative{};   ///< the search of correlative_recovery
+  /// With wheel odometry: a keyframe step whose ICP result overlaps the keyframe by less than
+  /// this share (of its points within overlap_distance) is also aligned with no guess, as a loop
+  /// candidate is (CRF-match, ICP, validation). Its pose is taken, as a matched step with a
+  /// wheel step's covariance, when it fits by realign_min_fit_gain more (ScanAligner::fit) and
+  /// lies within correlative.max_translation and .max_rotation of the wheels' guess: ICP ended
+  /// in a wrong minimum the wheels could not rule out (FR079 scan 4483, turning: 0.36 rad off at
+  /// 0.65 overlap). Farther off, a look-alike room turned 90 degrees fits as well. 0: off.
+  double realign_below_overlap = 0.8;
+  double realign_min_fit_gain = 0.1;  ///< of ScanAligner::fit (0..1)
   std::string validate() const;
 };
 

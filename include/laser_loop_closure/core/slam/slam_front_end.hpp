@@ -26,6 +26,7 @@ struct FrontEndCounters {
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry steps by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, beyond max_wheel_disagreement (covariance widened)
   std::size_t recovered_steps = 0;  ///< of the matched ones, by correlative_recovery (the laser over the wheels)
+  std::size_t realigned_steps = 0;  ///< of the matched ones, aligned with no guess where ICP overlapped little (realign_below_overlap)
   std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< scans whose repeated wheel reading the laser contradicted: placed without it
@@ -166,6 +167,8 @@ class SlamFrontEnd {
   /// A scan between keyframes whose ICP disputes the wheels: ICP from the laser's own prediction
   /// too, its result taken when it fits clearly better (track_min_fit_gain).
   void placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
+  /// A keyframe step whose ICP overlaps little: aligned with no guess too (realign_below_overlap).
+  void realignDoubtedStep(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
   /// The last matched scan's motion from the newest keyframe: without wheel odometry every

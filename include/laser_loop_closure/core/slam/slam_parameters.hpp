@@ -88,6 +88,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/correlative_recovery", odometry.correlative_recovery);
   visit("odometry/correlative_min_score_gain", odometry.correlative_min_score_gain);
   visitCorrelativeParameters("odometry/correlative/", odometry.correlative, visit);
+  visit("odometry/realign_below_overlap", odometry.realign_below_overlap);
+  visit("odometry/realign_min_fit_gain", odometry.realign_min_fit_gain);
 
   LoopDetectorOptions& loops = options.slam.loops;
   visit("loops/min_keyframe_gap", loops.min_keyframe_gap);

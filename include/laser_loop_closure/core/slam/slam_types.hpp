@@ -78,6 +78,7 @@ struct OdometryStep {
   bool disputed = false;  ///< matched, but beyond max_wheel_disagreement: the covariance spans both
   /// matched from the correlative search's start, over the wheels (correlative_recovery)
   bool recovered = false;
+  bool realigned = false;  ///< ICP's result doubted (realign_below_overlap): the no-guess alignment's pose
   bool tracked = false;  ///< ICP seeded by the tracked guess (match_every_scan), not the wheels'
   /// ICP's own covariance of motion (ScanOdometry::stepCovarianceOf) when matched by ICP; zero
   /// otherwise. Part of `covariance` only without wheels (icp_covariance_scale).
