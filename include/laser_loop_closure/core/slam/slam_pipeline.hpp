@@ -47,8 +47,8 @@ struct SlamCounters {
   std::array<std::size_t, kOdometryRefusalKinds> steps_not_matched{};  ///< keyframe steps by OdometryRefusal
   std::size_t matched_steps = 0, wheel_steps = 0;  ///< odometry constraints by ICP / from the guess alone
   std::size_t disputed_steps = 0;  ///< of the matched ones, ICP and wheels disagreed (covariance widened)
-  std::size_t recovered_steps = 0;
-  std::size_t realigned_steps = 0;  ///< of the matched ones, aligned with no guess where ICP overlapped little  ///< of the matched ones, the laser's motion from a correlative search over the wheels
+  std::size_t recovered_steps = 0;  ///< of the matched ones, the laser's motion from a correlative search over the wheels
+  std::size_t realigned_steps = 0;  ///< of the matched ones, aligned with no guess where ICP overlapped little
   std::size_t tracked_steps = 0;    ///< of the matched ones, ICP from the tracked scans' pose (track_scans)
   std::size_t wheel_jumps = 0;     ///< wheel odometry that moved faster than any robot: left out
   std::size_t stalled_wheel_scans = 0;  ///< repeated wheel readings the laser contradicted: placed without them
