@@ -100,6 +100,12 @@ double correlativeScore(const LikelihoodField& field, const Points2& source, con
   return sum / double(points.size());
 }
 
+bool withinWindow(const CorrelativeSearchOptions& window, const Pose2& pose, const Pose2& centre, double margin_steps) {
+  const double translation = window.max_translation + margin_steps * window.translation_step;
+  return std::abs(pose.x - centre.x) <= translation && std::abs(pose.y - centre.y) <= translation &&
+         std::abs(normalizeAngle(pose.theta - centre.theta)) <= window.max_rotation + margin_steps * window.rotation_step;
+}
+
 double ambiguousShift(const LikelihoodField& field, const Points2& source, const Pose2& pose, const Point2& direction,
                       double max_shift, double step, double max_drop, std::size_t max_points) {
   if (field.empty() || source.empty() || !isFinite(pose) || !direction.allFinite() || !(step > 0.0)) return 0.0;

@@ -250,11 +250,8 @@ std::optional<Pose2> ScanOdometry::recoverFromWheels(const MatchTarget& previous
   if (!search.found) return std::nullopt;
   const IcpResult refined =
       alignIcp(current.points, previous.icp_target, search.pose, withoutRemapping(options_.icp), &current.icp_target.normals);
-  auto inWindow = [&](const Pose2& pose, const Pose2& centre) {
-    return std::abs(pose.x - centre.x) <= window.max_translation + window.translation_step &&
-           std::abs(pose.y - centre.y) <= window.max_translation + window.translation_step &&
-           std::abs(normalizeAngle(pose.theta - centre.theta)) <= window.max_rotation + window.rotation_step;
-  };
+  // (One search step of slack: the search's own poses lie on its grid.)
+  auto inWindow = [&](const Pose2& pose, const Pose2& centre) { return withinWindow(window, pose, centre, 1.0); };
   std::optional<Pose2> best;
   double best_score = -1.0;
   for (const IcpResult* result : {&icp, &refined}) {

@@ -336,11 +336,7 @@ void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& whe
   if (!aligned.accepted) return;
   // Only where the wheels could be, as correlative recovery searches: farther, a look-alike
   // room turned 90 degrees fits as well (the drifted Intel log: fit 1.0, 1.56 rad off).
-  const CorrelativeSearchOptions& window = o.correlative;
-  if (std::abs(aligned.pose.x - wheel_guess.x) > window.max_translation ||
-      std::abs(aligned.pose.y - wheel_guess.y) > window.max_translation ||
-      std::abs(normalizeAngle(aligned.pose.theta - wheel_guess.theta)) > window.max_rotation)
-    return;
+  if (!withinWindow(o.correlative, aligned.pose, wheel_guess)) return;
   if (!(aligner.fit(newest, scan, aligned.pose) >= aligner.fit(newest, scan, odometry.motion) + o.realign_min_fit_gain))
     return;
   odometry.motion = aligned.pose;

@@ -56,6 +56,10 @@ class LikelihoodField {
   std::vector<float> values_;
 };
 
+/// Whether `pose` lies within the search window around `centre` (max_translation on each axis,
+/// max_rotation), widened by `margin_steps` of translation_step and rotation_step.
+bool withinWindow(const CorrelativeSearchOptions& window, const Pose2& pose, const Pose2& centre, double margin_steps = 0.0);
+
 /// Mean field value over the source points (strided to max_points) moved by pose: 1 when every
 /// point lies on a target point, 0 when none is within a few sigma.
 double correlativeScore(const LikelihoodField& field, const Points2& source, const Pose2& pose, std::size_t max_points);
