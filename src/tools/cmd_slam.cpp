@@ -200,7 +200,7 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
                << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
   llc::AtomicTextFile loops(dir + "/loops.csv");
-  loops << "a,b,accepted,score,inlier_share,reason\n";
+  loops << "a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,reason\n";
   std::vector<llc::PictureLoop> picture_loops;
   for (const llc::LoopRecord& record : slam.loops()) {
     // Why it was refused, as one quoted CSV field (the stage first: "validation: ...",
@@ -210,7 +210,15 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     std::replace(reason.begin(), reason.end(), '\n', ' ');
     loops << keyframes[record.loop.from].scan_index << "," << keyframes[record.loop.to].scan_index << ","
           << (record.applied ? 1 : 0) << "," << std::setprecision(4) << record.loop.score << "," << record.loop.inlier_share
-          << ",\"" << reason << "\"\n";
+          << ",";
+    // The aligned pose (b in a's frame) and the gate's chi-square of a loop that reached the
+    // back end: what one the gate refused claimed, to weigh it against the map afterwards.
+    if (record.loop.accepted)
+      loops << std::setprecision(6) << record.loop.pose.x << "," << record.loop.pose.y << "," << record.loop.pose.theta << ","
+            << std::setprecision(4) << record.innovation_chi2;
+    else
+      loops << ",,,";
+    loops << ",\"" << reason << "\"\n";
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
     if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
   }

@@ -45,11 +45,19 @@ check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 
 # The whole pipeline on the short drive: files, their headers, and what it must achieve.
 check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet --save-session "$TMP/sim.llcsession"
 check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
-check "slam loops header" 0 "^a,b,accepted,score,inlier_share,reason$" -- head -1 "$TMP/slam/loops.csv"
+check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,reason$" -- head -1 "$TMP/slam/loops.csv"
 # Every refused candidate says at which stage and why; an applied one says nothing.
 check "slam loops: a reason for each refused one, none for an applied one" 0 "^ok [1-9][0-9]* [1-9][0-9]*$" -- awk -F, '
     NR > 1 { r = substr($0, index($0, "\"")); if ($3 == 1) { applied++; if (r != "\"\"") bad++ } else { refused++; if (r !~ /^"(validation|context|backend|crf|icp|alignment)[^"]*: [^"]+"$/) bad++ } }
     END { print (bad ? "not ok " bad : "ok " applied " " refused) }' "$TMP/slam/loops.csv"
+# A loop that reached the back end carries its aligned pose and a chi-square on the right side
+# of the gate (16.27, config/slam.yaml); a candidate refused before it carries none.
+check "slam loops: pose and chi2 exactly for the loops the back end weighed" 0 "^ok [1-9][0-9]* [0-9]*$" -- awk -F, '
+    NR > 1 { r = substr($0, index($0, "\"")); posed = ($6 != "" && $7 != "" && $8 != "" && $9 != "")
+             if ($3 == 1) { applied++; if (!posed || $9 + 0 > 16.27 || $8 + 0 > 3.1416 || $8 + 0 < -3.1416) bad++ }
+             else if (r ~ /^"backend: innovation/) { gated++; if (!posed || $9 + 0 <= 16.27) bad++ }
+             else if ($6 $7 $8 $9 != "") bad++ }
+    END { print (bad ? "not ok " bad : "ok " applied " " gated + 0) }' "$TMP/slam/loops.csv"
 check "slam map files" 0 "^image: map.pgm$" -- bash -c "test -s '$TMP/slam/map.pgm' && test -s '$TMP/slam/map.png' && cat '$TMP/slam/map.yaml'"
 check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" -- awk -F= '
   {v[$1] = $2}
@@ -103,6 +111,24 @@ printf 'keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,e
 check "relation_tail: the mean without the largest" 0 "^without_largest_1_m=0.2 " -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 1
 check "relation_tail: the steps between the largest one's ends" 0 "^4,2,7,0,2,5,2,2,2,1:3.5$" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 1
 check "relation_tail: --top 0" 2 "relation_tail: --top 0: must be a whole number >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail" --top 0
+# scripts/lib/loop_consensus.py on a hand-made run: a chain of five 1 m steps along x; the gate
+# refused 0 -> 3 and 1 -> 4, both at 1 m (they agree: the chain between their ends is 1 m on each
+# side) and 0 -> 4 at 5 m (agrees with neither); 2 -> 5 at 3 m was applied.
+mkdir -p "$TMP/consensus"
+{ echo 'index,stamp,x,y,theta'; for i in 0 1 2 3 4 5; do echo "$i,$i,$i,0,0"; done; } > "$TMP/consensus/trajectory.csv"
+{ echo 'keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,error_theta,sigma_x,sigma_y,sigma_theta,wheel_dx,wheel_dy,wheel_dtheta,ambiguous_shift_m'
+  for i in 1 2 3 4 5; do echo "$i,$i,1,0.9,1,0,0,0,0,0,0.01,0.01,0.001,nan,nan,nan,0"; done; } > "$TMP/consensus/odometry_steps.csv"
+printf '%s\n' 'a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,reason' '0,3,0,0.7,0.95,1,0,0,40,"backend: innovation chi2 40 above 16.27"' \
+  '1,4,0,0.7,0.95,1,0,0,41,"backend: innovation chi2 41 above 16.27"' '0,4,0,0.7,0.95,5,0,0,42,"backend: innovation chi2 42 above 16.27"' \
+  '2,5,1,0.7,0.95,3,0,0,1.5,""' '1,5,0,0.6,0.5,,,,,"validation: inlier share 0.5 below 0.9"' > "$TMP/consensus/loops.csv"
+check "loop_consensus: two refused loops that agree" 0 "^0,3,0,3,40,-,-,1,0$" -- /usr/bin/python3 "$REPO/scripts/lib/loop_consensus.py" "$TMP/consensus"
+check "loop_consensus: one that agrees with none" 0 "^0,4,0,4,42,-,-,0,0$" -- /usr/bin/python3 "$REPO/scripts/lib/loop_consensus.py" "$TMP/consensus"
+# Truth with the keyframes 1/3 m apart: 0 -> 3 and 1 -> 4 are true, 0 -> 4 (5 m for 4/3) false.
+{ echo 'index,stamp,x,y,theta'; for i in 0 1 2 3 4 5; do echo "$i,$i,$(awk -v i=$i 'BEGIN { print i / 3 }'),0,0"; done; } > "$TMP/consensus/truth.csv"
+check "loop_consensus: judged by the truth" 0 "^refused_false=1 mean_consistent_refused_partners_false=0$" -- /usr/bin/python3 "$REPO/scripts/lib/loop_consensus.py" "$TMP/consensus"
+check "loop_consensus: --near 0" 2 "loop_consensus: --near 0: must be a number > 0" -- /usr/bin/python3 "$REPO/scripts/lib/loop_consensus.py" "$TMP/consensus" --near 0
+head -1 "$TMP/consensus/loops.csv" | cut -d, -f1-5,10 > "$TMP/consensus/old_loops.csv"
+check "loop_consensus: loops.csv of an older llc" 1 "loop_consensus: .*no innovation_chi2 column" -- bash -c "cp '$TMP/consensus/old_loops.csv' '$TMP/consensus/loops.csv' && printf '0,3,0,0.7,0.95,\"x\"\n' >> '$TMP/consensus/loops.csv' && /usr/bin/python3 '$REPO/scripts/lib/loop_consensus.py' '$TMP/consensus'"
 sed -i 's/^4,2,7,2,7,5.0,/4,2,7,2,7,nan,/' "$TMP/tail/relation_errors.csv"
 check "relation_tail: an error of nan" 1 "relation_tail: .*relation 4: translation_m is not finite" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/tail"
 check "relation_tail: a run without relation_errors.csv" 1 "relation_tail: .*relation_errors.csv" -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/slam_truth"
