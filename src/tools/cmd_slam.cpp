@@ -512,7 +512,8 @@ int runSlam(const Args& args) {
          << "loops_refused_by_context=" << c.refused_by_context << "  (shape-validated, then the context fitted better elsewhere)\n"
          << "loops_accepted=" << c.loops_accepted << "\n"
          << "loops_refused_by_alignment=" << c.refused_by_alignment << "\n"
-         << "loops_refused_by_gate=" << c.refused_by_gate << "\n";
+         << "loops_refused_by_gate=" << c.refused_by_gate << "\n"
+         << "loops_applied_by_consensus=" << c.applied_by_consensus << "  (of loops_accepted, refused by the gate, then applied with others that agree: consensus/)\n";
   // Every candidate not applied, by the stage that refused it (llc::LoopRefusal's names).
   for (std::size_t kind = 1; kind < refusals.size(); ++kind)
     report << "candidates_refused_" << llc::loopRefusalName(llc::LoopRefusal(kind)) << "=" << refusals[kind] << "\n";

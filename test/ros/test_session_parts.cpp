@@ -22,9 +22,11 @@ std::vector<laser_loop_closure::Session> sessionParts(std::size_t n, std::size_t
     for (std::size_t k = p * per_part; k < std::min(n, (p + 1) * per_part); ++k) {
       llc::Keyframe keyframe;
       keyframe.scan_index = k, keyframe.stamp = double(k);
-      keyframe.scan.ranges = {1.0, 2.0, 3.0}, keyframe.scan.bearings = {-1.0, 0.0, 1.0}, keyframe.scan.stamp = double(k);
+      // (Vectors built, not brace lists assigned: that trips GCC 12's -Wnonnull false positive.)
+      keyframe.scan.ranges = std::vector<double>{1.0, 2.0, 3.0}, keyframe.scan.bearings = std::vector<double>{-1.0, 0.0, 1.0};
+      keyframe.scan.stamp = double(k);
       msg.keyframes.push_back(llc_ros::toKeyframeMsg(keyframe, k, llc::OdometryStep{}, ""));
-      msg.keyframes.back().features = {double(k), 0.5};
+      msg.keyframes.back().features = std::vector<double>{double(k), 0.5};
     }
     out.push_back(msg);
   }

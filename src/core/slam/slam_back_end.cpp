@@ -28,8 +28,8 @@ const EsdfOptions& checked(const EsdfOptions& options) {
 
 }  // namespace
 
-SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops)
-    : options_(checked(options)), gate_loops_(gate_loops) {}
+SlamBackEnd::SlamBackEnd(const EsdfOptions& options, bool gate_loops, const LoopConsensusOptions& consensus)
+    : options_(checked(options)), gate_loops_(gate_loops), consensus_(consensus) {}
 
 const std::vector<Pose2>& SlamBackEnd::poses() const {
   static const std::vector<Pose2> none;
@@ -115,6 +115,7 @@ std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, con
 }
 
 LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
+  last_consensus_.clear();
   LoopRecord record;
   record.loop = loop;
   auto refuse = [&](const std::string& why) {
@@ -138,9 +139,31 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
     record.reject_reason = "backend: " + update.reject_reason;
     ++counters_.refused_by_gate;
   }
-  counters_.seconds += secondsSince(start);
   loops_.push_back(record);
-  return record;
+  if (!update.applied && update.innovation_chi2 > 0.0) applyByConsensus(loops_.size() - 1);
+  counters_.seconds += secondsSince(start);
+  return loops_.back();
+}
+
+void SlamBackEnd::applyByConsensus(std::size_t index) {
+  const LoopRecord& refused = loops_[index];
+  const LoopConsensusResult agreed = consensus_.offer(index, refused.loop, refused.innovation_chi2, esdf_->mean());
+  for (std::size_t id : agreed.group) {
+    LoopRecord& record = loops_[id];
+    // Without the gate: each alone missed the map, together they say where it is wrong.
+    const EsdfUpdateResult update = esdf_->update(record.loop.from, record.loop.to, record.loop.pose, record.loop.covariance, false);
+    if (!update.applied) {  // the filter's own limits (an information it cannot hold): stays refused
+      record.reject_reason = "backend: agreed with " + std::to_string(agreed.group.size() - 1) + " refused loops, then " + update.reject_reason;
+      continue;
+    }
+    record.applied = true;
+    record.by_consensus = true;
+    record.reject_reason.clear();
+    ++counters_.loops_accepted;
+    ++counters_.applied_by_consensus;
+    --counters_.refused_by_gate;
+    last_consensus_.push_back(id);
+  }
 }
 
 std::string SlamBackEnd::restore(const SlamSession& session) {
@@ -169,10 +192,15 @@ std::string SlamBackEnd::restore(const SlamSession& session) {
   loops_ = session.loops;
   counters_ = BackEndCounters{};
   counters_.keyframes = keyframes_.size();
-  for (const LoopRecord& record : loops_) {
+  consensus_.clear();
+  last_consensus_.clear();
+  for (std::size_t i = 0; i < loops_.size(); ++i) {
+    const LoopRecord& record = loops_[i];
     if (record.applied) ++counters_.loops_accepted;
     else if (record.innovation_chi2 > 0.0) ++counters_.refused_by_gate;
     else ++counters_.refused_loops;
+    // Waiting again, as they were (none had found enough others that agree).
+    if (!record.applied && record.innovation_chi2 > 0.0) consensus_.keep(i, record.loop, record.innovation_chi2);
   }
   return "";
 }

@@ -40,13 +40,15 @@ std::string SlamOptions::validate() const {
   if (!error.empty()) return "loops: " + error;
   error = esdf.validate();
   if (!error.empty()) return "esdf: " + error;
+  error = consensus.validate();
+  if (!error.empty()) return "consensus: " + error;
   return "";
 }
 
 SlamPipeline::SlamPipeline(const ClassifierModel& model, const SlamOptions& options)
     : options_(checked(options)),
       front_(model, options.odometry, options.aligner, options.loops),
-      back_(options.esdf, options.gate_loops) {}
+      back_(options.esdf, options.gate_loops, options.consensus) {}
 
 SlamCounters SlamPipeline::counters() const {
   const FrontEndCounters& f = front_.counters();
@@ -66,6 +68,7 @@ SlamCounters SlamPipeline::counters() const {
   c.refused_by_context = f.refused_by_context, c.seconds_context = f.seconds_context;
   c.loops_accepted = b.loops_accepted, c.refused_by_alignment = f.refused_by_alignment;
   c.refused_by_gate = b.refused_by_gate, c.not_aligned = f.not_aligned;
+  c.applied_by_consensus = b.applied_by_consensus;
   c.calibration_pairs = f.calibration_pairs, c.classifier_threshold = front_.detector().threshold();
   c.seconds_odometry = f.seconds_odometry, c.seconds_classify = f.seconds_classify;
   c.seconds_align = f.seconds_align, c.seconds_backend = b.seconds;
@@ -115,6 +118,10 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
     LoopRecord record;
     if (loop.accepted) {
       record = back_.addLoop(loop);
+      // Loops refused earlier that this one completed a consensus with: applied now.
+      for (std::size_t id : back_.lastConsensus())
+        if (id < pipeline_index_of_.size()) loops_[pipeline_index_of_[id]] = back_.loops()[id];
+      pipeline_index_of_.push_back(loops_.size());
     } else {
       record.loop = loop;
       record.reject_reason = loop.reject_reason;
@@ -151,6 +158,8 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
   error = front_.restore(session.keyframes, session.features, continue_odometry, nullptr, &steps);
   if (!error.empty()) return error;
   loops_ = session.loops;
+  pipeline_index_of_.resize(loops_.size());
+  for (std::size_t i = 0; i < loops_.size(); ++i) pipeline_index_of_[i] = i;  // a session holds the back end's loops only
   placements_.clear();  // the scans of another run: their keyframes are gone
   return "";
 }

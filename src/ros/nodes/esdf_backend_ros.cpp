@@ -36,7 +36,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
       [](EsdfBackendNodeOptions& o, ParameterReader& r) { visitEsdfBackendParameters(o, r); }, &system_);
   options_.map_frame = tfFrame(options_.map_frame);  // tf2 refuses tf1's leading slash
   options_.odom_frame = tfFrame(options_.odom_frame);
-  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops);
+  back_ = std::make_unique<llc::SlamBackEnd>(system_.slam.esdf, system_.slam.gate_loops, system_.slam.consensus);
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
@@ -238,6 +238,16 @@ void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
     ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
   }
   record_pub_.publish(toLoopClosureMsg(record, msg.header));
+  // Loops refused earlier that this one completed a consensus with: applied now, said again.
+  const std::vector<std::size_t>& agreed = back_->lastConsensus();
+  for (std::size_t i = 0; i + 1 < agreed.size(); ++i) {
+    --refusals_[std::size_t(llc::LoopRefusal::kBackEndGate)];
+    std_msgs::Header header = msg.header;
+    header.stamp = back_->keyframes()[back_->loops()[agreed[i]].loop.to].stamp > 0.0
+                       ? ros::Time(back_->keyframes()[back_->loops()[agreed[i]].loop.to].stamp) : msg.header.stamp;
+    record_pub_.publish(toLoopClosureMsg(back_->loops()[agreed[i]], header));
+  }
+  if (!agreed.empty()) ROS_INFO("esdf_backend: %zu loops the gate had refused applied together (they agree)", agreed.size());
   map_dirty_ = true;
 }
 
@@ -446,6 +456,7 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("keyframes loosely linked (odometry unusable)", c.loosely_linked_keyframes);
   status.add("loops applied", c.loops_accepted);
   status.add("loops refused by the gate", c.refused_by_gate);
+  status.add("loops applied by consensus (refused by the gate, then agreed with others)", c.applied_by_consensus);
   status.add("malformed loops", c.refused_loops);
   status.add("candidates refused by alignment", refused_by_alignment_.size());
   status.add("place checks answered for the front end", place_checks_ - place_checks_unanswered_);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/backend/esdf.hpp"
+#include "laser_loop_closure/core/slam/loop_consensus.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
 #include "laser_loop_closure/core/geometry/scan.hpp"
 
@@ -20,7 +21,8 @@ struct BackEndCounters {
   std::size_t keyframes = 0;
   std::size_t loosely_linked_keyframes = 0;  ///< kept, but their odometry was unusable (see addKeyframe)
   std::size_t loops_accepted = 0;     ///< applied
-  std::size_t refused_by_gate = 0;    ///< the chi-square test said no
+  std::size_t refused_by_gate = 0;    ///< the chi-square test said no (and no consensus applied it later)
+  std::size_t applied_by_consensus = 0;  ///< of loops_accepted, refused by the gate, then applied with others that agree (LoopConsensus)
   std::size_t refused_loops = 0;      ///< malformed: unknown keyframes, bad covariance
   double seconds = 0.0;
 };
@@ -34,7 +36,7 @@ Eigen::Matrix3d looseLinkCovariance();
 class SlamBackEnd {
  public:
   /// Throws std::invalid_argument on bad options.
-  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true);
+  explicit SlamBackEnd(const EsdfOptions& options = {}, bool gate_loops = true, const LoopConsensusOptions& consensus = {});
 
   /// Appends keyframe number keyframes().size() with its motion from the previous keyframe
   /// (ignored for the first, which sits at its wheel-odometry pose, or the origin). Always
@@ -46,7 +48,12 @@ class SlamBackEnd {
   std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
   /// A loop between two stored keyframes (from older than to), through the gate when
   /// gate_loops. The record says whether it was applied and why not; never throws on data.
+  /// One the gate refused is offered to the consensus (LoopConsensus): when enough refused
+  /// loops agree with it, all are applied without the gate, and lastConsensus() names them.
   LoopRecord addLoop(const LoopClosure& loop);
+  /// Indices into loops() of the loops the last addLoop applied by consensus (that loop's
+  /// own last), their records updated (applied, by_consensus); empty if it applied none so.
+  const std::vector<std::size_t>& lastConsensus() const { return last_consensus_; }
 
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
   /// Optimised keyframe poses in the map frame.
@@ -73,12 +80,18 @@ class SlamBackEnd {
 
   /// Replaces everything by a saved session: the ESDF is rebuilt from its constraints in
   /// their order (augmentations, then loop updates without the gate: they passed it once) and
-  /// solved from the saved poses. Returns "" or why not; then nothing changed.
+  /// solved from the saved poses. Returns "" or why not; then nothing changed. The loops the
+  /// gate refused wait for a consensus again (a saved record does not say by_consensus).
   std::string restore(const SlamSession& session);
 
  private:
+  /// Offers the refused loop loops_[index] to the consensus; applies the group it completes.
+  void applyByConsensus(std::size_t index);
+
   EsdfOptions options_;
   bool gate_loops_;
+  LoopConsensus consensus_;
+  std::vector<std::size_t> last_consensus_;
   std::unique_ptr<Esdf> esdf_;
   std::vector<Keyframe> keyframes_;
   std::vector<LoopRecord> loops_;

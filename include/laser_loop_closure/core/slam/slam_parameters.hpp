@@ -171,6 +171,14 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("esdf/robust_loop_chi2", esdf.robust_loop_chi2);
   visit("esdf/gate_loops", options.slam.gate_loops);
 
+  LoopConsensusOptions& consensus = options.slam.consensus;
+  visit("consensus/min_loops", consensus.min_loops);
+  visit("consensus/max_chi2", consensus.max_chi2);
+  visit("consensus/max_keyframes_apart", consensus.max_keyframes_apart);
+  visit("consensus/max_translation", consensus.max_translation);
+  visit("consensus/max_rotation", consensus.max_rotation);
+  visit("consensus/max_kept", consensus.max_kept);
+
 
   PlaceGateOptions& place_gate = options.slam.place_gate;
   visit("place_gate/enabled", place_gate.enabled);

@@ -36,6 +36,7 @@ struct SlamOptions {
   LoopDetectorOptions loops{};
   EsdfOptions esdf{};
   bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
+  LoopConsensusOptions consensus{};  ///< loops the gate refused, applied together once enough agree
   PlaceGateOptions place_gate{};
   std::string validate() const;  ///< names the stage whose option is wrong
 };
@@ -63,7 +64,8 @@ struct SlamCounters {
   std::size_t refused_by_context = 0;    ///< shape-validated, then the context check said no
   std::size_t loops_accepted = 0;        ///< applied to the back end
   std::size_t refused_by_alignment = 0;  ///< CRF-match, ICP or shape validation said no
-  std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no
+  std::size_t refused_by_gate = 0;       ///< the back end's chi-square test said no (and no consensus applied it later)
+  std::size_t applied_by_consensus = 0;  ///< of loops_accepted, refused by the gate, then applied with others that agree
   std::size_t not_aligned = 0;           ///< candidates the place gate kept from alignment
   std::size_t calibration_pairs = 0;     ///< surely-different pairs scored for the threshold calibration
   double classifier_threshold = 0.0;     ///< the K candidates must reach now (calibrated or not)
@@ -130,6 +132,7 @@ class SlamPipeline {
   SlamFrontEnd front_;
   SlamBackEnd back_;
   std::vector<LoopRecord> loops_;
+  std::vector<std::size_t> pipeline_index_of_;  ///< the back end's loop i is loops_[pipeline_index_of_[i]]
   /// Each used scan: its index, stamp, newest keyframe and motion from it (scanPoses).
   struct Placement {
     std::size_t scan_index;
