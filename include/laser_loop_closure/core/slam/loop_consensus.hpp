@@ -4,7 +4,7 @@
 // a corridor), every true loop over it misses the map by the same amount, and the gate refuses
 // them one by one. Several refused loops that tell the same story about the same two stretches
 // of the drive are applied together. A loop that misses the map by far (a corridor's mirror
-// image, turned by 180 degrees: chi-square 450 and more on ACES laser-only) never joins: such
+// image, turned by 180 degrees: chi-square 300 and more on ACES laser-only) never joins: such
 // look-alikes agree among themselves as well (scripts/lib/loop_consensus.py).
 #pragma once
 
