@@ -21,6 +21,7 @@ refused partners, true and false ones apart), then one row per loop the gate ref
 """
 import csv
 import math
+import signal
 import sys
 
 
@@ -98,6 +99,7 @@ def read_run(run):
 
 
 def main(argv):
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # quiet when piped into head
     if not argv or argv[0].startswith("-"):
         print(__doc__.strip(), file=sys.stderr)
         return 2
