@@ -32,8 +32,12 @@ bool LoopConsensus::agree(const LoopClosure& a, const LoopClosure& b, const std:
   return std::hypot(miss.x, miss.y) <= options_.max_translation && std::abs(miss.theta) <= options_.max_rotation;
 }
 
+bool LoopConsensus::mayWait(const LoopClosure& loop, double chi2) const {
+  return options_.min_loops > 0 && chi2 <= options_.max_chi2 && isFinite(loop.pose);
+}
+
 bool LoopConsensus::keep(std::size_t id, const LoopClosure& loop, double chi2) {
-  if (options_.min_loops == 0 || !(chi2 <= options_.max_chi2) || !isFinite(loop.pose)) return false;
+  if (!mayWait(loop, chi2)) return false;
   if (kept_.size() >= options_.max_kept) kept_.erase(kept_.begin());
   kept_.push_back({id, loop});
   return true;
@@ -41,7 +45,7 @@ bool LoopConsensus::keep(std::size_t id, const LoopClosure& loop, double chi2) {
 
 LoopConsensusResult LoopConsensus::offer(std::size_t id, const LoopClosure& loop, double chi2, const std::vector<Pose2>& poses) {
   LoopConsensusResult result;
-  if (options_.min_loops == 0 || !(chi2 <= options_.max_chi2) || !isFinite(loop.pose)) return result;
+  if (!mayWait(loop, chi2)) return result;
   std::vector<std::size_t> agreeing;  // indices into kept_
   for (std::size_t k = 0; k < kept_.size(); ++k)
     if (agree(loop, kept_[k].loop, poses)) agreeing.push_back(k);

@@ -20,6 +20,12 @@ bool usableCovariance(const Eigen::Matrix3d& c) {
   return llt.info() == Eigen::Success;
 }
 
+/// Refused by the chi-square gate itself (not by the filter's limits after it): the loops a
+/// consensus may apply later.
+bool refusedByGate(const LoopRecord& record) {
+  return !record.applied && loopRefusalOf(record.reject_reason) == LoopRefusal::kBackEndGate;
+}
+
 const EsdfOptions& checked(const EsdfOptions& options) {
   const std::string error = options.validate();
   if (!error.empty()) throw std::invalid_argument("esdf options: " + error);
@@ -140,7 +146,7 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
     ++counters_.refused_by_gate;
   }
   loops_.push_back(record);
-  if (!update.applied && update.innovation_chi2 > 0.0) applyByConsensus(loops_.size() - 1);
+  if (refusedByGate(record)) applyByConsensus(loops_.size() - 1);
   counters_.seconds += secondsSince(start);
   return loops_.back();
 }
@@ -153,7 +159,8 @@ void SlamBackEnd::applyByConsensus(std::size_t index) {
     // Without the gate: each alone missed the map, together they say where it is wrong.
     const EsdfUpdateResult update = esdf_->update(record.loop.from, record.loop.to, record.loop.pose, record.loop.covariance, false);
     if (!update.applied) {  // the filter's own limits (an information it cannot hold): stays refused
-      record.reject_reason = "backend: agreed with " + std::to_string(agreed.group.size() - 1) + " refused loops, then " + update.reject_reason;
+      record.reject_reason = "backend: " + update.reject_reason + " (applied with " + std::to_string(agreed.group.size() - 1) +
+                             " refused loops that agreed)";
       continue;
     }
     record.applied = true;
@@ -200,7 +207,7 @@ std::string SlamBackEnd::restore(const SlamSession& session) {
     else if (record.innovation_chi2 > 0.0) ++counters_.refused_by_gate;
     else ++counters_.refused_loops;
     // Waiting again, as they were (none had found enough others that agree).
-    if (!record.applied && record.innovation_chi2 > 0.0) consensus_.keep(i, record.loop, record.innovation_chi2);
+    if (refusedByGate(record)) consensus_.keep(i, record.loop, record.innovation_chi2);
   }
   return "";
 }

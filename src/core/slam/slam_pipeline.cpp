@@ -118,7 +118,8 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
     LoopRecord record;
     if (loop.accepted) {
       record = back_.addLoop(loop);
-      // Loops refused earlier that this one completed a consensus with: applied now.
+      // Loops refused earlier that this one completed a consensus with: applied now. (This
+      // one is the last and not in loops_ yet: `record` already says so.)
       for (std::size_t id : back_.lastConsensus())
         if (id < pipeline_index_of_.size()) loops_[pipeline_index_of_[id]] = back_.loops()[id];
       pipeline_index_of_.push_back(loops_.size());

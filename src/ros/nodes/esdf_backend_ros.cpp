@@ -240,12 +240,13 @@ void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
   record_pub_.publish(toLoopClosureMsg(record, msg.header));
   // Loops refused earlier that this one completed a consensus with: applied now, said again.
   const std::vector<std::size_t>& agreed = back_->lastConsensus();
-  for (std::size_t i = 0; i + 1 < agreed.size(); ++i) {
-    --refusals_[std::size_t(llc::LoopRefusal::kBackEndGate)];
+  for (std::size_t i = 0; i + 1 < agreed.size(); ++i) {  // (the last is this one, published above)
+    --refusals_[std::size_t(llc::LoopRefusal::kBackEndGate)];  // only the gate's refusals wait for a consensus
+    const llc::LoopRecord& earlier = back_->loops()[agreed[i]];
+    const double stamp = back_->keyframes()[earlier.loop.to].stamp;  // a loop is stamped with its newer keyframe
     std_msgs::Header header = msg.header;
-    header.stamp = back_->keyframes()[back_->loops()[agreed[i]].loop.to].stamp > 0.0
-                       ? ros::Time(back_->keyframes()[back_->loops()[agreed[i]].loop.to].stamp) : msg.header.stamp;
-    record_pub_.publish(toLoopClosureMsg(back_->loops()[agreed[i]], header));
+    if (stamp > 0.0) header.stamp = ros::Time(stamp);
+    record_pub_.publish(toLoopClosureMsg(earlier, header));
   }
   if (!agreed.empty()) ROS_INFO("esdf_backend: %zu loops the gate had refused applied together (they agree)", agreed.size());
   map_dirty_ = true;

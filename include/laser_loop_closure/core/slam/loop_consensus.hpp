@@ -54,6 +54,8 @@ class LoopConsensus {
   const LoopConsensusOptions& options() const { return options_; }
 
  private:
+  /// Consensus on, chi-square within max_chi2 (false for NaN), pose finite.
+  bool mayWait(const LoopClosure& loop, double chi2) const;
   struct Kept {
     std::size_t id;
     LoopClosure loop;
