@@ -200,7 +200,7 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
                << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
   llc::AtomicTextFile loops(dir + "/loops.csv");
-  loops << "a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,reason\n";
+  loops << "a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,reason\n";
   std::vector<llc::PictureLoop> picture_loops;
   for (const llc::LoopRecord& record : slam.loops()) {
     // Why it was refused, as one quoted CSV field (the stage first: "validation: ...",
@@ -218,9 +218,10 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
             << std::setprecision(4) << record.innovation_chi2;
     else
       loops << ",,,";
-    loops << ",\"" << reason << "\"\n";
+    loops << "," << (record.by_consensus ? 1 : 0) << ",\"" << reason << "\"\n";
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
-    if (record.loop.accepted) picture_loops.push_back({record.loop.from, record.loop.to, record.applied});
+    if (record.loop.accepted)
+      picture_loops.push_back({record.loop.from, record.loop.to, record.applied, record.by_consensus});
   }
   llc::AtomicTextFile scan_poses(dir + "/scans.csv");
   scan_poses << "scan,stamp,x,y,theta,keyframe\n" << std::fixed << std::setprecision(6);

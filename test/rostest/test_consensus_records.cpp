@@ -7,14 +7,18 @@
 //    at most consensus/max_chi2), the wrong one refused, the fourth applied, then the first
 //    three republished as applied (stamped with their newer keyframe);
 //  - on /path: keyframe 15 pulled back to about 15 m from keyframe 0 (the chain says 15.4);
-//  - on /diagnostics: 4 loops applied by consensus, 1 left refused by the gate.
+//  - on /diagnostics: 4 loops applied by consensus, 1 left refused by the gate;
+//  - on /graph_markers: the four drawn as loops_applied_by_consensus (orange in rviz).
 // Every wait is bounded in wall time.
 #include <gtest/gtest.h>
 #include <nav_msgs/Path.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <ros/ros.h>
 
 #include <cmath>
+#include <map>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "laser_loop_closure/Keyframe.h"
@@ -76,6 +80,19 @@ class Collected {
       std::lock_guard<std::mutex> lock(mutex_);
       path_ = *m;
     });
+    markers_sub_ = nh.subscribe<visualization_msgs::MarkerArray>(
+        "/graph_markers", 10, [this](const visualization_msgs::MarkerArray::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          for (const visualization_msgs::Marker& marker : m->markers)
+            if (marker.action == visualization_msgs::Marker::ADD) lines_[marker.ns] = marker.points.size() / 2;
+            else lines_.erase(marker.ns);
+        });
+  }
+  /// Lines in one namespace of the newest /graph_markers (0 when absent or deleted).
+  std::size_t lines(const std::string& ns) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto found = lines_.find(ns);
+    return found == lines_.end() ? 0 : found->second;
   }
   std::vector<laser_loop_closure::LoopClosure> records() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -90,7 +107,8 @@ class Collected {
   mutable std::mutex mutex_;
   std::vector<laser_loop_closure::LoopClosure> records_;
   nav_msgs::Path path_;
-  ros::Subscriber records_sub_, path_sub_;
+  std::map<std::string, std::size_t> lines_;
+  ros::Subscriber records_sub_, path_sub_, markers_sub_;
 };
 
 TEST(ConsensusRecords, RefusedLoopsThatAgreeAreAppliedAndRepublished) {
@@ -160,6 +178,11 @@ TEST(ConsensusRecords, RefusedLoopsThatAgreeAreAppliedAndRepublished) {
   EXPECT_EQ(health.value("loops applied"), 4.0);
   EXPECT_EQ(health.value("loops refused by the gate"), 1.0);
   EXPECT_EQ(health.value("loops refused: back_end_gate"), 1.0);
+  // rviz draws them apart (the markers are rebuilt every map_publish_period of wall time).
+  EXPECT_TRUE(llc_test::waitUntilReady(kWait, [&] { return collected.lines("loops_applied_by_consensus") == 4; }))
+      << "graph_markers: " << collected.lines("loops_applied_by_consensus") << " loops applied by consensus";
+  EXPECT_EQ(collected.lines("loops_applied"), 0u);
+  EXPECT_EQ(collected.lines("loops_refused_by_gate"), 1u);
 }
 
 }  // namespace

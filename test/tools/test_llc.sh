@@ -45,7 +45,7 @@ check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 
 # The whole pipeline on the short drive: files, their headers, and what it must achieve.
 check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet --save-session "$TMP/sim.llcsession"
 check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
-check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,reason$" -- head -1 "$TMP/slam/loops.csv"
+check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,reason$" -- head -1 "$TMP/slam/loops.csv"
 # Every refused candidate says at which stage and why; an applied one says nothing.
 check "slam loops: a reason for each refused one, none for an applied one" 0 "^ok [1-9][0-9]* [1-9][0-9]*$" -- awk -F, '
     NR > 1 { r = substr($0, index($0, "\"")); if ($3 == 1) { applied++; if (r != "\"\"") bad++ } else { refused++; if (r !~ /^"(validation|context|backend|crf|icp|alignment)[^"]*: [^"]+"$/) bad++ } }
@@ -58,6 +58,10 @@ check "slam loops: pose and chi2 exactly for the loops the back end weighed" 0 "
              else if (r ~ /^"backend: innovation/) { gated++; if (!posed || $9 + 0 <= 16.27) bad++ }
              else if ($6 $7 $8 $9 != "") bad++ }
     END { print (bad ? "not ok " bad : "ok " applied " " gated + 0) }' "$TMP/slam/loops.csv"
+# by_consensus is 0 or 1, and 1 only on an applied loop.
+check "slam loops: by_consensus only on applied loops" 0 "^ok$" -- awk -F, '
+    NR > 1 { if (($10 != 0 && $10 != 1) || ($10 == 1 && $3 != 1)) bad++ }
+    END { print (bad ? "not ok " bad : "ok") }' "$TMP/slam/loops.csv"
 check "slam map files" 0 "^image: map.pgm$" -- bash -c "test -s '$TMP/slam/map.pgm' && test -s '$TMP/slam/map.png' && cat '$TMP/slam/map.yaml'"
 check "slam: < 0.5 m RMS, odometry > 2 m, >= 80% of true loops closed" 0 "^ok$" -- awk -F= '
   {v[$1] = $2}

@@ -41,7 +41,7 @@ RgbImage renderMapPicture(const OccupancyGrid& grid, const std::vector<Pose2>& t
       double x0, y0, x1, y1;
       toPixel(trajectory[loop.from], &x0, &y0);
       toPixel(trajectory[loop.to], &x1, &y1);
-      if (applied) image.line(x0, y0, x1, y1, Rgb{0, 170, 0}, 1);
+      if (applied) image.line(x0, y0, x1, y1, loop.by_consensus ? Rgb{255, 140, 0} : Rgb{0, 170, 0}, 1);
       else image.line(x0, y0, x1, y1, Rgb{220, 0, 0}, 1, 0.25);
     }
   for (std::size_t i = 1; i < trajectory.size(); ++i) {

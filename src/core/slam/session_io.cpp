@@ -128,10 +128,12 @@ std::string payload(const SlamSession& s) {
     w.number(l.inlier_share), w.flag(l.accepted), w.text(l.reject_reason), w.number(l.seconds);
     w.flag(r.applied), w.number(r.innovation_chi2), w.text(r.reject_reason);
   }
+  // Version 2: one flag per loop record, after them all (so a version-1 body is a prefix).
+  for (const LoopRecord& r : s.loops) w.flag(r.by_consensus);
   return std::move(w.bytes());
 }
 
-SlamSession parse(Reader& r) {
+SlamSession parse(Reader& r, std::uint32_t version) {
   SlamSession s;
   s.keyframes.resize(r.count());
   for (Keyframe& k : s.keyframes) {
@@ -151,6 +153,8 @@ SlamSession parse(Reader& r) {
     l.inlier_share = r.number(), l.accepted = r.flag(), l.reject_reason = r.text(), l.seconds = r.number();
     rec.applied = r.flag(), rec.innovation_chi2 = r.number(), rec.reject_reason = r.text();
   }
+  if (version >= 2)
+    for (LoopRecord& rec : s.loops) rec.by_consensus = r.flag();
   if (!r.done()) r.fail("bytes left over");
   return s;
 }
@@ -179,8 +183,11 @@ std::string SlamSession::validate() const {
     if (!isFinite(e.measurement) || !e.information.allFinite()) return which + " is not finite";
   }
   if (n > 0 && odometry != n - 1) return "only " + std::to_string(odometry + 1) + " of " + std::to_string(n) + " poses are linked";
-  for (std::size_t i = 0; i < loops.size(); ++i)
+  for (std::size_t i = 0; i < loops.size(); ++i) {
     if (loops[i].loop.from >= n || loops[i].loop.to >= n) return "loop " + std::to_string(i) + " names an unknown keyframe";
+    if (loops[i].by_consensus && !loops[i].applied)
+      return "loop " + std::to_string(i) + " is marked applied by consensus but not applied";
+  }
   return "";
 }
 
@@ -212,9 +219,9 @@ SlamSession loadSession(const std::string& path) {
     throw SessionError(path + ": truncated session file (" + std::to_string(bytes.size()) + " bytes)");
   Reader header(bytes, kMagicSize, bytes.size(), path);
   const std::uint32_t version = header.raw<std::uint32_t>();
-  if (version != kSessionVersion)
-    throw SessionError(path + ": session version " + std::to_string(version) + ", this build reads version " +
-                       std::to_string(kSessionVersion));
+  if (version < kOldestSessionVersion || version > kSessionVersion)
+    throw SessionError(path + ": session version " + std::to_string(version) + ", this build reads versions " +
+                       std::to_string(kOldestSessionVersion) + " to " + std::to_string(kSessionVersion));
   const std::uint64_t size = header.raw<std::uint64_t>();
   if (size > bytes.size() - begin || bytes.size() - begin - size != sizeof(std::uint64_t))
     throw SessionError(path + ": truncated session file (" + std::to_string(bytes.size()) + " bytes, the header announces " +
@@ -223,7 +230,7 @@ SlamSession loadSession(const std::string& path) {
   if (trailer.raw<std::uint64_t>() != fnv1a(bytes.data() + begin, size))
     throw SessionError(path + ": corrupt session file (checksum mismatch)");
   Reader body(bytes, begin, begin + size, path);
-  SlamSession session = parse(body);
+  SlamSession session = parse(body, version);
   const std::string invalid = session.validate();
   if (!invalid.empty()) throw SessionError(path + ": inconsistent session: " + invalid);
   return session;

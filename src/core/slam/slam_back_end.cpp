@@ -203,6 +203,7 @@ std::string SlamBackEnd::restore(const SlamSession& session) {
   last_consensus_.clear();
   for (std::size_t i = 0; i < loops_.size(); ++i) {
     const LoopRecord& record = loops_[i];
+    counters_.applied_by_consensus += record.by_consensus;
     if (record.applied) ++counters_.loops_accepted;
     else if (record.innovation_chi2 > 0.0) ++counters_.refused_by_gate;
     else ++counters_.refused_loops;

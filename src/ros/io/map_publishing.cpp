@@ -104,6 +104,7 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
   nodes.color.r = 0.1f, nodes.color.g = 0.3f, nodes.color.b = 0.9f, nodes.color.a = 1.0f;
   visualization_msgs::Marker odometry = lineList(header, "odometry", 0.04, 0.1f, 0.3f, 0.9f, 0.8f);
   visualization_msgs::Marker applied = lineList(header, "loops_applied", 0.1, 0.0f, 0.8f, 0.0f, 1.0f);
+  visualization_msgs::Marker by_consensus = lineList(header, "loops_applied_by_consensus", 0.1, 1.0f, 0.55f, 0.0f, 1.0f);
   visualization_msgs::Marker gated = lineList(header, "loops_refused_by_gate", 0.1, 0.9f, 0.0f, 0.0f, 1.0f);
   visualization_msgs::Marker aligned = lineList(header, "loops_refused_by_alignment", 0.02, 0.5f, 0.5f, 0.5f, 0.5f);
   // A loop joins two poses less than a few metres apart: at the scale of a whole map its line
@@ -124,13 +125,14 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
   }
   for (const llc::LoopRecord& record : loops) {
     if (record.loop.from >= poses.size() || record.loop.to >= poses.size()) continue;
-    visualization_msgs::Marker& m = record.applied ? applied : record.loop.accepted ? gated : aligned;
+    visualization_msgs::Marker& m = record.by_consensus ? by_consensus : record.applied ? applied : record.loop.accepted ? gated : aligned;
     m.points.push_back(point(poses[record.loop.from]));
     m.points.push_back(point(poses[record.loop.to]));
     if (record.loop.accepted) (record.applied ? applied_places : gated_places).points.push_back(point(poses[record.loop.to]));
   }
   visualization_msgs::MarkerArray array;
-  for (visualization_msgs::Marker* m : {&nodes, &odometry, &applied, &gated, &aligned, &applied_places, &gated_places}) {
+  for (visualization_msgs::Marker* m :
+       {&nodes, &odometry, &applied, &by_consensus, &gated, &aligned, &applied_places, &gated_places}) {
     // rviz refuses an empty LINE_LIST/SPHERE_LIST with a warning; DELETE keeps it quiet.
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;
     array.markers.push_back(*m);

@@ -181,6 +181,14 @@ TEST(LoopConsensus, ARestoredSessionsRefusedLoopsWaitAgain) {
   EXPECT_TRUE(second.addLoop(loopOf(3, 18, {15.0, 0.0, 0.0})).applied);
   EXPECT_EQ(second.lastConsensus(), (std::vector<std::size_t>{0, 1, 2, 3}));
   EXPECT_EQ(second.counters().applied_by_consensus, 4u);
+  // Saved again and restored: the four are applied, by consensus, and wait no more.
+  const llc::SlamSession again = llc::sessionOf(second, std::vector<std::vector<double>>(21));
+  llc::SlamBackEnd third;
+  ASSERT_EQ(third.restore(again), "");
+  EXPECT_EQ(third.counters().applied_by_consensus, 4u);
+  EXPECT_EQ(third.counters().loops_accepted, 4u);
+  EXPECT_EQ(third.counters().refused_by_gate, 0u);
+  for (std::size_t id = 0; id < 4; ++id) EXPECT_TRUE(third.loops()[id].by_consensus) << id;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -43,8 +44,9 @@ llc::SlamSession handSession() {
   record.loop.from = 0, record.loop.to = 2, record.loop.score = 0.9, record.loop.pose = loop.measurement;
   record.loop.covariance = Eigen::Matrix3d::Identity() * 0.01;
   record.loop.inlier_share = 0.97, record.loop.accepted = true, record.loop.seconds = 0.003;
-  record.applied = true, record.innovation_chi2 = 1.25;
+  record.applied = true, record.innovation_chi2 = 1.25, record.by_consensus = true;
   s.loops.push_back(record);
+  record.by_consensus = false;
   record.applied = false, record.reject_reason = "backend: innovation chi2 99 > 16.27";
   s.loops.push_back(record);
   return s;
@@ -83,7 +85,48 @@ TEST(SessionFile, RoundTripsEveryField) {
   EXPECT_EQ(loaded.loops[0].loop.covariance, saved.loops[0].loop.covariance);
   EXPECT_EQ(loaded.loops[0].innovation_chi2, 1.25);
   EXPECT_TRUE(loaded.loops[0].applied && !loaded.loops[1].applied);
+  EXPECT_TRUE(loaded.loops[0].by_consensus && !loaded.loops[1].by_consensus);
   EXPECT_FALSE(std::ifstream(dir.file("s.llcsession.tmp")).good()) << "the temporary file stays behind";
+}
+
+/// FNV-1a over bytes, as docs/file_formats.md states the checksum (a reference, not the code's).
+std::uint64_t fnv1aOf(const std::string& bytes) {
+  std::uint64_t hash = 14695981039346656037ull;
+  for (unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ull;
+  return hash;
+}
+
+template <class T>
+std::string rawBytes(T value) {
+  return std::string(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+TEST(SessionFile, AVersionOneFileStillLoadsWithNoLoopAppliedByConsensus) {
+  // Version 1 is version 2 without the trailing flag per loop record: built from a version-2
+  // save as the layout in docs/file_formats.md says (magic, version, body length, body, checksum).
+  llc_test::TempDir dir;
+  const llc::SlamSession saved = handSession();
+  llc::saveSession(saved, dir.file("v2.llcsession"));
+  const std::string v2 = llc_test::readText(dir.file("v2.llcsession"));
+  ASSERT_EQ(v2.substr(0, 12), "LLC-SESSION\n");
+  ASSERT_EQ(v2.compare(12, 4, rawBytes(std::uint32_t(2))), 0);
+  std::uint64_t length = 0;
+  std::memcpy(&length, v2.data() + 16, sizeof length);
+  ASSERT_EQ(v2.size(), 24 + length + 8);
+  const std::string body = v2.substr(24, length - saved.loops.size());
+  const std::string v1 = v2.substr(0, 12) + rawBytes(std::uint32_t(1)) + rawBytes(std::uint64_t(body.size())) + body +
+                         rawBytes(fnv1aOf(body));
+  std::ofstream(dir.file("v1.llcsession"), std::ios::binary) << v1;
+  const llc::SlamSession loaded = llc::loadSession(dir.file("v1.llcsession"));
+  ASSERT_EQ(loaded.loops.size(), 2u);
+  EXPECT_TRUE(loaded.loops[0].applied);
+  EXPECT_FALSE(loaded.loops[0].by_consensus) << "version 1 does not say: not by consensus";
+  EXPECT_EQ(loaded.loops[1].reject_reason, saved.loops[1].reject_reason);
+  EXPECT_EQ(loaded.keyframes.size(), 3u);
+  // The flags in a version-1 file would be bytes left over.
+  const std::string v1_with_flags = v2.substr(0, 12) + rawBytes(std::uint32_t(1)) + v2.substr(16);
+  std::ofstream(dir.file("v1x.llcsession"), std::ios::binary) << v1_with_flags;
+  EXPECT_THROW(llc::loadSession(dir.file("v1x.llcsession")), llc::SessionError);
 }
 
 TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {
@@ -109,6 +152,8 @@ TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {
   std::string other_version = bytes;
   other_version[12] = char(7);
   refused(other_version, "version 7");
+  other_version[12] = char(0);
+  refused(other_version, "version 0");
   for (std::size_t cut : {std::size_t(14), bytes.size() / 2, bytes.size() - 1}) refused(bytes.substr(0, cut), "truncated");
   refused(bytes + "x", "truncated");
   std::string flipped = bytes;
@@ -123,6 +168,9 @@ TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {
   EXPECT_NE(inconsistent.validate(), "");
   inconsistent = handSession();
   inconsistent.constraints.resize(1);  // pose 2 never linked
+  EXPECT_NE(inconsistent.validate(), "");
+  inconsistent = handSession();
+  inconsistent.loops[0].applied = false;  // but by_consensus
   EXPECT_NE(inconsistent.validate(), "");
   inconsistent = handSession();
   inconsistent.poses[1].x = std::nan("");

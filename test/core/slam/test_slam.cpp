@@ -155,6 +155,31 @@ TEST(MapPicture, DrawsWithinBoundsAtAnySize) {
     }
 }
 
+TEST(MapPicture, LoopsAppliedByConsensusAreOrangeTheOthersGreenOrRed) {
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(90, 4.0));
+  const std::vector<llc::Pose2> trajectory = {{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}};
+  const llc::OccupancyGrid grid = llc::buildOccupancyGrid({&scan, &scan, &scan, &scan}, trajectory);
+  // Three loops, each alone on the diagonals and an edge: the middle of each line shows its colour.
+  llc::PictureLoop applied{0, 2, true, false}, by_consensus{1, 3, true, true}, refused{0, 3, false, false};
+  const llc::RgbImage image = llc::renderMapPicture(grid, trajectory, {applied, by_consensus, refused}, 5000, 0);
+  const auto middle = [&](const llc::Pose2& a, const llc::Pose2& b) {
+    const double x = ((a.x + b.x) / 2 - grid.origin_x) / grid.resolution;
+    const double y = double(image.height()) - ((a.y + b.y) / 2 - grid.origin_y) / grid.resolution;
+    return image.at(int(std::floor(x)), int(std::floor(y)));
+  };
+  // The diagonals cross in the middle: a quarter of the way along each instead.
+  const auto quarter = [&](const llc::Pose2& a, const llc::Pose2& b) {
+    return middle(a, llc::Pose2{(a.x + b.x) / 2, (a.y + b.y) / 2, 0});
+  };
+  EXPECT_EQ(quarter(trajectory[0], trajectory[2]).g, 170);  // green
+  EXPECT_EQ(quarter(trajectory[0], trajectory[2]).r, 0);
+  const llc::Rgb orange = quarter(trajectory[1], trajectory[3]);
+  EXPECT_EQ(orange.r, 255);
+  EXPECT_EQ(orange.g, 140);
+  EXPECT_EQ(orange.b, 0);
+  EXPECT_GT(middle(trajectory[0], trajectory[3]).r, middle(trajectory[0], trajectory[3]).g);  // faint red
+}
+
 TEST(PngImage, AFaintLineMixesEachPixelOnce) {
   llc::RgbImage image(10, 3, llc::Rgb{200, 200, 200});
   image.line(0, 1, 9, 1, llc::Rgb{0, 0, 0}, 1, 0.25);

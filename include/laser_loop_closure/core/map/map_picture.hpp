@@ -1,5 +1,6 @@
 // A picture of a SLAM result: the occupancy grid, the trajectory and the loops (applied in
-// green, refused in red), for people to look at (map.png of `llc slam`).
+// green, applied by a consensus of loops the gate had refused in orange, refused in red), for
+// people to look at (map.png of `llc slam`).
 #pragma once
 
 #include <string>
@@ -13,6 +14,7 @@ namespace llc {
 struct PictureLoop {
   std::size_t from = 0, to = 0;  ///< indices into the trajectory
   bool applied = false;
+  bool by_consensus = false;  ///< applied by LoopConsensus after the gate refused it
 };
 
 /// Renders the grid at most max_pixels wide and high (cells are pooled, occupied wins), and a

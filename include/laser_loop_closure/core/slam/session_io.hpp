@@ -15,7 +15,9 @@ namespace llc {
 
 class SlamBackEnd;
 
-constexpr std::uint32_t kSessionVersion = 1;
+/// Version 2 added each loop record's by_consensus; version-1 files still load (false).
+constexpr std::uint32_t kSessionVersion = 2;
+constexpr std::uint32_t kOldestSessionVersion = 1;
 
 /// Why a session file was refused; what() names the file and the problem.
 class SessionError : public std::runtime_error {

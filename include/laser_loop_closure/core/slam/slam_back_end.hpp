@@ -81,7 +81,7 @@ class SlamBackEnd {
   /// Replaces everything by a saved session: the ESDF is rebuilt from its constraints in
   /// their order (augmentations, then loop updates without the gate: they passed it once) and
   /// solved from the saved poses. Returns "" or why not; then nothing changed. The loops the
-  /// gate refused wait for a consensus again (a saved record does not say by_consensus).
+  /// gate refused wait for a consensus again; those a consensus applied are counted so.
   std::string restore(const SlamSession& session);
 
  private:

@@ -134,7 +134,7 @@ struct LoopRecord {
   LoopClosure loop;
   bool applied = false;          ///< accepted by alignment and by the back end's gate
   double innovation_chi2 = 0.0;  ///< when it reached the back end
-  bool by_consensus = false;     ///< refused by the gate, applied later with loops that agree (LoopConsensus; not kept in a session file)
+  bool by_consensus = false;     ///< refused by the gate, applied later with loops that agree (LoopConsensus; kept in session files from version 2)
   std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
 };
 

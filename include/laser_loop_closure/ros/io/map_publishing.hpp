@@ -25,10 +25,11 @@ nav_msgs::Path toPathMsg(const std::vector<llc::Keyframe>& keyframes, const std:
 sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, const std::vector<llc::Pose2>& poses,
                                     double max_range, double voxel_size, const std_msgs::Header& header);
 
-/// The graph: keyframes (dots), odometry chain (blue), applied loops (green), loops refused by
-/// the chi-square gate (red), candidates refused by alignment (grey), and a 2 m disc at the newer
-/// pose of each loop so that loops show at the scale of a whole map. Namespaces: keyframes,
-/// odometry, loops_applied, loops_refused_by_gate, loops_refused_by_alignment,
+/// The graph: keyframes (dots), odometry chain (blue), applied loops (green), loops the gate
+/// refused and a consensus applied later (orange), loops refused by the chi-square gate (red),
+/// candidates refused by alignment (grey), and a 2 m disc at the newer pose of each loop so that
+/// loops show at the scale of a whole map. Namespaces: keyframes, odometry, loops_applied,
+/// loops_applied_by_consensus, loops_refused_by_gate, loops_refused_by_alignment,
 /// loop_places_applied, loop_places_refused_by_gate.
 visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses,
                                              const std::vector<llc::LoopRecord>& loops, const std_msgs::Header& header);
