@@ -38,6 +38,8 @@ std::string ScanOdometryOptions::validate() const {
   if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
   if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";
+  if (!(laser_seeded_trim_fraction > 0.0 && laser_seeded_trim_fraction <= 1.0))
+    return "laser_seeded_trim_fraction must be in (0, 1]";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
@@ -61,6 +63,12 @@ ScanOdometry::ScanOdometry(const ScanOdometryOptions& options) : options_(option
 
 IcpOptions ScanOdometry::withoutRemapping(IcpOptions options) {
   options.remap_ratio = 0.0;
+  return options;
+}
+
+IcpOptions ScanOdometry::laserSeeded(IcpOptions options) const {
+  options = withoutRemapping(options);
+  options.trim_fraction = options_.laser_seeded_trim_fraction;
   return options;
 }
 
@@ -147,8 +155,10 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   // Remapping keeps the seed along a direction the scans hardly fix: right for the wheels'
   // guess (and the tracked one, carried by them), which know that direction by themselves; not
   // for a guess the laser made (the motion model, a correlative search), which would then
-  // never learn a motion along a corridor.
-  const IcpOptions laser_seeded = withoutRemapping(options_.icp);
+  // never learn a motion along a corridor. Nor would it with the pairs that see that motion
+  // trimmed as the farthest: a seed from the laser's motion keeps more of them
+  // (laser_seeded_trim_fraction).
+  const IcpOptions laser_seeded = laserSeeded(options_.icp);
   const IcpOptions& seeded = guess_from_wheels ? options_.icp : laser_seeded;
   const IcpPrior prior{guess, prior_on_guess && !guess_from_wheels ? options_.motion_prior_weight : 0.0};
   IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals, nullptr,

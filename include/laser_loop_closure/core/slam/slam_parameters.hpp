@@ -79,6 +79,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/local_map_keyframes", odometry.local_map_keyframes);
   visit("odometry/max_stamp_jitter", odometry.max_stamp_jitter);
   visit("odometry/motion_prior_weight", odometry.motion_prior_weight);
+  visit("odometry/laser_seeded_trim_fraction", odometry.laser_seeded_trim_fraction);
   visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visit("odometry/max_speed", odometry.max_speed);
   visit("odometry/max_turn_rate", odometry.max_turn_rate);
