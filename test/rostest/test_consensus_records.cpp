@@ -29,7 +29,8 @@
 namespace {
 
 constexpr int kKeyframes = 21;
-constexpr double kSlidStep = 10, kWait = 60.0;  // s of wall time for any one answer
+constexpr int kSlidStep = 10;    // the keyframe whose step was measured 1.4 m
+constexpr double kWait = 60.0;  // s of wall time for any one answer
 
 /// A small room around the robot (enough for a map; the back end does not match scans).
 laser_loop_closure::Scan360 roomScan(const std_msgs::Header& header) {

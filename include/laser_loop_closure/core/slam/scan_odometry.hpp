@@ -114,10 +114,11 @@ struct ScanOdometryOptions {
   /// 0.080 -> 0.213 m RMS, and not the ACES bag (docs/benchmark.md). 0: off.
   double motion_prior_weight = 0.0;
   /// icp.trim_fraction where the laser's motion made the seed (the motion model, the last
-  /// scan's pose; not the wheels, not a correlative search's best pose): from a seed that missed a motion along a corridor, the few
-  /// points that see it (a door frame ahead) are the pairs farthest off, and trimming them keeps
-  /// the seed; the robot then stands still in the map while it drives (the Intel log laser-only,
-  /// scans 1,935-2,000: 4.2 m driven, 1.2 m taken). The wheels' seeds keep icp.trim_fraction.
+  /// scan's pose; not the wheels, not a correlative search's best pose): from a seed that
+  /// missed a motion along a corridor, the few points that see it (a door frame ahead) are the
+  /// pairs farthest off, and trimming them keeps the seed; the robot then stands still in the
+  /// map while it drives (the Intel log laser-only, scans 1,935-2,000: 4.2 m driven, 1.2 m
+  /// taken). The wheels' seeds keep icp.trim_fraction.
   double laser_seeded_trim_fraction = 0.98;
   double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
