@@ -40,6 +40,9 @@ std::string ScanOdometryOptions::validate() const {
   if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";
   if (!(laser_seeded_trim_fraction > 0.0 && laser_seeded_trim_fraction <= 1.0))
     return "laser_seeded_trim_fraction must be in (0, 1]";
+  if (!(laser_seeded_polish_translation >= 0.0) || !std::isfinite(laser_seeded_polish_translation) ||
+      !(laser_seeded_polish_rotation >= 0.0) || !std::isfinite(laser_seeded_polish_rotation))
+    return "laser_seeded_polish_translation and laser_seeded_polish_rotation must be finite and >= 0";
   if (!(max_prediction_gap >= 0.0) || !std::isfinite(max_prediction_gap)) return "max_prediction_gap must be finite and >= 0";
   if (!(max_speed > 0.0) || !(max_turn_rate > 0.0)) return "max_speed and max_turn_rate must be > 0";
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
@@ -70,6 +73,18 @@ IcpOptions ScanOdometry::laserSeeded(IcpOptions options) const {
   options = withoutRemapping(options);
   options.trim_fraction = options_.laser_seeded_trim_fraction;
   return options;
+}
+
+IcpResult ScanOdometry::polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp,
+                                          const IcpPrior* prior) const {
+  if (options_.laser_seeded_polish_translation == 0.0 || !icp.converged) return icp;
+  const IcpResult polished =
+      alignIcp(current.points, previous.icp_target, icp.pose, withoutRemapping(options_.icp), &current.icp_target.normals, nullptr, prior);
+  if (!polished.converged) return icp;
+  const Pose2 moved = between(icp.pose, polished.pose);
+  const bool near = std::hypot(moved.x, moved.y) <= options_.laser_seeded_polish_translation &&
+                    std::abs(moved.theta) <= options_.laser_seeded_polish_rotation;
+  return near ? polished : icp;
 }
 
 bool ScanOdometry::samePose(const Pose2& a, const Pose2& b) {
@@ -163,6 +178,9 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   const IcpPrior prior{guess, prior_on_guess && !guess_from_wheels ? options_.motion_prior_weight : 0.0};
   IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals, nullptr,
                            prior.weight > 0.0 ? &prior : nullptr);
+  // Those kept pairs include points newly in view with no counterpart, which pull a little:
+  // polished with the usual trim, within a bound that keeps the motion the 98% found.
+  if (!guess_from_wheels) icp = polishLaserSeeded(previous, current, icp, prior.weight > 0.0 ? &prior : nullptr);
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;

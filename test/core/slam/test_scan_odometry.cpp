@@ -521,6 +521,52 @@ TEST(ScanOdometry, ASeedFromTheLaserKeepsThePairsThatSeeAMotionAlongACorridor) {
   EXPECT_NEAR(wheels.motion.x, 0.3, 0.02);
 }
 
+/// The room of roomScan as 360 beams see it from (x, 0), with, when `person`, someone standing
+/// 0.4 m in front of its far wall: a metre of new surface the room's first scan never saw.
+llc::Scan roomWithVisitorScan(double x, bool person) {
+  std::vector<Wall> walls = {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},    {-6, 4, -6, -4},
+                             {1, 1, 2, 1},    {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1},
+                             {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+  if (person) walls.push_back({-1.0, -3.6, 0.0, -3.6});
+  llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, 0.0, scan.bearings[i]);
+  return scan;
+}
+
+TEST(ScanOdometry, AStepFromTheLaserSeedIsPolishedWithoutThePointsNewlyInView) {
+  // The new scan holds 4% of points with no counterpart (a visitor 0.4 m before the wall):
+  // keeping 98% of the pairs keeps half of them, and they pull the step 2.5 mm towards them;
+  // ICP again from there with a tenth trimmed drops them all and finds the step (0.07 mm).
+  const llc::ScanAligner aligner;
+  const auto first = aligner.prepare(roomWithVisitorScan(0.0, false));
+  const auto second = aligner.prepare(roomWithVisitorScan(0.5, true));
+  const llc::Pose2 predicted{0.45, 0.03, 0.01};
+  llc::ScanOdometryOptions unpolished;
+  unpolished.laser_seeded_polish_translation = 0.0;
+  const llc::OdometryStep pulled = llc::ScanOdometry(unpolished).match(*first, *second, predicted, false);
+  ASSERT_TRUE(pulled.matched) << pulled.reject_reason;
+  const double pulled_error = std::hypot(pulled.motion.x - 0.5, pulled.motion.y);
+  const llc::ScanOdometryOptions defaults;
+  ASSERT_GT(defaults.laser_seeded_polish_translation, 0.0);
+  const llc::OdometryStep step = llc::ScanOdometry(defaults).match(*first, *second, predicted, false);
+  ASSERT_TRUE(step.matched) << step.reject_reason;
+  const double error = std::hypot(step.motion.x - 0.5, step.motion.y);
+  EXPECT_GT(pulled_error, 0.0015) << "the visitor was expected to pull the unpolished step";
+  EXPECT_LT(error, 0.0005);
+  EXPECT_LT(std::abs(step.motion.theta), 0.0005);
+  // Bounded: a polish that would move farther than laser_seeded_polish_translation is not taken.
+  llc::ScanOdometryOptions tight = defaults;
+  tight.laser_seeded_polish_translation = 0.25 * pulled_error;
+  const llc::OdometryStep kept = llc::ScanOdometry(tight).match(*first, *second, predicted, false);
+  EXPECT_NEAR(kept.motion.x, pulled.motion.x, 1e-9);
+  EXPECT_NEAR(kept.motion.y, pulled.motion.y, 1e-9);
+  // The wheels' seed is matched with a tenth trimmed already: nothing to polish, same step.
+  const llc::OdometryStep wheels = llc::ScanOdometry(defaults).match(*first, *second, predicted, true);
+  const llc::OdometryStep wheels_unpolished = llc::ScanOdometry(unpolished).match(*first, *second, predicted, true);
+  EXPECT_EQ(wheels.motion.x, wheels_unpolished.motion.x);
+  EXPECT_EQ(wheels.motion.y, wheels_unpolished.motion.y);
+}
+
 TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
   llc::ScanOdometryOptions options;
   options.correlative_min_score_gain = 1.5;
@@ -542,6 +588,18 @@ TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
     EXPECT_NE(options.validate().find("laser_seeded_trim_fraction must be in (0, 1]"), std::string::npos) << bad;
   }
   options.laser_seeded_trim_fraction = 1.0;
+  EXPECT_EQ(options.validate(), "");
+  for (double bad : {-0.01, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    options = {};
+    options.laser_seeded_polish_translation = bad;
+    EXPECT_NE(options.validate().find("laser_seeded_polish_translation and laser_seeded_polish_rotation must be finite and >= 0"),
+              std::string::npos) << bad;
+    options = {};
+    options.laser_seeded_polish_rotation = bad;
+    EXPECT_NE(options.validate().find("laser_seeded_polish_rotation must be finite"), std::string::npos) << bad;
+  }
+  options = {};
+  options.laser_seeded_polish_translation = 0.0;  // off
   EXPECT_EQ(options.validate(), "");
 }
 

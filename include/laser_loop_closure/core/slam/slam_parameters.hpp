@@ -80,6 +80,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/max_stamp_jitter", odometry.max_stamp_jitter);
   visit("odometry/motion_prior_weight", odometry.motion_prior_weight);
   visit("odometry/laser_seeded_trim_fraction", odometry.laser_seeded_trim_fraction);
+  visit("odometry/laser_seeded_polish_translation", odometry.laser_seeded_polish_translation);
+  visit("odometry/laser_seeded_polish_rotation", odometry.laser_seeded_polish_rotation);
   visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visit("odometry/max_speed", odometry.max_speed);
   visit("odometry/max_turn_rate", odometry.max_turn_rate);
