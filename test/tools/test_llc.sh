@@ -95,6 +95,16 @@ check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/p
 # agree with the truth to well under a milliradian (real 180-degree logs: several milliradians).
 check "triangle_closure: the simulated drive's steps close" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/triangle_closure.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --llc '$LLC' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"triangles\"] > 100 && v[\"triangles_gross\"] < 0.05 * v[\"triangles\"] && v[\"closure_heading_rms_rad\"] < 0.001 && v[\"truth_heading_rms_rad\"] < 0.001 ? \"ok\" : \"not ok\")}'"
 check "triangle_closure: a run without trajectory.csv" 1 "triangle_closure: no .*trajectory.csv" -- /usr/bin/python3 "$REPO/scripts/lib/triangle_closure.py" "$TMP/none_run" "$TMP/sim/sim.log"
+# scripts/lib/step_truth_check.py: the simulated drive's truth is exact, so no step is degrees off
+# it and ICP from the truth's own step hardly moves; a step made 5.7 degrees off (the first 20
+# keyframes' steps, one edited) is listed, and the scans side with the truth there, not the run.
+check "step_truth_check: the simulated drive's steps agree with its truth" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/step_truth_check.py' '$TMP/slam_truth' '$TMP/sim/sim.log' --llc '$LLC' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"steps\"] > 1000 && v[\"steps_aligned_from_reference\"] == v[\"steps\"] && v[\"steps_off_by_min_deg\"] == 0 && v[\"icp_move_from_reference_deg_median\"] < 0.05 ? \"ok\" : \"not ok\")}'"
+mkdir -p "$TMP/stc_edit" && head -21 "$TMP/slam_truth/odometry_steps.csv" | awk -F, 'BEGIN {OFS = ","} NR > 1 && $1 == 5 {$10 = 0.1} {print}' > "$TMP/stc_edit/odometry_steps.csv"
+check "step_truth_check: a step made 5.7 degrees off is listed, the scans with the truth" 0 "^5,[0-9]+,[0-9]+,5.73,[0-9.]+,0.[0-9]+,[0-9.]+,[0-9.]+,0$" -- /usr/bin/python3 "$REPO/scripts/lib/step_truth_check.py" "$TMP/stc_edit" "$TMP/sim/sim.log" --llc "$LLC"
+check "step_truth_check: the counts" 0 "^steps_off_by_min_deg=1 " -- /usr/bin/python3 "$REPO/scripts/lib/step_truth_check.py" "$TMP/stc_edit" "$TMP/sim/sim.log" --llc "$LLC"
+check "step_truth_check: a run without odometry_steps.csv" 1 "step_truth_check: no .*odometry_steps.csv" -- /usr/bin/python3 "$REPO/scripts/lib/step_truth_check.py" "$TMP/none_run" "$TMP/sim/sim.log"
+check "step_truth_check: --min-deg -1" 2 "step_truth_check: --min-deg must be a number >= 0" -- /usr/bin/python3 "$REPO/scripts/lib/step_truth_check.py" "$TMP/stc_edit" "$TMP/sim/sim.log" --min-deg -1
+check "step_truth_check: no such log" 1 "step_truth_check: no log " -- /usr/bin/python3 "$REPO/scripts/lib/step_truth_check.py" "$TMP/stc_edit" "$TMP/no_such.log"
 # scripts/lib/wall_directions.py: the simulated town's walls meet at right angles, so by its
 # truth (the TRUEPOS after each FLASER) every block's walls keep one direction, and the run's
 # heading (0.5 m RMS at most) stays with them. The FLASER poses (odometry) would be degrees off.
