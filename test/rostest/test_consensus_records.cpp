@@ -184,6 +184,12 @@ TEST(ConsensusRecords, RefusedLoopsThatAgreeAreAppliedAndRepublished) {
       << "graph_markers: " << collected.lines("loops_applied_by_consensus") << " loops applied by consensus";
   EXPECT_EQ(collected.lines("loops_applied"), 0u);
   EXPECT_EQ(collected.lines("loops_refused_by_gate"), 1u);
+  // What scripts/test prints as this rostest's measured line.
+  RecordProperty("loop_records", int(records.size()));
+  RecordProperty("loops_applied_by_consensus",
+                 int(health.value("loops applied by consensus (refused by the gate, then agreed with others)")));
+  RecordProperty("loops_refused_by_gate", int(health.value("loops refused by the gate")));
+  RecordProperty("keyframe_15_from_0_mm", int(std::lround(1000.0 * gap(0, 15))));
 }
 
 }  // namespace
