@@ -371,11 +371,15 @@ TEST(ScanOdometry, TheFrontEndFeedsTheCalibrationPairsItsOwnOdometryPutsSurelyAp
   }
 }
 
-/// A 12 x 8 m room with a pillar and two niches, as 360 beams see it from `pose`.
+/// A 12 x 8 m room with a pillar and two niches.
+std::vector<Wall> roomWalls() {
+  return {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},    {-6, 4, -6, -4}, {1, 1, 2, 1},
+          {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1}, {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+}
+
+/// The room of roomWalls as 360 beams see it from `pose`.
 llc::Scan roomScan(const llc::Pose2& pose) {
-  const std::vector<Wall> walls = {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},   {-6, 4, -6, -4},
-                                   {1, 1, 2, 1},    {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1},
-                                   {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+  const std::vector<Wall> walls = roomWalls();
   llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
   for (std::size_t i = 0; i < scan.ranges.size(); ++i)
     scan.ranges[i] = castRay(walls, pose.x, pose.y, pose.theta + scan.bearings[i]);
@@ -521,12 +525,10 @@ TEST(ScanOdometry, ASeedFromTheLaserKeepsThePairsThatSeeAMotionAlongACorridor) {
   EXPECT_NEAR(wheels.motion.x, 0.3, 0.02);
 }
 
-/// The room of roomScan as 360 beams see it from (x, 0), with, when `person`, someone standing
+/// The room of roomWalls as 360 beams see it from (x, 0), with, when `person`, someone standing
 /// 0.4 m in front of its far wall: a metre of new surface the room's first scan never saw.
 llc::Scan roomWithVisitorScan(double x, bool person) {
-  std::vector<Wall> walls = {{-6, -4, 6, -4}, {6, -4, 6, 4},   {6, 4, -6, 4},    {-6, 4, -6, -4},
-                             {1, 1, 2, 1},    {2, 1, 2, 1.5},  {2, 1.5, 1, 1.5}, {1, 1.5, 1, 1},
-                             {-3, 4, -3, 3.2}, {4, -4, 4, -3.5}};
+  std::vector<Wall> walls = roomWalls();
   if (person) walls.push_back({-1.0, -3.6, 0.0, -3.6});
   llc::Scan scan = llc_test::ringScan(std::vector<double>(360));
   for (std::size_t i = 0; i < scan.ranges.size(); ++i) scan.ranges[i] = castRay(walls, x, 0.0, scan.bearings[i]);
