@@ -356,7 +356,7 @@ int runSlam(const Args& args) {
   }
   // With wheels, the scans the nodelets would get no odometry for are left out as they are
   // there (a bag's first scan before its first odometry message: FR079).
-  llc::ScanSequence sequence = loadSequence(input, args, !args.has("no-wheel-odometry"));
+  llc::ScanSequence sequence = loadSequence(input, args, true);
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
   // Decided before any odometry shift: a log whose true poses are its odometry has no truth
   // (unless its odometry is drifted below: then those poses are the truth).

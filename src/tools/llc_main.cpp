@@ -88,7 +88,7 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
-             "wrong-loop-deg"},
+             "wrong-loop-deg", "seq-reorder-scans"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
@@ -104,7 +104,9 @@ const std::vector<Command>& commands() {
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
-       "       keeping the truth: moderate as written, strong twice each figure)"},
+       "       keeping the truth: moderate as written, strong twice each figure)\n"
+       "      [--seq-reorder-scans 20]   (a bag mapped without wheel odometry: its scans in header.seq order, as the\n"
+       "       loop_closure nodelet's seq_reorder_scans; 0: off)"},
       {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out", "mount-from"}, kInputFlags), {},
        "relations --log LOG (--poses DIR/scans.csv | --keyframes CSV) --relations R [--out ERRORS.csv]\n"
        "      [--mount-from BAG]\n"

@@ -183,11 +183,20 @@ llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& ar
   return bagOptions(args);
 }
 
-llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool skip_scans_outside_odometry) {
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping) {
   std::vector<std::string> warnings;
   llc::ScanSequence sequence;
   llc_ros::BagReadOptions bag_options = driveReadOptions(path, args);  // a bad flag: UsageError, not ToolError
-  bag_options.skip_scans_outside_odometry = skip_scans_outside_odometry;
+  if (mapping) {
+    const bool without_wheels = args.has("no-wheel-odometry");
+    bag_options.skip_scans_outside_odometry = !without_wheels;
+    bag_options.without_wheels = without_wheels;
+    bag_options.seq_reorder.scans = int(args.integer("seq-reorder-scans", llc::SeqReorderOptions{}.scans));
+    const std::string invalid = bag_options.seq_reorder.validate();
+    if (!invalid.empty()) throw UsageError("--seq-reorder-scans: " + invalid);
+    if (args.has("seq-reorder-scans") && !llc_ros::isBagPath(path))
+      throw UsageError("--seq-reorder-scans is for a bag (a log's lines are in the order they were written)");
+  }
   try {
     sequence = llc_ros::loadDrive(path, bag_options, &warnings);
   } catch (const std::runtime_error& e) {

@@ -85,9 +85,11 @@ llc_ros::BagReadOptions bagOptions(const Args& args);
 /// A CARMEN log (.log, .log.gz, any other name) or a rosbag (.bag, topics from kInputFlags).
 /// bagOptions, after checking that the flags only a bag takes come with a bag (UsageError).
 llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& args);
-/// skip_scans_outside_odometry: a bag's scans the nodelets would get no odometry for are left
-/// out (BagReadOptions; for mapping with wheel odometry).
-llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool skip_scans_outside_odometry = false);
+/// mapping (llc slam): a bag is read as the nodelets take it (BagReadOptions): with wheel
+/// odometry the scans they would get no odometry for are left out; without (--no-wheel-odometry)
+/// the scans are put in header.seq order (--seq-reorder-scans, default the nodelet's
+/// seq_reorder_scans; 0: off).
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping = false);
 using llc_ros::extractAll;
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args);

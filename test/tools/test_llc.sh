@@ -156,6 +156,8 @@ printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam: --odometry-time-offset out of range" 2 "odometry-time-offset must be in \[-1, 1\] s" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --odometry-time-offset 2
 check "slam: --odometry-time-offset on a log" 2 "odometry-time-offset is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --odometry-time-offset -0.1
+check "slam: --seq-reorder-scans negative" 2 "seq_reorder_scans must be 0" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --no-wheel-odometry --seq-reorder-scans -1
+check "slam: --seq-reorder-scans on a log" 2 "seq-reorder-scans is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --seq-reorder-scans 5
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
 check "slam: the saved session maps a second run as a new chain" 0 "restored [0-9]+ keyframes .*a new chain" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_again" --quiet --load-session "$TMP/sim.llcsession"
 check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F= -v first="$(awk -F, '$3 == 1' "$TMP/slam/loops.csv" | wc -l)" '

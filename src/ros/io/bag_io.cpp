@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <utility>
@@ -59,6 +60,24 @@ void loadStaticTransforms(rosbag::Bag& bag, tf2::BufferCore* buffer) {
       t.header.frame_id = tfFrame(t.header.frame_id), t.child_frame_id = tfFrame(t.child_frame_id);
       buffer->setTransform(t, "bag", true);
     }
+  }
+}
+
+/// The scans in their driver's numbering, as the loop_closure nodelet takes them without wheels.
+void putInSeqOrder(const llc::SeqReorderOptions& options, const std::vector<std::uint32_t>& seqs,
+                   llc::ScanSequence* sequence, BagReadReport* r) {
+  llc::SeqReorder<llc::LoggedScan> reorder(options);
+  std::vector<llc::LoggedScan> ordered;
+  ordered.reserve(sequence->scans.size());
+  for (std::size_t k = 0; k < seqs.size(); ++k) reorder.push(seqs[k], std::move(sequence->scans[k]), &ordered);
+  reorder.flush(&ordered);
+  sequence->scans = std::move(ordered);
+  r->seq_reorder = reorder.counters();
+  const std::size_t late = reorder.counters().late_skipped;
+  if (late > 0) {
+    r->skipped_scans += late;
+    if (r->first_problem.empty())
+      r->first_problem = std::to_string(late) + " front scans came after their place in header.seq order had passed";
   }
 }
 
@@ -124,6 +143,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     sequence.has_odometry = !odometry.samples.empty();
     sequence.source = path;
     double last_stamp = -std::numeric_limits<double>::infinity();
+    std::vector<std::uint32_t> seqs;  ///< of the scans in sequence.scans
     auto skip = [&](const std::string& why) {
       ++r.skipped_scans;
       if (r.first_problem.empty()) r.first_problem = why;
@@ -175,7 +195,9 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
       logged.odometry = odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(odometry_stamp));
       logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
       sequence.scans.push_back(std::move(logged));
+      seqs.push_back(front->header.seq);
     }
+    if (options.without_wheels || odometry.samples.empty()) putInSeqOrder(options.seq_reorder, seqs, &sequence, &r);
     return sequence;
   } catch (const rosbag::BagException& e) {
     throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");

@@ -31,6 +31,12 @@ llc::ScanSequence loadDrive(const std::string& path, const BagReadOptions& bag, 
                             "' on the base frame; it is taken to sit at x " + std::to_string(bag.fallback_mount.x) +
                             " m, y " + std::to_string(bag.fallback_mount.y) + " m, yaw " +
                             std::to_string(bag.fallback_mount.theta) + " rad");
+    const llc::SeqReorderCounters& order = report.seq_reorder;
+    if (order.out_of_order_seen && warnings)
+      warnings->push_back(path + ": front scans out of their header.seq order (mapped without wheel odometry, so "
+                          "put back in it): " + std::to_string(order.reordered) + " held for the ones before them, " +
+                          std::to_string(order.late_skipped) + " skipped as late, " + std::to_string(order.gaps_given_up) +
+                          " missing numbers given up");
     if (report.truth_from_odometry && warnings)
       warnings->push_back(path + ": no messages on the truth topic; poses come from odometry");
   } else {

@@ -21,6 +21,7 @@ std::string LoopClosureNodeOptions::validate() const {
   if (publish_odometry_tf && use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   if (wheel_odometry_wait_scans < 0) return "wheel_odometry_wait_scans must be 0 (wait for ever) or more";
+  if (seq_reorder_scans < 0) return "seq_reorder_scans must be 0 (off) or more";
   // Not later than the scan: tf's filter lets a scan through once its own stamp's transform is
   // there, and a later one might not be yet.
   if (!(odometry_time_offset >= -1.0 && odometry_time_offset <= 0.0))
@@ -63,6 +64,9 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   // Without wheels every scan is a step of the odometry chain: none is skipped to catch up.
   backlog.max_lag = options_.use_wheel_odometry ? options_.max_lag : 0.0;
   backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(backlog);
+  llc::SeqReorderOptions order;
+  order.scans = options_.seq_reorder_scans;
+  seq_order_ = llc::SeqReorder<PendingScan>(order);
   worker_ = std::thread([this] { work(); });
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
@@ -82,7 +86,10 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   service_thread_.start();
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureRos::diagnose);
-  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
+    releaseHeldScans();
+    diagnostics_.force_update();
+  });
 }
 
 LoopClosureRos::~LoopClosureRos() {
@@ -103,6 +110,7 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
     pending.index = scans_received_++;
+    last_arrival_ = pending.arrival;
     const ros::Time stamp = msg->header.stamp;
     if (!newest_received_stamp_.isZero() && stamp + ros::Duration(kClockJumpBack) < newest_received_stamp_) {
       // A looped bag or a reset clock (TfListener clears the tf history on its own): scans
@@ -237,10 +245,40 @@ void LoopClosureRos::onOdometryFailure(const laser_loop_closure::Scan360::ConstP
 }
 
 void LoopClosureRos::enqueue(PendingScan scan) {
-  const double stamp = scan.msg->header.stamp.toSec();
-  if (backlog_->push(std::move(scan), stamp) > 0)
-    ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: one where they lie closest in time was dropped (queue_size)%s",
-                      options_.queue_size, options_.use_wheel_odometry ? "" : "; without wheel odometry the chain's steps grow longer");
+  std::vector<PendingScan> due;
+  if (!options_.use_wheel_odometry || without_wheels_) {
+    // The scans before a scan predict it: their order is the motion's clock (llc::SeqReorder).
+    const llc::SeqReorderCounters before = seq_order_.counters();
+    const std::uint32_t seq = scan.msg->front_seq;  // read before the scan moves on
+    seq_order_.push(seq, std::move(scan), &due);
+    const llc::SeqReorderCounters& now = seq_order_.counters();
+    if (now.out_of_order_seen && !before.out_of_order_seen)
+      ROS_WARN("loop_closure: a scan came after one its driver numbered higher (header.seq): without wheel odometry "
+               "the scans are put back in that order from now on, up to seq_reorder_scans %d held", options_.seq_reorder_scans);
+    if (now.late_skipped > before.late_skipped)
+      ROS_WARN_THROTTLE(5.0, "loop_closure: a scan came after its place in header.seq order had passed: skipped (%zu so far)",
+                        now.late_skipped);
+  } else {
+    due.push_back(std::move(scan));
+  }
+  toBacklog(due);
+}
+
+void LoopClosureRos::releaseHeldScans() {
+  std::lock_guard<std::mutex> lock(receive_mutex_);
+  if (seq_order_.held() == 0 || std::chrono::steady_clock::now() - last_arrival_ < std::chrono::milliseconds(500)) return;
+  std::vector<PendingScan> due;
+  seq_order_.flush(&due);
+  toBacklog(due);
+}
+
+void LoopClosureRos::toBacklog(std::vector<PendingScan>& due) {
+  for (PendingScan& next : due) {
+    const double stamp = next.msg->header.stamp.toSec();
+    if (backlog_->push(std::move(next), stamp) > 0)
+      ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: one where they lie closest in time was dropped (queue_size)%s",
+                        options_.queue_size, options_.use_wheel_odometry ? "" : "; without wheel odometry the chain's steps grow longer");
+  }
 }
 
 void LoopClosureRos::work() {
@@ -460,8 +498,10 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0, behind_older = 0;
   std::size_t jumps_back = 0, given_up = 0, behind_newer = 0, at_scan_stamp = 0;
   std::string filter_problem;
+  llc::SeqReorderCounters order;
   {
     std::lock_guard<std::mutex> lock(receive_mutex_);
+    order = seq_order_.counters();
     received = scans_received_, passed = filter_passed_, failed = filter_failed_, lookup_failed = lookup_failed_;
     awaiting = awaiting_odometry_.size();
     behind_older = resolved_.size();
@@ -492,6 +532,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
   status.add("scans with odometry at their own stamp, none at stamp + odometry_time_offset", at_scan_stamp);
+  status.add("without wheels, scans came out of header.seq order", order.out_of_order_seen ? "yes" : "no");
+  status.add("scans held for the ones before them in header.seq order", order.reordered);
+  status.add("scans skipped, late for their place in header.seq order", order.late_skipped);
   status.add("scans waiting for the front end", backlog.waiting);
   status.add("lag behind the newest scan (s)", backlog.lag);
   status.add("largest lag (s)", backlog.largest_lag);

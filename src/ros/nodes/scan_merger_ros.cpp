@@ -195,7 +195,11 @@ void ScanMergerRos::publish(const llc::Scan& front, const llc::Scan* back, const
   last_published_stamp_ = header.stamp;
   const llc::Scan merged = back ? llc::mergeScans(front, *back) : front;
   ++(back ? merged_ : front_only_);
-  scan360_pub_.publish(toScan360(merged, header));
+  laser_loop_closure::Scan360 scan360 = toScan360(merged, header);
+  // The driver's numbering, for loop_closure without wheels (llc::SeqReorder): header.seq
+  // itself does not survive, roscpp numbers every message it sends anew.
+  scan360.front_seq = front_msg.header.seq;
+  scan360_pub_.publish(scan360);
   if (laser_pub_.getNumSubscribers() > 0) {
     llc::ScanMergeOptions resample;
     resample.output_beams = std::size_t(options_.output_beams);

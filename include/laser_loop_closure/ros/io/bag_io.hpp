@@ -7,6 +7,7 @@
 #include <string>
 
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/slam/seq_reorder.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 
 namespace llc_ros {
@@ -37,6 +38,11 @@ struct BagReadOptions {
   /// counted in the report. For mapping with wheel odometry, so that `llc slam --bag` sees the
   /// scans the nodelets see; off, such a scan gets the first or last reading (held).
   bool skip_scans_outside_odometry = false;
+  /// Mapping without wheel odometry (or the bag has none): the front scans are put back in their
+  /// header.seq order as the loop_closure nodelet does (llc::SeqReorder; its seq_reorder_scans),
+  /// after the scans not newer than the one before are skipped (as scan_merger skips them).
+  bool without_wheels = false;
+  llc::SeqReorderOptions seq_reorder{0};  ///< off unless asked for (llc slam asks: --seq-reorder-scans)
 };
 
 /// What the reader met besides the scans it returns.
@@ -48,6 +54,7 @@ struct BagReadReport {
   std::string first_problem;
   bool truth_from_odometry = false;  ///< no truth topic: poses for labelling came from odometry
   std::vector<std::string> fallback_frames;  ///< scanner frames /tf_static did not mount: on fallback_mount
+  llc::SeqReorderCounters seq_reorder;  ///< without wheels: scans put back in header.seq order (those late are in skipped_scans)
 };
 
 /// A bag that cannot be read as a drive; what() names the file and the problem.
@@ -62,7 +69,8 @@ class BagError : public std::runtime_error {
 /// an error). Truth and odometry poses are interpolated at each scan's stamp (the odometry at the
 /// stamp + odometry_time_offset, or, as the nodelets do, at the stamp itself where the odometry
 /// does not reach stamp + offset but reaches the stamp; a non-finite offset is a BagError). Front scans
-/// that are malformed (see toScan) or older than the scan before them are skipped and counted.
+/// that are malformed (see toScan) or older than the scan before them are skipped and counted;
+/// without wheels, the rest are then put in header.seq order (see without_wheels).
 llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions& options = {},
                                   BagReadReport* report = nullptr);
 

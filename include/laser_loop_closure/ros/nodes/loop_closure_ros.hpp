@@ -36,6 +36,7 @@
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/slam/scan_backlog.hpp"
+#include "laser_loop_closure/core/slam/seq_reorder.hpp"
 #include "laser_loop_closure/ros/io/callback_thread.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/ros/io/session_parts.hpp"
@@ -66,6 +67,10 @@ struct LoopClosureNodeOptions {
   /// s of scan time the worker may fall behind the newest scan before it skips the oldest
   /// waiting scans, to catch up (with wheel odometry only: without, every scan is odometry); 0: never.
   double max_lag = 5.0;
+  /// Without wheel odometry: scans that come out of their driver's order (header.seq) are put
+  /// back in it, at most this many held while one numbered lower is missing (llc::SeqReorder;
+  /// a bag sorted by stamps its log wrote after the scans were taken); 0: off.
+  int seq_reorder_scans = llc::SeqReorderOptions{}.scans;
   std::string trained_model_path = "llc_classifier.yaml";  ///< default file of ~train_classifier (relative: to the working directory)
   /// The back end's place check (PlaceCheck.srv), asked for every candidate when
   /// place_gate/enabled (as `llc slam` asks its back end); unanswered: the candidate is aligned.
@@ -87,6 +92,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("tf_queue_size", o.tf_queue_size);
   visit("queue_size", o.queue_size);
   visit("max_lag", o.max_lag);
+  visit("seq_reorder_scans", o.seq_reorder_scans);
   visit("trained_model_path", o.trained_model_path);
   visit("place_check_service", o.place_check_service);
   visit("nearby_service", o.nearby_service);
@@ -125,7 +131,12 @@ class LoopClosureRos {
   /// The scan's wheel odometry from tf at its stamp + odometry_time_offset (when that is not in
   /// tf, at its stamp: the start of a drive; counted); false with the lookup's error. Under receive_mutex_.
   bool lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose, std::string* error);
+  /// To the backlog; without wheels through seq_order_ first. Under receive_mutex_.
   void enqueue(PendingScan scan);
+  /// The scans seq_order_ holds, once no scan came for half a second of wall time (a bag ended
+  /// or paused while one was missing). Timer thread.
+  void releaseHeldScans();
+  void toBacklog(std::vector<PendingScan>& due);  ///< in order; under receive_mutex_
   /// The worker thread: takes scans from the backlog through the front end until stopped.
   void work();
   void processScan(const PendingScan& pending);
@@ -180,6 +191,8 @@ class LoopClosureRos {
   std::map<const laser_loop_closure::Scan360*, PendingScan> awaiting_odometry_;  ///< scans in the tf filter
   std::map<std::size_t, std::optional<PendingScan>> resolved_;  ///< passed (or dropped) ahead of an older scan
   std::size_t next_release_ = 0;  ///< index of the next scan the backlog gets
+  llc::SeqReorder<PendingScan> seq_order_;  ///< without wheels: the scans in header.seq order (seq_reorder_scans)
+  std::chrono::steady_clock::time_point last_arrival_;  ///< of the newest scan received
   /// Scan stamps back by more than this (s) are a restart: a looped bag or a reset clock (as the merger's rule).
   static constexpr double kClockJumpBack = 1.0;
   ros::Time newest_received_stamp_;
