@@ -19,6 +19,7 @@
 #include "laser_loop_closure/core/common/file_util.hpp"
 #include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/io/g2o_io.hpp"
 #include "laser_loop_closure/core/io/reference_truth.hpp"
 #include "laser_loop_closure/core/map/map_picture.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
@@ -191,6 +192,34 @@ void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::Odome
   out.commit();
 }
 
+/// The truth the run was judged against, one row per scan (llc relations --keyframes truth.csv,
+/// scripts/lib/*.py): matched 1 where --truth found the scan in the reference, 0 where its pose
+/// was carried by odometry; 1 for every scan when the truth is the input's own (--evaluate, --drift).
+void writeTruth(const llc::ScanSequence& sequence, const std::vector<bool>* matched, const std::string& path) {
+  llc::AtomicTextFile out(path);
+  out << "index,stamp,x,y,theta,matched\n";
+  for (std::size_t i = 0; i < sequence.scans.size(); ++i) {
+    const llc::LoggedScan& s = sequence.scans[i];
+    out << i << "," << std::fixed << std::setprecision(6) << s.stamp << "," << s.truth.x << "," << s.truth.y << ","
+        << s.truth.theta << "," << (!matched || (*matched)[i] ? 1 : 0) << "\n";
+  }
+  out.commit();
+}
+
+/// The back end's pose graph as g2o: the optimised keyframe poses and every constraint in the
+/// order applied, each with the information it holds now (a robust loop's scaled by its
+/// weight), so that llc graph --batch on the file solves the system the run ended with.
+void writeFinalGraph(const llc::SlamPipeline& slam, const std::string& path) {
+  llc::PoseGraph2 graph;
+  graph.poses = slam.poses();
+  graph.had_vertices = true;
+  const llc::Esdf* esdf = slam.backEnd().esdf();
+  graph.edges = esdf->constraints();
+  const std::vector<double>& weights = esdf->constraintWeights();
+  for (std::size_t i = 0; i < graph.edges.size() && i < weights.size(); ++i) graph.edges[i].information *= weights[i];
+  llc::writeG2o(graph, path);
+}
+
 void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions& map_options, const std::string& dir) {
   const auto& keyframes = slam.keyframes();
   const auto& poses = slam.poses();
@@ -326,6 +355,7 @@ int runSlam(const Args& args) {
   fixedOdometryOffset(args);  // checked now
   driveReadOptions(input, args);  // likewise
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
+  if (args.has("save-graph")) checkOutputFile("save-graph", args.get("save-graph", ""));
   const std::vector<llc::Relation> relations =
       args.has("relations") ? loadRelationsFile(args.get("relations", "")) : std::vector<llc::Relation>{};
   llc::SystemOptions options;
@@ -384,15 +414,6 @@ int runSlam(const Args& args) {
       lines << "truth_scans_doubtful=" << doubtful << "  (carried across a gap whose odometry misses the reference by over half "
             << "the wrong-loop threshold, or before the first or after the last matched scan)\n";
       reference_lines = lines.str();
-      // The truth itself, to be judged too (llc relations --keyframes truth.csv).
-      llc::AtomicTextFile out(dir + "/truth.csv");
-      out << "index,stamp,x,y,theta,matched\n";
-      for (std::size_t i = 0; i < sequence.scans.size(); ++i) {
-        const llc::LoggedScan& s = sequence.scans[i];
-        out << i << "," << std::fixed << std::setprecision(6) << s.stamp << "," << s.truth.x << "," << s.truth.y << ","
-            << s.truth.theta << "," << (r.matched_scans[i] ? 1 : 0) << "\n";
-      }
-      out.commit();
     } catch (const std::invalid_argument& e) {
       throw ToolError(std::string("--truth: ") + e.what());
     }
@@ -467,12 +488,23 @@ int runSlam(const Args& args) {
     }
   }
 
+  if (args.has("save-graph")) {
+    try {
+      writeFinalGraph(slam, args.get("save-graph", ""));
+    } catch (const std::exception& e) {
+      throw ToolError(e.what());
+    }
+  }
+
   const llc::SlamCounters& c = slam.counters();
   const double duration = sequence.scans.back().stamp - sequence.scans.front().stamp;
   // Restored keyframes come from another input: their scan indices do not name this one's.
   const TruthCheck truth = restored ? TruthCheck{} : checkAgainstTruth(slam, sequence, steps, not_aligned, truth_options, has_truth,
                                                                  reference_truth ? &*reference_truth : nullptr);
-  if (truth.available) writeStepErrors(slam, steps, truth, dir + "/odometry_steps.csv");
+  if (truth.available) {
+    writeStepErrors(slam, steps, truth, dir + "/odometry_steps.csv");
+    writeTruth(sequence, reference_truth ? &reference_truth->matched_scans : nullptr, dir + "/truth.csv");
+  }
   std::ostringstream report;
   report << std::setprecision(4);
   report << "input=" << input << "\n"
@@ -572,8 +604,7 @@ int runSlam(const Args& args) {
   for (const auto& reason : loop_reasons) report << "loop_refused: " << reason.first << " = " << reason.second << "\n";
   report << "seconds=" << seconds << "\n";
   llc::writeFileAtomically(dir + "/report.txt", report.str());
-  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv" : "")
-            << (args.has("truth") ? ",truth.csv" : "") << "}\n";
+  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt" << (truth.available ? ",odometry_steps.csv,truth.csv" : "") << "}\n";
   return 0;
 }
 

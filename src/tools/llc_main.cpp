@@ -86,7 +86,7 @@ const std::vector<Command>& commands() {
        "       information; a batch run is solved from two starts and an incremental one re-solved so at the end)"},
       {"slam", llc_tool::runSlam,
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
-             "save-session", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+             "save-session", "save-graph", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
              "wrong-loop-deg", "seq-reorder-scans"},
             with(kInputFlags, llc::systemParameterNames())),
@@ -101,6 +101,8 @@ const std::vector<Command>& commands() {
        "       take its poses, the rest are carried by odometry; then as --evaluate)\n"
        "      [--wrong-loop-m 1.0] [--wrong-loop-deg 5.73]   (an applied loop off the truth by more is wrong)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
+       "      [--save-graph FILE.g2o]   (the back end's pose graph at the end: its optimised keyframe poses and every\n"
+       "       constraint it applied, odometry and loops, with their information; llc graph reads it)\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto estimates N)\n"
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"

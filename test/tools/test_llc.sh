@@ -43,7 +43,12 @@ check "simulate unknown scanner" 2 "scanners must be" -- "$LLC" simulate --out "
 check "simulate unwritable dir" 1 "cannot (create|write)" -- "$LLC" simulate --out /proc/llc-sim --length-m 100
 check "simulate" 0 "x real time" -- "$LLC" simulate --out "$TMP/sim" --length-m 600 --seed 1
 # The whole pipeline on the short drive: files, their headers, and what it must achieve.
-check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet --save-session "$TMP/sim.llcsession"
+check "slam on sim.bag" 0 "^wrong_loops_accepted=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam" --quiet --save-session "$TMP/sim.llcsession" --save-graph "$TMP/slam.g2o"
+# --save-graph: a vertex per keyframe at its optimised pose (as trajectory.csv), an edge per
+# keyframe step and per applied loop; llc graph --batch finds those poses at the optimum.
+check "slam --save-graph: a vertex per keyframe, an edge per step and per applied loop" 0 "^ok$" -- bash -c "awk -F= '{v[\$1] = \$2} END {print v[\"keyframes\"], v[\"keyframes\"] - 1 + v[\"loops_accepted\"]}' '$TMP/slam/report.txt' > '$TMP/g2o_want'; echo \$(grep -c '^VERTEX_SE2 ' '$TMP/slam.g2o') \$(grep -c '^EDGE_SE2 ' '$TMP/slam.g2o') | cmp -s - '$TMP/g2o_want' && echo ok"
+check "slam --save-graph: the vertices are trajectory.csv's poses" 0 "^ok$" -- bash -c "paste -d' ' <(tail -n +2 '$TMP/slam/trajectory.csv' | tr , ' ') <(grep '^VERTEX_SE2 ' '$TMP/slam.g2o') | awk '{d = (\$3 - \$8) ^ 2 + (\$4 - \$9) ^ 2 + (\$5 - \$10) ^ 2; if (d > 1e-10) bad++} END {print (NR > 300 && !bad ? \"ok\" : \"not ok\")}'"
+check "slam --save-graph: llc graph --batch stays at the run's optimum" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/slam.g2o' --out '$TMP/slam_batch.g2o' --batch | awk '/initial_chi2=/ {sub(/.*initial_chi2=/, \"\"); a = \$1 + 0} /^chi2=/ {sub(/^chi2=/, \"\"); b = \$1 + 0} END {print (a > 0 && b <= a && b > 0.99 * a ? \"ok\" : \"not ok: \" a \" -> \" b)}'"
 check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
 check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,reason$" -- head -1 "$TMP/slam/loops.csv"
 # Every refused candidate says at which stage and why; an applied one says nothing.
@@ -78,16 +83,28 @@ check "slam: every refusal counted by its stage's name, and the counts add up" 0
 check "slam: the place gate spared alignments but skipped no true revisit" 0 "^ok$" -- awk -F= '
     {v[$1] = $2} END {print (v["candidates_not_aligned"] + 0 > 0 && ("true_pairs_not_aligned" in v) && v["true_pairs_not_aligned"] + 0 == 0 ? "ok" : "not ok: " v["candidates_not_aligned"] " / " v["true_pairs_not_aligned"])}' "$TMP/slam/report.txt"
 # Drifted odometry (a real log's perfect odometry made to drift like a wheelbase), the truth kept.
-check "slam --drift strong on sim.log: drift said, truth kept" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --out '$TMP/slam_drift' --quiet --drift strong --drift-seed 3 | grep -q '^odometry_drift: scale_bias=0.03 heading_drift=0.01 ' && awk -F= '{v[\$1] = \$2} END {print (v[\"rms_error_odometry_m\"] > v[\"rms_error_m\"] && v[\"true_loop_keyframes\"] > 0 ? \"ok\" : \"not ok\")}' '$TMP/slam_drift/report.txt'"
+check "slam --drift strong on sim.log: drift said, truth kept" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --out '$TMP/slam_drift' --quiet --drift strong --drift-seed 3 --save-graph '$TMP/slam_drift.g2o' | grep -q '^odometry_drift: scale_bias=0.03 heading_drift=0.01 ' && awk -F= '{v[\$1] = \$2} END {print (v[\"rms_error_odometry_m\"] > v[\"rms_error_m\"] && v[\"true_loop_keyframes\"] > 0 ? \"ok\" : \"not ok\")}' '$TMP/slam_drift/report.txt'"
 # --truth: the log as its own reference gives every scan its own true pose back, through the
 # rear scans merged and the scanners' offsets (so the same RMS as the run above), and no
 # pose needs carrying.
 check "slam --truth: the log itself as the reference" 0 "^truth_scans_carried=0 " -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_truth" --quiet --drift strong --drift-seed 3 --truth "$TMP/sim/sim.log"
 check "slam --truth: the same RMS as the log's own truth" 0 "^rms_error_m=$(sed -n 's/^rms_error_m=//p' "$TMP/slam_drift/report.txt")$" -- cat "$TMP/slam_truth/report.txt"
 check "slam --truth: truth.csv" 0 "^index,stamp,x,y,theta,matched$" -- head -1 "$TMP/slam_truth/truth.csv"
+# A drifted run writes the truth it was judged against too: the log's own poses, as --truth with
+# the log as its own reference gives them.
+check "slam --drift: truth.csv as --truth writes it" 0 "^ok$" -- bash -c "cmp '$TMP/slam_drift/truth.csv' '$TMP/slam_truth/truth.csv' && echo ok"
+# scripts/lib/graph_oracle.py: the saved graph solved again gives the run's RMS; with every step
+# the truth's only the loops' error is left; a heading noise per step makes it worse.
+check "graph_oracle: the run's RMS, less with the truth's steps, more with noise" 0 "^ok$" -- bash -c "/usr/bin/python3 '$REPO/scripts/lib/graph_oracle.py' '$TMP/slam_drift' '$TMP/slam_drift.g2o' --keyframes 5,6 --noise-rad 0.003 --seeds 3 --llc '$LLC' | awk -v run=\$(sed -n 's/^rms_error_m=//p' '$TMP/slam_drift/report.txt') '/^noise .*median/ {n = \$0; sub(/.*median rms_error_m=/, \"\", n); noise = n + 0; next} {for (i = 1; i <= NF; i++) if (\$i ~ /^rms_error_m=/) {sub(/rms_error_m=/, \"\", \$i); v[\$1] = \$i + 0}} END {ok = v[\"saved\"] > 0.8 * run && v[\"saved\"] < 1.2 * run && v[\"reference_steps\"] < 0.5 * v[\"saved\"] && (\"reference_listed(2)\" in v) && noise > 2 * v[\"saved\"]; print (ok ? \"ok\" : \"not ok: run \" run \" saved \" v[\"saved\"] \" steps \" v[\"reference_steps\"] \" noise \" noise)}'"
+check "graph_oracle: another run's graph" 1 "graph_oracle: .* poses, .* keyframes \(not the same run\?\)" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/slam_drift" "$TMP/slam.g2o" --llc "$LLC"
+mkdir -p "$TMP/go_notruth" && cp "$TMP/slam_drift/trajectory.csv" "$TMP/go_notruth/"
+check "graph_oracle: a run without truth.csv" 1 "graph_oracle: cannot read .*truth.csv" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/go_notruth" "$TMP/slam_drift.g2o" --llc "$LLC"
+check "graph_oracle: --noise-rad -1" 2 "graph_oracle: --noise-rad: bad value -1" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/slam_drift" "$TMP/slam_drift.g2o" --noise-rad -1
+check "graph_oracle: a step that is not in the graph" 1 "graph_oracle: no step edge into keyframe\(s\) 99999" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/slam_drift" "$TMP/slam_drift.g2o" --keyframes 99999 --llc "$LLC"
 # scripts/lib/error_along_path.py aligns the keyframes to the truth as llc slam does: the same RMS.
 check "error_along_path: llc slam's RMS" 0 "^rms_error_m=$(sed -n 's/^rms_error_m=//p' "$TMP/slam_truth/report.txt") over " -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth"
-check "error_along_path: a run without truth.csv" 1 "error_along_path: .*truth.csv" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_drift"
+mkdir -p "$TMP/eap_notruth" && cp "$TMP/slam_truth/"{trajectory,loops}.csv "$TMP/eap_notruth/"
+check "error_along_path: a run without truth.csv" 1 "error_along_path: .*truth.csv" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/eap_notruth"
 mkdir -p "$TMP/eap_nan" && cp "$TMP/slam_truth/"{truth,loops}.csv "$TMP/eap_nan/" && sed '3s/^\([^,]*\),\([^,]*\),[^,]*,/\1,\2,nan,/' "$TMP/slam_truth/trajectory.csv" > "$TMP/eap_nan/trajectory.csv"
 check "error_along_path: a pose of nan" 1 "error_along_path: .*not finite" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/eap_nan"
 check "error_along_path: --block 0" 2 "must be whole numbers >= 1" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth" --block 0
@@ -272,6 +289,7 @@ check "align: a bool parameter flag takes true/false" 2 "aligner/validation/only
 # Flags and outputs are checked before the run: nothing is written, no folder made.
 check "slam: a NaN flag is refused before the run" 2 "positive-distance must be a number, not 'nan'" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nan" --positive-distance nan
 check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_nan' && echo present || echo absent"
+check "slam: an unwritable --save-graph is refused before the run" 1 "--save-graph $TMP/no/such/g.g2o: cannot be written" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nograph" --save-graph "$TMP/no/such/g.g2o"
 check "slam: an unwritable --save-session is refused before the run" 1 "--save-session $TMP/no/such/s.llcsession: cannot be written" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_nosave" --save-session "$TMP/no/such/s.llcsession"
 check "slam: ... and left no output folder" 0 "^absent$" -- bash -c "test -e '$TMP/slam_nosave' && echo present || echo absent"
 check "features: --out a folder" 1 "--out $TMP/sim: cannot be written \(.* is a folder\)" -- "$LLC" features --log "$TMP/sim/sim.log" --out "$TMP/sim"

@@ -119,6 +119,7 @@ class SlamPipeline {
   /// The map -> odom transform (REP-105) implied by the newest keyframe; identity without odometry.
   Pose2 mapToOdom() const { return back_.mapToOdom(); }
   SlamBackEnd& backEnd() { return back_; }
+  const SlamBackEnd& backEnd() const { return back_; }
   /// The state to save: keyframes, their features, the graph and the loops.
   SlamSession session() const;
   /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
