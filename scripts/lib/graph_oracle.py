@@ -7,7 +7,7 @@ The loops stay as the run applied them. Prints, for each variant, the keyframes'
 against the reference after a rigid alignment (as `rms_error_m` in the run's report.txt).
 
   scripts/lib/graph_oracle.py RUN_DIR G.g2o [--keyframes K1,K2,...]
-                             [--noise-rad S | --noise-sigma-scale F] [--seeds 5] [--llc PATH]
+                             [--noise-rad S] [--noise-sigma-scale F] [--seeds 5] [--llc PATH]
 
 RUN_DIR holds the run's trajectory.csv (keyframe -> scan), truth.csv (the reference pose of
 every scan) and odometry_steps.csv (each step's sigma_theta). Rows:
@@ -21,8 +21,8 @@ every scan) and odometry_steps.csv (each step's sigma_theta). Rows:
   noise ... seed i        every step's heading the reference's plus Gaussian noise, its
                           translation the run's: of sigma S (--noise-rad) or of F times the step's
                           own sigma_theta (--noise-sigma-scale: an unbiased step estimator as
-                          precise as the run's step model claims); one row per seed 1..N, then
-                          their median and largest
+                          precise as the run's step model claims), each given; one row per seed
+                          1..N, then their median and largest
 The loops always stay as the run applied them.
 """
 import math
@@ -69,8 +69,6 @@ def parse(argv):
         except ValueError:
             fail(name + ": bad value " + value + " (keyframes >= 1, a sigma >= 0, seeds >= 1)", 2)
         args = args[2:]
-    if opts["noise"] is not None and opts["sigma_scale"] is not None:
-        fail("give one of --noise-rad and --noise-sigma-scale", 2)
     if opts["llc"] is None:
         opts["llc"] = shutil.which("llc") or "llc"
     return opts
@@ -201,14 +199,15 @@ def main(argv):
             out[step_edge[k]][2:4] = [dx, dy]
         return out
 
-    noise_sigma = {}
+    noise_models = []  # (label, sigma of each step's heading noise)
     if opts["noise"] is not None:
-        noise_sigma = {k: opts["noise"] for k in step_edge}
-    elif opts["sigma_scale"] is not None:
+        noise_models.append(("noise %.4g rad" % opts["noise"], {k: opts["noise"] for k in step_edge}))
+    if opts["sigma_scale"] is not None:
         steps = read_csv_rows(os.path.join(opts["run"], "odometry_steps.csv"))
-        noise_sigma = {int(r["keyframe"]): opts["sigma_scale"] * r["sigma_theta"] for r in steps}
-        if set(noise_sigma) != set(step_edge):
+        sigma = {int(r["keyframe"]): opts["sigma_scale"] * r["sigma_theta"] for r in steps}
+        if set(sigma) != set(step_edge):
             fail("odometry_steps.csv does not list every step of the graph (not the same run?)")
+        noise_models.append(("noise %.4g x sigma_theta" % opts["sigma_scale"], sigma))
 
     print("keyframes=%d steps=%d loops=%d" % (len(poses), len(step_edge), len(edges) - len(step_edge)))
     with tempfile.TemporaryDirectory() as tmp:
@@ -218,9 +217,7 @@ def main(argv):
             rows.append(("reference_listed(%d)" % len(opts["keyframes"]), edited({k: true_turn[k] for k in opts["keyframes"]})))
         for name, graph_edges in rows:
             print("%-26s rms_error_m=%.4f" % (name, aligned_rms(solve(opts, tmp, "variant", poses, graph_edges), truth)))
-        if noise_sigma:
-            label = ("noise %.4g rad" % opts["noise"]) if opts["noise"] is not None else (
-                "noise %.4g x sigma_theta" % opts["sigma_scale"])
+        for label, noise_sigma in noise_models:
             errors = []
             for seed in range(1, opts["seeds"] + 1):
                 rng = random.Random(seed)
