@@ -297,9 +297,11 @@ double suggestedTimeOffset(const Args& args, const llc::ScanSequence& sequence, 
   return std::round(seconds * 100.0) / 100.0;
 }
 
-/// --odometry-offset N (scans, checked), or nothing for auto.
+/// --odometry-offset N (scans, checked), or nothing for auto. Unset: auto for a log (a log's
+/// odometry may be written a scan early or late, and is judged by its own scans), 0 for a bag
+/// (the nodelets read its odometry at each scan's stamp, plus loop_closure/odometry_time_offset).
 std::optional<int> fixedOdometryOffset(const Args& args) {
-  if (args.get("odometry-offset", "0") == "auto") return std::nullopt;
+  if (args.get("odometry-offset", args.has("log") ? "auto" : "0") == "auto") return std::nullopt;
   const long offset = args.integer("odometry-offset", 0);
   if (std::abs(offset) > 50) throw UsageError("--odometry-offset must be auto or an integer in [-50, 50]");
   return int(offset);
@@ -323,8 +325,10 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
     table << "odometry_offset_tried: offset=" << s.offset << " pairs=" << s.pairs << " matched=" << s.matched
           << " mean_correction_m=" << s.mean_correction_m << " mean_correction_rad=" << s.mean_correction_rad << "\n";
   if (!estimate.ok) {
-    std::cerr << "warning: --odometry-offset auto: " << estimate.reason << "; using 0\n";
+    if (args.has("odometry-offset")) std::cerr << "warning: --odometry-offset auto: " << estimate.reason << "; using 0\n";
     table << "odometry_offset_estimate=none (" << estimate.reason << ")\n";
+  } else {
+    table << "odometry_offset_reason=" << estimate.reason << "\n";
   }
   choice.offset = estimate.ok ? estimate.best_offset : 0;
   if (estimate.ok) table << "odometry_time_offset_suggested=" << suggestedTimeOffset(args, sequence, choice.offset)

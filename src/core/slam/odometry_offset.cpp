@@ -4,6 +4,9 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <iomanip>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 
 namespace llc {
@@ -21,6 +24,21 @@ double mean(const std::vector<double>& values) {
   double sum = 0.0;
   for (const double v : values) sum += v;
   return values.empty() ? 0.0 : sum / double(values.size());
+}
+
+/// Paired t statistic of a - b over the pairs matched in both (0 with fewer than 2 such pairs or
+/// no spread); `count` gets their number.
+double pairedT(const std::vector<double>& a, const std::vector<double>& b, std::size_t* count) {
+  std::vector<double> differences;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    if (std::isfinite(a[i]) && std::isfinite(b[i])) differences.push_back(a[i] - b[i]);
+  *count = differences.size();
+  if (differences.size() < 2) return 0.0;
+  const double m = mean(differences);
+  double squares = 0.0;
+  for (const double d : differences) squares += (d - m) * (d - m);
+  const double standard_error = std::sqrt(squares / double(differences.size() - 1) / double(differences.size()));
+  return standard_error > 0.0 ? m / standard_error : 0.0;
 }
 
 }  // namespace
@@ -66,11 +84,13 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
                                   sequence.scans[std::size_t(i + 1 + offset)].odometry);
       const OdometryStep step = odometry.match(scan(i), scan(i + 1), guess, true);
       ++score.pairs;
+      score.correction_rad.push_back(std::numeric_limits<double>::quiet_NaN());
       if (!step.matched) continue;
       ++score.matched;
       const Pose2 correction = between(guess, step.motion);
       metres.push_back(std::hypot(correction.x, correction.y));
       radians.push_back(std::abs(correction.theta));
+      score.correction_rad.back() = radians.back();
     }
     score.mean_correction_m = mean(metres);
     score.mean_correction_rad = mean(radians);
@@ -88,7 +108,24 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
     return result;
   }
   result.ok = true;
-  result.best_offset = best->offset;
+  const OdometryOffsetScore* zero = nullptr;
+  for (const OdometryOffsetScore& s : result.scores)
+    if (s.offset == 0 && s.matched >= s.pairs / 4) zero = &s;
+  std::ostringstream why;
+  why << std::setprecision(3);
+  if (best->offset == 0) {
+    why << "offset 0 corrects least (" << best->mean_correction_rad << " rad)";
+  } else if (!zero) {
+    result.best_offset = best->offset;
+    why << "offset " << best->offset << ": scan matching failed on most pairs at offset 0";
+  } else {
+    result.best_offset = best->offset;
+    std::size_t paired = 0;
+    const double t = pairedT(zero->correction_rad, best->correction_rad, &paired);
+    why << "offset " << best->offset << " corrects " << best->mean_correction_rad << " rad against " << zero->mean_correction_rad
+        << " at 0 (paired t " << t << " over " << paired << " pairs)";
+  }
+  result.reason = why.str();
   return result;
 }
 

@@ -78,7 +78,11 @@ TEST(OdometryOffset, FindsNoShiftInASimulatedDriveAndUndoesAPlantedOne) {
   llc::shiftOdometry(&late, 2);
   const llc::OdometryOffsetResult found = estimate(late);
   ASSERT_TRUE(found.ok) << found.reason;
-  EXPECT_EQ(found.best_offset, -2);
+  EXPECT_EQ(found.best_offset, -2) << found.reason;
+  EXPECT_NE(found.reason.find("offset -2 corrects"), std::string::npos) << found.reason;
+  EXPECT_NE(found.reason.find("paired t"), std::string::npos) << found.reason;
+  EXPECT_NE(in_step.reason.find("offset 0 corrects least"), std::string::npos) << in_step.reason;
+  ASSERT_EQ(found.scores[1].correction_rad.size(), found.scores[1].pairs) << "one entry per pair, matched or not";
 }
 
 TEST(OdometryOffset, SaysWhyItCannotTell) {

@@ -58,7 +58,7 @@ struct ScanOdometryOptions {
   /// (ICP from the wheels' guess), so that every scan has a pose of its own (scans.csv, the
   /// relations metric, odom from publish_odometry_tf); one ICP per scan. Keyframes are chosen
   /// by the wheels either way. (Without wheels every scan is matched anyway.)
-  bool match_every_scan = false;
+  bool match_every_scan = true;
   /// With match_every_scan: each scan's ICP is also seeded from the last matched scan's pose
   /// carried on by the wheels' motion since (tracking), and that result is taken when it fits
   /// the scans better by track_min_fit_gain (share of points within overlap_distance) or both
