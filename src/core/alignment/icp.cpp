@@ -81,7 +81,7 @@ void findPairs(const Points2& source, const IcpTarget& target, const RigidMotion
 }  // namespace
 
 IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
-                   const Points2* source_normals, const FieldOfView* target_view, const IcpPrior* prior) {
+                   const Points2* source_normals, const FieldOfView* target_view) {
   const auto start = std::chrono::steady_clock::now();
   IcpResult result;
   result.pose = initial;
@@ -140,18 +140,7 @@ IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& 
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(normalised);
     const Eigen::Vector3d eigen = solver.eigenvalues();
     if (!(eigen(0) > options.degeneracy_ratio * eigen(2))) return finish("degenerate geometry");
-    Eigen::Matrix3d system = hessian;
-    if (prior && prior->weight > 0.0) {
-      // Position only (the scans fix the heading wherever they fix anything; pulling it too made
-      // MIT CSAIL's and ACES's rotational errors worse). The position under a small motion
-      // (dx, dy, dtheta) applied in the target frame: (x - dtheta y + dx, y + dtheta x + dy).
-      Eigen::Matrix<double, 2, 3> jacobian;
-      jacobian << 1.0, 0.0, -result.pose.y, 0.0, 1.0, result.pose.x;
-      const Eigen::Vector2d residual(result.pose.x - prior->pose.x, result.pose.y - prior->pose.y);
-      const double strength = prior->weight * double(pairs.size());
-      system += strength * jacobian.transpose() * jacobian;
-      gradient += strength * jacobian.transpose() * residual;
-    }
+    const Eigen::Matrix3d& system = hessian;
     Eigen::Vector3d step = -system.ldlt().solve(gradient);
     if (options.remap_ratio > 0.0) {
       // Solution remapping (Zhang, Kaess, Singh 2016): no step along a direction the pairs

@@ -37,7 +37,6 @@ std::string ScanOdometryOptions::validate() const {
     return "ambiguity_max_shift must be > 0 and at most twice correlative/max_range";
   if (local_map_keyframes < 1) return "local_map_keyframes must be >= 1";
   if (!(max_stamp_jitter >= 0.0)) return "max_stamp_jitter must be >= 0";
-  if (!(motion_prior_weight >= 0.0) || !std::isfinite(motion_prior_weight)) return "motion_prior_weight must be finite and >= 0";
   if (!(laser_seeded_trim_fraction > 0.0 && laser_seeded_trim_fraction <= 1.0))
     return "laser_seeded_trim_fraction must be in (0, 1]";
   if (!(laser_seeded_polish_translation >= 0.0) || !std::isfinite(laser_seeded_polish_translation) ||
@@ -75,11 +74,10 @@ IcpOptions ScanOdometry::laserSeeded(IcpOptions options) const {
   return options;
 }
 
-IcpResult ScanOdometry::polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp,
-                                          const IcpPrior* prior) const {
+IcpResult ScanOdometry::polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp) const {
   if (options_.laser_seeded_polish_translation == 0.0 || !icp.converged) return icp;
   const IcpResult polished =
-      alignIcp(current.points, previous.icp_target, icp.pose, withoutRemapping(options_.icp), &current.icp_target.normals, nullptr, prior);
+      alignIcp(current.points, previous.icp_target, icp.pose, withoutRemapping(options_.icp), &current.icp_target.normals, nullptr);
   if (!polished.converged) return icp;
   const Pose2 moved = between(icp.pose, polished.pose);
   const bool near = std::hypot(moved.x, moved.y) <= options_.laser_seeded_polish_translation &&
@@ -152,8 +150,7 @@ double WheelNoiseScale::scale() const {
 }
 
 OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked,
-                                 bool prior_on_guess) const {
+                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked) const {
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
   step.motion = guess;
@@ -175,12 +172,10 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   // (laser_seeded_trim_fraction).
   const IcpOptions laser_seeded = laserSeeded(options_.icp);
   const IcpOptions& seeded = guess_from_wheels ? options_.icp : laser_seeded;
-  const IcpPrior prior{guess, prior_on_guess && !guess_from_wheels ? options_.motion_prior_weight : 0.0};
-  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals, nullptr,
-                           prior.weight > 0.0 ? &prior : nullptr);
+  IcpResult icp = alignIcp(current.points, previous.icp_target, guess, seeded, &current.icp_target.normals, nullptr);
   // Those kept pairs include points newly in view with no counterpart, which pull a little:
   // polished with the usual trim, within a bound that keeps the motion the 98% found.
-  if (!guess_from_wheels) icp = polishLaserSeeded(previous, current, icp, prior.weight > 0.0 ? &prior : nullptr);
+  if (!guess_from_wheels) icp = polishLaserSeeded(previous, current, icp);
   ShapeValidationOptions overlap;
   overlap.max_distance = options_.overlap_distance;
   overlap.min_inlier_share = options_.min_overlap_share;

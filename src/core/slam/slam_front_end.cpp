@@ -276,7 +276,7 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   const Pose2 predicted = predictedMotion();
   // The prediction is as good as the stamps: unless they were judged steady, or where no
   // velocity predicts (a gap: the last pose stands in), it pulls nothing.
-  step.odometry = odometry_.match(keyframe, scan, predicted, false, 1.0, nullptr, predictsMotion() && motion_clock_.stampsSteady());
+  step.odometry = odometry_.match(keyframe, scan, predicted, false);
   // A velocity from one bad step predicts far off, and ICP from there fails (the Intel log's
   // turns in place): where the last scan stood may still be near enough.
   if (!step.odometry.matched && !ScanOdometry::samePose(predicted, tracked_motion_)) {

@@ -313,50 +313,6 @@ TEST(Icp, RemappingKeepsTheSeedAlongACorridorsAxisAndCorrectsTheRest) {
   }
 }
 
-TEST(Icp, APriorHoldsThePredictionAlongACorridorsAxisButNotWhereTheScansFixThePose) {
-  // The corridor with one niche of the remapping test: only the far end fixes the position
-  // along the axis. The prediction (the motion model's) is 0.08 m further along than the truth,
-  // with a heading 0.05 rad off. Without a prior ICP finds the truth; with one, the position
-  // along the axis stays near the prediction, the lateral offset and the heading are the
-  // scans' (the prior pulls position only). (Much further off, trimming drops the niche's few
-  // pairs and ICP refuses the corridor as degenerate: the prior does not lift that test.)
-  const std::vector<llc_test::Wall> walls = {{{-100, -1.5}, {100, -1.5}}, {{-100, 1.5}, {2.8, 1.5}},
-                                             {{3.8, 1.5}, {100, 1.5}},    {{2.8, 1.5}, {2.8, 1.7}},
-                                             {{2.8, 1.7}, {3.8, 1.7}},    {{3.8, 1.7}, {3.8, 1.5}}};
-  const Pose2 truth{0.3, 0.0, 0.0};
-  const llc::IcpOptions options;
-  const llc::IcpTarget target(llc::scanPoints(scanAt(walls, Pose2{}), 40.0), options);
-  const Points2 source = llc::scanPoints(scanAt(walls, truth), 40.0);
-  const Pose2 seed{0.35, 0.03, 0.01};
-  const llc::IcpPrior prior{Pose2{0.38, 0.05, 0.05}, 0.03};
-  const llc::IcpResult plain = llc::alignIcp(source, target, seed, options);
-  ASSERT_TRUE(plain.converged) << plain.reject_reason;
-  expectPoseNear(plain.pose, truth, 0.01, 0.002);
-  const llc::IcpResult pulled = llc::alignIcp(source, target, seed, options, nullptr, nullptr, &prior);
-  ASSERT_TRUE(pulled.converged) << pulled.reject_reason;
-  EXPECT_GT(pulled.pose.x, 0.36) << "along the axis the prediction decides";
-  EXPECT_LT(pulled.pose.x, prior.pose.x + 1e-9);
-  EXPECT_NEAR(pulled.pose.y, truth.y, 0.01) << "across it the walls do";
-  EXPECT_NEAR(pulled.pose.theta, truth.theta, 0.002) << "and the heading is the scans'";
-  // The covariance is the scans' alone (the prior is no measurement): no surer than without it
-  // (wider here, from the residuals at a pose off the scans' own optimum).
-  EXPECT_GE(pulled.covariance(0, 0), plain.covariance(0, 0));
-  // In a room the scans fix every direction: a prediction 6 cm off (a steady clock's) moves
-  // the pose by millimetres (about 6% of the way at weight 0.03).
-  const llc::IcpTarget room_target(llc::scanPoints(scanAt(room(), Pose2{}), 40.0), options);
-  const Pose2 moved{0.4, -0.2, 0.1};
-  const llc::IcpPrior far_prior{Pose2{0.45, -0.23, 0.12}, 0.03};
-  const llc::IcpResult in_room = llc::alignIcp(llc::scanPoints(scanAt(room(), moved), 40.0), room_target,
-                                               Pose2{0.5, -0.1, 0.05}, options, nullptr, nullptr, &far_prior);
-  ASSERT_TRUE(in_room.converged) << in_room.reject_reason;
-  expectPoseNear(in_room.pose, moved, 0.005, 1e-3);
-  // Weight 0 is no prior at all.
-  const llc::IcpPrior off{prior.pose, 0.0};
-  const llc::IcpResult unpulled = llc::alignIcp(source, target, seed, options, nullptr, nullptr, &off);
-  ASSERT_TRUE(unpulled.converged);
-  expectPoseNear(unpulled.pose, plain.pose, 1e-12, 1e-12);
-}
-
 TEST(Icp, WithThePairsFixedFromTheFirstStepStillReachesTheTruth) {
   // The pairs found at the start are kept (moved with the pose) for every later step. Point
   // to line, a point paired with the wrong point of the right wall still pulls the right way,

@@ -778,57 +778,5 @@ TEST(ScanOdometry, StampsThatJumpBackStartANewChainAndSlightlyOlderOnesAreSkippe
 
 namespace {
 
-/// Without wheels (the guess the motion model's, prior_on_guess): where the niches fix the
-/// position along the corridor ICP keeps to them, where only far ones do the prediction stands.
-TEST(ScanOdometry, TheMotionPriorHoldsThePredictionOnlyWhereTheScansHardlyFixThePosition) {
-  const std::vector<Wall> walls = corridor();
-  const llc::ScanAligner aligner;
-  llc::ScanOdometryOptions with_prior;
-  with_prior.motion_prior_weight = 0.03;  // (off by default)
-  // With a tenth of the pairs trimmed, as written: past the niches their last points (17 m
-  // behind) are among the farthest pairs and the walls alone hardly fix the position. Keeping
-  // 98% (laser_seeded_trim_fraction's default) they fix it: ICP then ends at 0.746 m, near
-  // the truth (0.7) rather than the prediction (0.85), prior or not.
-  with_prior.laser_seeded_trim_fraction = with_prior.icp.trim_fraction;
-  const llc::ScanOdometry odometry(with_prior);
-  auto steps = [&](int k) {
-    const auto first = aligner.prepare(corridorScan(walls, k));
-    const auto second = aligner.prepare(corridorScan(walls, k + 1));
-    const llc::Pose2 truth{0.7, 0.1 * (std::sin(0.05 * (k + 1)) - std::sin(0.05 * k)), 0.0};
-    const llc::Pose2 guess{truth.x + 0.15, truth.y, 0.0};  // a prediction 0.15 m too far
-    struct {
-      llc::OdometryStep plain, pulled, wheels, wheels_flagged;
-      llc::Pose2 truth, guess;
-    } r{odometry.match(*first, *second, guess, false), odometry.match(*first, *second, guess, false, 1.0, nullptr, true),
-        odometry.match(*first, *second, guess, true), odometry.match(*first, *second, guess, true, 1.0, nullptr, true),
-        truth, guess};
-    return r;
-  };
-  // x = 7 m: niches all round. The prior moves the step by about a tenth of the prediction's error.
-  const auto among_niches = steps(10);
-  ASSERT_TRUE(among_niches.plain.matched && among_niches.pulled.matched);
-  EXPECT_NEAR(among_niches.plain.motion.x, among_niches.truth.x, 0.01);
-  EXPECT_NEAR(among_niches.pulled.motion.x, among_niches.truth.x, 0.03);
-  EXPECT_GT(among_niches.pulled.motion.x, among_niches.plain.motion.x + 0.005) << "pulled towards the prediction";
-  // x = 24 m: the last niches behind. ICP alone still finds the truth from them; with the prior
-  // the step stays within 2 cm of the prediction (written: 0.842 against 0.850).
-  const auto past_niches = steps(34);
-  ASSERT_TRUE(past_niches.plain.matched && past_niches.pulled.matched);
-  EXPECT_NEAR(past_niches.plain.motion.x, past_niches.truth.x, 0.01);
-  EXPECT_NEAR(past_niches.pulled.motion.x, past_niches.guess.x, 0.02);
-  EXPECT_NEAR(past_niches.pulled.motion.y, past_niches.truth.y, 0.01);
-  // A guess from the wheels takes no prior (remapping keeps their position along the axis).
-  for (const auto* r : {&among_niches, &past_niches}) {
-    EXPECT_EQ(r->wheels.motion.x, r->wheels_flagged.motion.x);
-    EXPECT_EQ(r->wheels.motion.y, r->wheels_flagged.motion.y);
-  }
-  llc::ScanOdometryOptions options;
-  for (const double bad : {-0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
-    options.motion_prior_weight = bad;
-    EXPECT_NE(options.validate().find("motion_prior_weight"), std::string::npos) << bad;
-  }
-  options.motion_prior_weight = 0.0;  // off
-  EXPECT_EQ(options.validate(), "");
-}
 
 }  // namespace

@@ -59,16 +59,6 @@ struct IcpResult {
   std::string reject_reason;        ///< empty when converged
 };
 
-/// A soft pull of ICP's position towards a predicted one (a motion model's): in the
-/// Gauss-Newton system as `weight` x the number of pairs along x and along y (the heading is
-/// left to the scans), so where the scans fix the position it hardly matters and along a
-/// direction they leave open (a corridor's axis) it decides. Not a measurement of the scans:
-/// IcpResult::covariance leaves it out.
-struct IcpPrior {
-  Pose2 pose;
-  double weight = 0.0;  ///< 0: off
-};
-
 /// Refines `initial` (source frame in target frame). Never throws on bad geometry: an empty
 /// or degenerate input (e.g. a straight corridor) gives converged = false with the reason.
 /// With source_normals (one per source point, as estimateNormals gives them), a pair whose
@@ -77,7 +67,6 @@ struct IcpPrior {
 /// of its bearings or range) is not paired: it has no partner there, and the nearest points at
 /// the edge of the view would pull the pose towards them.
 IcpResult alignIcp(const Points2& source, const IcpTarget& target, const Pose2& initial, const IcpOptions& options,
-                   const Points2* source_normals = nullptr, const FieldOfView* target_view = nullptr,
-                   const IcpPrior* prior = nullptr);
+                   const Points2* source_normals = nullptr, const FieldOfView* target_view = nullptr);
 
 }  // namespace llc

@@ -38,7 +38,8 @@ struct ScanOdometryOptions {
   /// covariance that also holds the wheels' (a wrong ICP minimum with a matched step's tight
   /// covariance bends the map for good; a wide one lets loops mend it). 0: off.
   double max_wheel_disagreement = 9.0;
-  /// Recent matched steps whose disagreement with the wheels sets WheelNoiseScale.
+  /// Recent matched steps whose disagreement with the wheels sets WheelNoiseScale. (Fixed: not
+  /// a parameter; see slam_parameters.hpp.)
   std::size_t wheel_noise_window = 100;
   double min_overlap_share = 0.5;  ///< share of the new scan's points within overlap_distance of the old one, or ICP is not trusted
   double overlap_distance = 0.3;   ///< m
@@ -92,7 +93,7 @@ struct ScanOdometryOptions {
   /// (not tuned on: 296 loops at 0.02, 251 at 0.1, since the nearby candidates need a known
   /// relative position). 0: off.
   double ambiguity_score_drop = 0.02;
-  double ambiguity_max_shift = 10.0;  ///< m; the farthest shift ambiguity_score_drop looks at (in steps of correlative.translation_step; at most 2 x correlative.max_range)
+  double ambiguity_max_shift = 10.0;  ///< (fixed) m; the farthest shift ambiguity_score_drop looks at (in steps of correlative.translation_step; at most 2 x correlative.max_range)
   /// With wheel odometry, a keyframe's step is matched to the points of the newest this many
   /// keyframes of the chain (placed by the front end's own odometry, merged on a 5 cm grid,
   /// the newest keyframe's points first) instead of the newest keyframe alone: a local map,
@@ -104,15 +105,7 @@ struct ScanOdometryOptions {
   /// their mean interval while the median absolute deviation of the last 64 intervals is
   /// above this share of their median (the Intel log's stamps: 0.99). 0: always counted.
   double max_stamp_jitter = 0.5;
-  /// Without wheel odometry, while the motion clock reads stamps it judged steady
-  /// (MotionClock::stampsSteady: a prediction is then as good as the stamps), ICP from the motion model's
-  /// prediction is pulled towards it by this share of its pairs' weight (IcpPrior): along a
-  /// corridor, where the scans fit anywhere, the prediction stands instead of a slide of a
-  /// metre per scan (ACES). Where the stamps jitter (Intel) the prediction is 0.3-0.4 m off as
-  /// a rule and no prior is used. Position only (IcpPrior). Off by default: 0.03 takes ACES's
-  /// log laser-only 0.237 -> 0.063 m (in-sample) but the simulated drive without wheels
-  /// 0.080 -> 0.213 m RMS, and not the ACES bag (docs/benchmark.md). 0: off.
-  double motion_prior_weight = 0.0;
+  /// (Fixed, with the two polish bounds below: not parameters.)
   /// icp.trim_fraction where the laser's motion made the seed (the motion model, the last
   /// scan's pose; not the wheels, not a correlative search's best pose): from a seed that
   /// missed a motion along a corridor, the few points that see it (a door frame ahead) are the
@@ -127,20 +120,22 @@ struct ScanOdometryOptions {
   /// only polishes and cannot slide back along a corridor (0: off).
   double laser_seeded_polish_translation = 0.01;
   double laser_seeded_polish_rotation = 0.002;  ///< rad; see laser_seeded_polish_translation
-  double max_prediction_gap = 1.0;  ///< s; scans further apart than this are not predicted (no motion assumed)
+  double max_prediction_gap = 1.0;  ///< (fixed) s; scans further apart than this are not predicted (no motion assumed)
   /// No robot moves faster: wheel odometry that jumps farther than max_speed x (the time
   /// between two scans, at least 1 s) is left out of that step, and a velocity beyond these
   /// (stamps out of step with their scans) is not predicted from.
   double max_speed = 50.0;       ///< m/s
   double max_turn_rate = 10.0;   ///< rad/s
-  /// Scans closer in time than this do not update the velocity (their stamps say too little:
+  /// (Fixed, as is restart_after_jump_back.) Scans closer in time than this do not update the velocity (their stamps say too little:
   /// a log's scans can come 0.5 ms apart and out of order).
   double min_velocity_interval = 0.01;  ///< s
   /// A scan older than the newest keyframe by more than this starts a new odometry chain (a bag
   /// played in a loop, a clock reset), placed by its first loop closure; by less it is skipped
   /// as out of order.
   double restart_after_jump_back = 5.0;  ///< s (the corridor log starts 1.4 s back in time: not a restart)
-  IcpOptions icp = odometryIcpOptions();  ///< ICP of consecutive keyframes (and of each scan, match_every_scan)
+  /// ICP of consecutive keyframes (and of each scan, match_every_scan); of it only
+  /// max_correspondence_distance, trim_fraction and remap_ratio are parameters.
+  IcpOptions icp = odometryIcpOptions();
   /// With wheel odometry: when ICP from the wheels' guess fails, moves too far, overlaps too
   /// little or is disputed, a correlative search (correlative.max_translation, .max_rotation)
   /// around the guess and around the same step backwards seeds a second ICP. When the best of
@@ -152,7 +147,7 @@ struct ScanOdometryOptions {
   /// (a corridor, a wrong ICP minimum) the step stays as it was.
   bool correlative_recovery = true;
   double correlative_min_score_gain = 0.1;  ///< of the mean likelihood (0..1) of the scan's points
-  CorrelativeSearchOptions correlative{};   ///< the search of correlative_recovery
+  CorrelativeSearchOptions correlative{};   ///< the search of correlative_recovery (parameters: max_translation, max_rotation)
   /// With wheel odometry: a keyframe step whose ICP result overlaps the keyframe by less than
   /// this share (of its points within overlap_distance) is also aligned with no guess, as a loop
   /// candidate is (CRF-match, ICP, validation). Its pose is taken, as a matched step with a
@@ -193,11 +188,9 @@ class ScanOdometry {
   /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
   /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
   /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
-  /// max_wheel_disagreement and for a disputed step. prior_on_guess (a laser-made guess only):
-  /// ICP is pulled towards the guess by motion_prior_weight.
+  /// max_wheel_disagreement and for a disputed step.
   OdometryStep match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr,
-                     bool prior_on_guess = false) const;
+                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
   static bool samePose(const Pose2& a, const Pose2& b);
@@ -212,8 +205,7 @@ class ScanOdometry {
   /// `icp` (from a laser seed) polished: ICP again from its pose with icp.trim_fraction,
   /// without remapping, taken when it converges within laser_seeded_polish_translation and
   /// _rotation of it; otherwise `icp` unchanged.
-  IcpResult polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp,
-                              const IcpPrior* prior) const;
+  IcpResult polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp) const;
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
   /// ambiguity_score_drop: widens a matched step's covariance along the direction its ICP

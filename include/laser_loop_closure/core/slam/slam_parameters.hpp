@@ -2,6 +2,10 @@
 // from the ROS parameter server and `llc slam --config` from a YAML file through this list,
 // so a name means the same everywhere. Names are the options' field names, nested by stage
 // ("odometry/keyframe_distance", "aligner/icp/max_iterations"), as rosparam nests YAML maps.
+// A field not listed here is fixed at its default for users (tests may still set it): of the
+// odometry, since 0.6.0, wheel_noise_window, ambiguity_max_shift, the laser-seeded ICP's trim and
+// polish bounds, max_prediction_gap, min_velocity_interval, restart_after_jump_back, and its
+// ICP's and correlative search's iterations, tolerances, grids and sampling.
 #pragma once
 
 #include <string>
@@ -36,19 +40,6 @@ void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit)
   visit(prefix + "fixed_pairs_after", o.fixed_pairs_after);
 }
 
-template <class Visit>
-void visitCorrelativeParameters(const std::string& prefix, CorrelativeSearchOptions& o, Visit&& visit) {
-  visit(prefix + "cell", o.cell);
-  visit(prefix + "sigma", o.sigma);
-  visit(prefix + "max_range", o.max_range);
-  visit(prefix + "connect_distance", o.connect_distance);
-  visit(prefix + "max_translation", o.max_translation);
-  visit(prefix + "translation_step", o.translation_step);
-  visit(prefix + "max_rotation", o.max_rotation);
-  visit(prefix + "rotation_step", o.rotation_step);
-  visit(prefix + "max_points", o.max_points);
-}
-
 /// Calls visit(name, field) for every parameter; field is a double, int, bool or std::size_t.
 template <class Visit>
 void visitParameters(SystemOptions& options, Visit&& visit) {
@@ -59,7 +50,6 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/max_correction_translation", odometry.max_correction_translation);
   visit("odometry/max_correction_rotation", odometry.max_correction_rotation);
   visit("odometry/max_wheel_disagreement", odometry.max_wheel_disagreement);
-  visit("odometry/wheel_noise_window", odometry.wheel_noise_window);
   visit("odometry/min_overlap_share", odometry.min_overlap_share);
   visit("odometry/overlap_distance", odometry.overlap_distance);
   visit("odometry/translation_sigma", odometry.translation_sigma);
@@ -75,22 +65,19 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/stalled_wheels_as_missing", odometry.stalled_wheels_as_missing);
   visit("odometry/icp_covariance_scale", odometry.icp_covariance_scale);
   visit("odometry/ambiguity_score_drop", odometry.ambiguity_score_drop);
-  visit("odometry/ambiguity_max_shift", odometry.ambiguity_max_shift);
   visit("odometry/local_map_keyframes", odometry.local_map_keyframes);
   visit("odometry/max_stamp_jitter", odometry.max_stamp_jitter);
-  visit("odometry/motion_prior_weight", odometry.motion_prior_weight);
-  visit("odometry/laser_seeded_trim_fraction", odometry.laser_seeded_trim_fraction);
-  visit("odometry/laser_seeded_polish_translation", odometry.laser_seeded_polish_translation);
-  visit("odometry/laser_seeded_polish_rotation", odometry.laser_seeded_polish_rotation);
-  visit("odometry/max_prediction_gap", odometry.max_prediction_gap);
   visit("odometry/max_speed", odometry.max_speed);
   visit("odometry/max_turn_rate", odometry.max_turn_rate);
-  visit("odometry/min_velocity_interval", odometry.min_velocity_interval);
-  visit("odometry/restart_after_jump_back", odometry.restart_after_jump_back);
-  visitIcpParameters("odometry/icp/", odometry.icp, visit);
+  // Of the odometry's ICP and correlative search, what shapes a step; the rest (iterations,
+  // tolerances, sampling) stays at the options' defaults, which tests may still set.
+  visit("odometry/icp/max_correspondence_distance", odometry.icp.max_correspondence_distance);
+  visit("odometry/icp/trim_fraction", odometry.icp.trim_fraction);
+  visit("odometry/icp/remap_ratio", odometry.icp.remap_ratio);
   visit("odometry/correlative_recovery", odometry.correlative_recovery);
   visit("odometry/correlative_min_score_gain", odometry.correlative_min_score_gain);
-  visitCorrelativeParameters("odometry/correlative/", odometry.correlative, visit);
+  visit("odometry/correlative/max_translation", odometry.correlative.max_translation);
+  visit("odometry/correlative/max_rotation", odometry.correlative.max_rotation);
   visit("odometry/realign_below_overlap", odometry.realign_below_overlap);
   visit("odometry/realign_min_fit_gain", odometry.realign_min_fit_gain);
 
