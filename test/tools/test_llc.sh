@@ -252,6 +252,12 @@ check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" 
 check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
 check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
 check "graph: both modes" 2 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
+# An edge id far beyond what the file's edges can chain: refused before anything is sized by it,
+# within 250 MB of address space (llc starts within 125 MB; 4e8 once took 12.5 GB for 36 s).
+printf 'EDGE_SE2 0 400000000 1 0 0 1 0 0 1 0 1\n' > "$TMP/huge_id.g2o"
+check "graph: a huge edge id, refused within a memory bound" 1 "cannot be whole" -- bash -c "ulimit -v 250000; '$LLC' graph --g2o '$TMP/huge_id.g2o' --out '$TMP/x.g2o'"
+printf 'EDGE_SE2 0 1 1 0 0 1 0 0 1 0 15xyz\n' > "$TMP/junk.g2o"
+check "graph: a number with trailing text, the line named" 1 "junk.g2o:1: EDGE_SE2: unexpected text 'xyz'" -- "$LLC" graph --g2o "$TMP/junk.g2o" --out "$TMP/x.g2o"
 check "graph: negative relinearize-chi2" 2 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/relinearize_chi2 -1
 printf 'VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1\n' > "$TMP/bad.g2o"
 check "graph: negative max-edges-in-place" 2 "max_edges_relinearized_in_place must be >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/max_edges_relinearized_in_place -1

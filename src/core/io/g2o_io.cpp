@@ -15,6 +15,12 @@ namespace llc {
 
 namespace {
 std::string where(const std::string& path, std::size_t line) { return path + ":" + std::to_string(line) + ": "; }
+
+/// A field read as a number must end where the text does: "15xyz" is not 15.
+void refuseTrailingText(std::istringstream& fields, const std::string& path, std::size_t line, const std::string& tag) {
+  std::string rest;
+  if (fields >> rest) throw G2oError(where(path, line) + tag + ": unexpected text '" + rest + "' after its last field");
+}
 }  // namespace
 
 PoseGraph2 readG2o(const std::string& path) {
@@ -36,6 +42,7 @@ PoseGraph2 readG2o(const std::string& path) {
       if (!(fields >> id >> p.x >> p.y >> p.theta) || id < 0 || !std::isfinite(p.x) || !std::isfinite(p.y) ||
           !std::isfinite(p.theta))
         throw G2oError(where(path, line) + "VERTEX_SE2 needs: id x y theta (finite, id >= 0)");
+      refuseTrailingText(fields, path, line, tag);
       p.theta = normalizeAngle(p.theta);
       if (!vertices.emplace(std::size_t(id), p).second) throw G2oError(where(path, line) + "vertex " + std::to_string(id) + " twice");
       max_id = std::max(max_id, std::size_t(id));
@@ -48,6 +55,7 @@ PoseGraph2 readG2o(const std::string& path) {
         throw G2oError(where(path, line) + "EDGE_SE2 needs: i j dx dy dtheta I11 I12 I13 I22 I23 I33");
       for (double& v : info)
         if (!(fields >> v)) throw G2oError(where(path, line) + "EDGE_SE2 needs: i j dx dy dtheta I11 I12 I13 I22 I23 I33");
+      refuseTrailingText(fields, path, line, tag);
       if (from < 0 || to < 0 || from == to) throw G2oError(where(path, line) + "EDGE_SE2 needs two different ids >= 0");
       e.from = std::size_t(from);
       e.to = std::size_t(to);
@@ -72,7 +80,11 @@ PoseGraph2 readG2o(const std::string& path) {
                      std::to_string(vertices.size()) + " vertices)");
     for (const auto& [id, pose] : vertices) graph.poses.push_back(pose);
   } else {
-    // No vertices: compose the odometry chain from pose 0 at the origin.
+    // No vertices: compose the odometry chain from pose 0 at the origin. Every pose needs an
+    // edge into it, so ids beyond the edge count are refused before the chain is sized by them.
+    if (n > graph.edges.size() + 1)
+      throw G2oError(path + ": no VERTEX_SE2 lines, and edge ids up to " + std::to_string(max_id) + " for only " +
+                     std::to_string(graph.edges.size()) + " edges: the odometry chain 0.." + std::to_string(max_id) + " cannot be whole");
     std::vector<const PoseEdge*> step(n, nullptr);
     for (const PoseEdge& e : graph.edges)
       if (e.to == e.from + 1 && !step[e.to]) step[e.to] = &e;

@@ -64,6 +64,13 @@ class Reader {
     if (n > kMaxCount) fail("a count of " + std::to_string(n));
     return std::size_t(n);
   }
+  /// A count of items that each take at least min_bytes of what follows: refused when the
+  /// rest of the data cannot hold them, before anything is sized by it.
+  std::size_t items(std::size_t min_bytes) {
+    const std::size_t n = count();
+    if (n > (end_ - at_) / min_bytes) fail("a count of " + std::to_string(n) + " that the " + std::to_string(end_ - at_) + " bytes left cannot hold");
+    return n;
+  }
   double number() { return raw<double>(); }
   bool flag() {
     const std::uint8_t b = raw<std::uint8_t>();
@@ -133,9 +140,14 @@ std::string payload(const SlamSession& s) {
   return std::move(w.bytes());
 }
 
+// The fewest bytes each item of the payload takes (fixed fields, empty vectors and texts).
+constexpr std::size_t kKeyframeBytes = 8 + 8 + 1 + 24 + 8 + 1 + 8 + 8 + 8 + 24;  // its features and pose follow
+constexpr std::size_t kConstraintBytes = 8 + 8 + 24 + 72;
+constexpr std::size_t kLoopBytes = 8 + 8 + 8 + 24 + 72 + 8 + 1 + 8 + 8 + 1 + 8 + 8;
+
 SlamSession parse(Reader& r, std::uint32_t version) {
   SlamSession s;
-  s.keyframes.resize(r.count());
+  s.keyframes.resize(r.items(kKeyframeBytes));
   for (Keyframe& k : s.keyframes) {
     k.scan_index = r.count(), k.stamp = r.number(), k.has_wheel_odometry = r.flag(), k.wheel_odometry = r.pose();
     k.scan.stamp = r.number(), k.scan.full_circle = r.flag(), k.scan.ranges = r.numbers(), k.scan.bearings = r.numbers();
@@ -144,9 +156,9 @@ SlamSession parse(Reader& r, std::uint32_t version) {
   for (std::vector<double>& f : s.features) f = r.numbers();
   s.poses.resize(s.keyframes.size());
   for (Pose2& p : s.poses) p = r.pose();
-  s.constraints.resize(r.count());
+  s.constraints.resize(r.items(kConstraintBytes));
   for (PoseEdge& e : s.constraints) e.from = r.count(), e.to = r.count(), e.measurement = r.pose(), e.information = r.matrix();
-  s.loops.resize(r.count());
+  s.loops.resize(r.items(kLoopBytes));
   for (LoopRecord& rec : s.loops) {
     LoopClosure& l = rec.loop;
     l.from = r.count(), l.to = r.count(), l.score = r.number(), l.pose = r.pose(), l.covariance = r.matrix();

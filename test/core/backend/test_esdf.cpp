@@ -563,7 +563,14 @@ TEST(G2o, MalformedLinesAreRefusedWithTheLineNumber) {
   refused("EDGE_SE2 0 1 nan 0 0 1 0 0 1 0 1\n", "bad.g2o:1:");
   refused("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 1 1\n", "vertex 0 twice");
   refused("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 2 0 0 0\n", "without gaps");
-  refused("EDGE_SE2 0 2 1 0 0 1 0 0 1 0 1\n", "no odometry edge 0 -> 1");
+  refused("EDGE_SE2 0 2 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 0 1 0 0 1 0 0 1 0 1\n", "no odometry edge 0 -> 1");
+  // Ids beyond what the edges can chain are refused before anything is sized by them (an id
+  // of 4e8 once took 12.5 GB, 4e12 std::bad_alloc).
+  refused("EDGE_SE2 0 400000000 1 0 0 1 0 0 1 0 1\n", "cannot be whole");
+  refused("EDGE_SE2 0 4000000000000 1 0 0 1 0 0 1 0 1\n", "cannot be whole");
+  // A number with text after it is not that number.
+  refused("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 15xyz\n", "bad.g2o:1: EDGE_SE2: unexpected text 'xyz'");
+  refused("VERTEX_SE2 0 0 0 0 extra\n", "bad.g2o:1: VERTEX_SE2: unexpected text 'extra'");
   refused("# nothing\n", "no VERTEX_SE2 or EDGE_SE2");
   EXPECT_THROW(llc::readG2o(dir.file("missing.g2o")), llc::G2oError);
 }

@@ -160,6 +160,16 @@ TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {
   flipped[bytes.size() / 2] ^= 0x40;
   refused(flipped, "checksum");
 
+  // A count the bytes left cannot hold, with the length and checksum made right (as a crafted
+  // file would): refused before anything is sized by it (3e7 keyframes took 3.3 GB before).
+  for (const std::uint64_t count : {std::uint64_t(30000000), std::uint64_t(1) << 31}) {
+    std::uint64_t length = 0;
+    std::memcpy(&length, bytes.data() + 16, sizeof length);
+    std::string body = bytes.substr(24, length);
+    std::memcpy(&body[0], &count, sizeof count);
+    refused(bytes.substr(0, 24) + body + rawBytes(fnv1aOf(body)), "that the");
+  }
+
   llc::SlamSession inconsistent = handSession();
   inconsistent.poses.pop_back();
   EXPECT_THROW(llc::saveSession(inconsistent, dir.file("x")), llc::SessionError);
