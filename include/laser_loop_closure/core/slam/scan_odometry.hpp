@@ -126,8 +126,8 @@ struct ScanOdometryOptions {
   /// (stamps out of step with their scans) is not predicted from.
   double max_speed = 50.0;       ///< m/s
   double max_turn_rate = 10.0;   ///< rad/s
-  /// (Fixed, as is restart_after_jump_back.) Scans closer in time than this do not update the velocity (their stamps say too little:
-  /// a log's scans can come 0.5 ms apart and out of order).
+  /// (Fixed, as is restart_after_jump_back.) Scans closer in time than this do not update the
+  /// velocity (their stamps say too little: a log's scans can come 0.5 ms apart and out of order).
   double min_velocity_interval = 0.01;  ///< s
   /// A scan older than the newest keyframe by more than this starts a new odometry chain (a bag
   /// played in a loop, a clock reset), placed by its first loop closure; by less it is skipped
