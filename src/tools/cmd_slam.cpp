@@ -175,7 +175,7 @@ void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::Odome
                      const TruthCheck& truth, const std::string& path) {
   llc::AtomicTextFile out(path);
   out << "keyframe,scan_index,matched,overlap_share,dx,dy,dtheta,error_x,error_y,error_theta,sigma_x,sigma_y,sigma_theta,"
-         "wheel_dx,wheel_dy,wheel_dtheta,ambiguous_shift_m\n";
+         "wheel_dx,wheel_dy,wheel_dtheta,ambiguous_shift_m,tracked\n";
   const auto& keyframes = slam.keyframes();
   for (std::size_t k = 1; k <= truth.step_errors.size(); ++k) {
     const llc::OdometryStep& step = steps[k];
@@ -187,7 +187,7 @@ void writeStepErrors(const llc::SlamPipeline& slam, const std::vector<llc::Odome
         << step.overlap_share << "," << step.motion.x << "," << step.motion.y << "," << step.motion.theta << "," << e(0)
         << "," << e(1) << "," << e(2) << "," << std::sqrt(step.covariance(0, 0)) << "," << std::sqrt(step.covariance(1, 1))
         << "," << std::sqrt(step.covariance(2, 2)) << "," << wheel.x << "," << wheel.y << "," << wheel.theta << ","
-        << (step.widened_along_ambiguity ? step.ambiguous_shift : 0.0) << "\n";
+        << (step.widened_along_ambiguity ? step.ambiguous_shift : 0.0) << "," << (step.tracked ? 1 : 0) << "\n";
   }
   out.commit();
 }

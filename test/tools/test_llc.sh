@@ -102,6 +102,7 @@ check "graph_oracle: a run without truth.csv" 1 "graph_oracle: cannot read .*tru
 check "graph_oracle: --noise-rad -1" 2 "graph_oracle: --noise-rad: bad value -1" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/slam_drift" "$TMP/slam_drift.g2o" --noise-rad -1
 check "graph_oracle: a step that is not in the graph" 1 "graph_oracle: no step edge into keyframe\(s\) 99999" -- /usr/bin/python3 "$REPO/scripts/lib/graph_oracle.py" "$TMP/slam_drift" "$TMP/slam_drift.g2o" --keyframes 99999 --llc "$LLC"
 # scripts/lib/error_along_path.py aligns the keyframes to the truth as llc slam does: the same RMS.
+check "slam: odometry_steps.csv's tracked column counts the report's odometry_steps_tracked (> 0)" 0 "^ok$" -- bash -c "awk -F, 'NR == 1 {for (i = 1; i <= NF; i++) if (\$i == \"tracked\") c = i} NR > 1 && c {s += \$c} END {print s}' '$TMP/slam_truth/odometry_steps.csv' > '$TMP/tracked_rows'; n=\$(sed -n 's/^odometry_steps_tracked=\([0-9]*\).*/\1/p' '$TMP/slam_truth/report.txt'); [ \"\$n\" -gt 0 ] && [ \"\$n\" = \"\$(cat '$TMP/tracked_rows')\" ] && echo ok"
 check "error_along_path: llc slam's RMS" 0 "^rms_error_m=$(sed -n 's/^rms_error_m=//p' "$TMP/slam_truth/report.txt") over " -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/slam_truth"
 mkdir -p "$TMP/eap_notruth" && cp "$TMP/slam_truth/"{trajectory,loops}.csv "$TMP/eap_notruth/"
 check "error_along_path: a run without truth.csv" 1 "error_along_path: .*truth.csv" -- /usr/bin/python3 "$REPO/scripts/lib/error_along_path.py" "$TMP/eap_notruth"
