@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <iomanip>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -78,7 +79,7 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
   for (int offset = -options.max_offset; offset <= options.max_offset; ++offset) {
     OdometryOffsetScore score;
     score.offset = offset;
-    std::vector<double> metres, radians;
+    std::vector<double> metres;
     for (const long i : pairs) {
       const Pose2 guess = between(sequence.scans[std::size_t(i + offset)].odometry,
                                   sequence.scans[std::size_t(i + 1 + offset)].odometry);
@@ -89,10 +90,12 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
       ++score.matched;
       const Pose2 correction = between(guess, step.motion);
       metres.push_back(std::hypot(correction.x, correction.y));
-      radians.push_back(std::abs(correction.theta));
-      score.correction_rad.back() = radians.back();
+      score.correction_rad.back() = std::abs(correction.theta);
     }
     score.mean_correction_m = mean(metres);
+    std::vector<double> radians;  // of the matched pairs
+    std::copy_if(score.correction_rad.begin(), score.correction_rad.end(), std::back_inserter(radians),
+                 [](double r) { return std::isfinite(r); });
     score.mean_correction_rad = mean(radians);
     result.scores.push_back(score);
   }
