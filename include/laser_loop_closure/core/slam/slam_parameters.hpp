@@ -3,7 +3,7 @@
 // so a name means the same everywhere. Names are the options' field names, nested by stage
 // ("odometry/keyframe_distance", "aligner/icp/max_iterations"), as rosparam nests YAML maps.
 // A field not listed here is fixed at its default for users (tests may still set it): of the
-// odometry, since 0.6.0, wheel_noise_window, ambiguity_max_shift, the laser-seeded ICP's trim and
+// odometry: wheel_noise_window, ambiguity_max_shift, the laser-seeded ICP's trim and
 // polish bounds, max_prediction_gap, min_velocity_interval, restart_after_jump_back, and its
 // ICP's and correlative search's iterations, tolerances, grids and sampling.
 #pragma once
