@@ -24,6 +24,7 @@
 #include "laser_loop_closure/core/map/map_picture.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
 #include "laser_loop_closure/core/slam/odometry_offset.hpp"
+#include "laser_loop_closure/core/slam/odometry_time_offset_probe.hpp"
 #include "laser_loop_closure/core/slam/reference_check.hpp"
 #include "laser_loop_closure/core/slam/slam_evaluation.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
@@ -339,6 +340,23 @@ OffsetChoice chooseOdometryOffset(const Args& args, const llc::ScanSequence& seq
 }
 
 
+/// report.txt's lines of a bag's odometry time offset estimate (the nodelets' estimate_odometry_time_offset).
+std::string timeOffsetProbeLines(const llc::OdometryTimeOffsetProbeResult& r) {
+  std::ostringstream lines;
+  lines << std::setprecision(4) << "odometry_time_offset=" << r.offset
+        << "  (s: each scan's wheels read at its stamp plus this, from scan " << r.decided_at_scan << " on)\n";
+  if (!r.decided) {
+    lines << "odometry_time_offset_estimate=none (" << r.moving_pairs << " of " << llc::OdometryTimeOffsetProbeOptions{}.pairs
+          << " scan pairs in turns or changes of speed: --odometry-time-offset kept)\n";
+    return lines.str();
+  }
+  lines << "odometry_time_offset_estimate=" << (r.estimate.ok ? r.estimate.reason : "none (" + r.estimate.reason + ")") << "\n";
+  for (const llc::OdometryOffsetScore& s : r.estimate.scores)
+    lines << "odometry_time_offset_tried: offset_s=" << s.offset * r.period << " pairs=" << s.pairs << " matched=" << s.matched
+          << " mean_correction_m=" << s.mean_correction_m << " mean_correction_rad=" << s.mean_correction_rad << "\n";
+  return lines.str();
+}
+
 }  // namespace
 
 int runSlam(const Args& args) {
@@ -357,6 +375,9 @@ int runSlam(const Args& args) {
     throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   fixedOdometryOffset(args);  // checked now
+  if (args.has("estimate-odometry-time-offset") && !args.has("bag"))
+    throw UsageError("--estimate-odometry-time-offset is for a bag (a log's odometry offset: --odometry-offset)");
+  args.boolean("estimate-odometry-time-offset", true);  // likewise
   driveReadOptions(input, args);  // likewise
   if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
   if (args.has("save-graph")) checkOutputFile("save-graph", args.get("save-graph", ""));
@@ -390,7 +411,13 @@ int runSlam(const Args& args) {
   }
   // With wheels, the scans the nodelets would get no odometry for are left out as they are
   // there (a bag's first scan before its first odometry message: FR079).
-  llc::ScanSequence sequence = loadSequence(input, args, true);
+  // A bag's wheels read as the loop_closure nodelet reads them, offset estimated as the scans come.
+  std::unique_ptr<llc::OdometryTimeOffsetProbe> time_offset_probe;
+  if (args.has("bag") && !args.has("no-wheel-odometry") &&
+      args.boolean("estimate-odometry-time-offset", !args.has("odometry-offset")))
+    time_offset_probe = std::make_unique<llc::OdometryTimeOffsetProbe>(
+        llc::ScanOdometry(options.slam.odometry), llc::ScanAligner(options.slam.aligner), args.number("odometry-time-offset", 0.0));
+  llc::ScanSequence sequence = loadSequence(input, args, true, time_offset_probe.get());
   const bool wheels = sequence.has_odometry && !args.has("no-wheel-odometry");
   // Decided before any odometry shift: a log whose true poses are its odometry has no truth
   // (unless its odometry is drifted below: then those poses are the truth).
@@ -517,6 +544,7 @@ int runSlam(const Args& args) {
          << "keyframes=" << c.keyframes << "\n"
          << "keyframes_loosely_linked=" << loosely_linked << "  (odometry the back end could not use as given)\n"
          << "odometry_offset=" << offset.offset << "\n" << offset.table
+         << (time_offset_probe ? timeOffsetProbeLines(time_offset_probe->result()) : std::string())
          << "odometry_steps_matched=" << c.matched_steps << "\n"
          << "odometry_steps_from_wheels=" << c.wheel_steps << "\n"
          << "time_jumps_back=" << c.time_jumps << "  (stamps back by more than restart_after_jump_back: new odometry chains)\n"

@@ -88,7 +88,7 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "save-graph", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
-             "wrong-loop-deg", "seq-reorder-scans"},
+             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
@@ -105,6 +105,9 @@ const std::vector<Command>& commands() {
        "       constraint it applied, odometry and loops, with their information; llc graph reads it)\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto, the default for\n"
        "       a log, estimates N from the scans, with its reason in report.txt; a bag's default 0)\n"
+       "      [--estimate-odometry-time-offset true]   (a bag with wheels, no --odometry-offset: its odometry time offset\n"
+       "       found as the scans come, as the loop_closure nodelet's estimate_odometry_time_offset; --odometry-time-offset\n"
+       "       until then; the choice in report.txt)"
        "      [--drift moderate|strong] [--drift-scale-bias 0.015] [--drift-heading 0.005] [--drift-noise-m 0.01]\n"
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
        "       keeping the truth: moderate as written, strong twice each figure)\n"

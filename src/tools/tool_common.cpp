@@ -183,10 +183,11 @@ llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& ar
   return bagOptions(args);
 }
 
-llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping) {
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping, llc::OdometryTimeOffsetProbe* probe) {
   std::vector<std::string> warnings;
   llc::ScanSequence sequence;
   llc_ros::BagReadOptions bag_options = driveReadOptions(path, args);  // a bad flag: UsageError, not ToolError
+  bag_options.odometry_time_offset_probe = probe;
   if (mapping) {
     const bool without_wheels = args.has("no-wheel-odometry");
     bag_options.skip_scans_outside_odometry = !without_wheels;

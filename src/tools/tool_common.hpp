@@ -88,8 +88,10 @@ llc_ros::BagReadOptions driveReadOptions(const std::string& path, const Args& ar
 /// mapping (llc slam): a bag is read as the nodelets take it (BagReadOptions): with wheel
 /// odometry the scans they would get no odometry for are left out; without (--no-wheel-odometry)
 /// the scans are put in header.seq order (--seq-reorder-scans, default the nodelet's
-/// seq_reorder_scans; 0: off).
-llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping = false);
+/// seq_reorder_scans; 0: off). `probe`: a bag's wheels read at the offset it finds, as the
+/// nodelets' estimate_odometry_time_offset (BagReadOptions::odometry_time_offset_probe).
+llc::ScanSequence loadSequence(const std::string& path, const Args& args, bool mapping = false,
+                               llc::OdometryTimeOffsetProbe* probe = nullptr);
 using llc_ros::extractAll;
 std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const llc::FeatureOptions& options,
                                    const Args& args);

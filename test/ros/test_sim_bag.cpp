@@ -237,7 +237,9 @@ TEST(SimBag, TheOdometryTimeOffsetReadsTheWheelsThatMuchBeforeTheScan) {
   // The first scan has no odometry before it: it is held at the first message.
   EXPECT_NEAR(whole.scans[0].odometry.x, frames[0].odometry.x, 1e-9);
   std::size_t checked = 0;
-  for (std::size_t k = 1; k < frames.size(); ++k) {
+  // From the third scan: the second's stamp minus a period, in whole nanoseconds, may fall a
+  // nanosecond before the first odometry message, where tf, and so the reader, falls back.
+  for (std::size_t k = 2; k < frames.size(); ++k) {
     if (std::abs((frames[k].stamp - frames[k - 1].stamp) - period) > 1e-6) continue;  // an uneven step
     ++checked;
     // Within 10 um: the bag's stamps are whole nanoseconds (at 1.6e9 s, a double's 0.2 us).
@@ -254,6 +256,45 @@ TEST(SimBag, TheOdometryTimeOffsetReadsTheWheelsThatMuchBeforeTheScan) {
   EXPECT_GT(checked, frames.size() / 2);
   options.odometry_time_offset = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(llc_ros::readBagSequence(dir.file("sim.bag"), options), llc_ros::BagError);
+}
+
+TEST(SimBag, TheOdometryTimeOffsetProbeFindsOdometryStampedAPeriodEarlyAndReadsItThereFromThenOn) {
+  llc_test::TempDir dir;
+  llc::SimDriveOptions options;
+  options.length_m = 600.0;
+  const llc::SimWorld world(llc::simWorldOptions(options));
+  const llc::SimDrive truth = llc::simulateDrive(world, options);
+  // Each odometry message stamped one period before the pose it holds (as a bag whose scans
+  // are stamped a period late): read at a scan's stamp it gives the next frame's pose.
+  llc::SimDrive early = truth;
+  for (std::size_t k = 0; k + 1 < early.frames.size(); ++k) early.frames[k].odometry = truth.frames[k + 1].odometry;
+  llc_ros::writeSimBag(early, dir.file("early.bag"));
+  const double period = truth.frames[1].stamp - truth.frames[0].stamp;
+  llc::OdometryTimeOffsetProbeOptions few;
+  few.pairs = 20;  // the simulated drive turns seldom
+  llc::OdometryTimeOffsetProbe probe(llc::ScanOdometry{}, llc::ScanAligner{}, 0.0, few);
+  llc_ros::BagReadOptions read;
+  read.odometry_time_offset_probe = &probe;
+  const llc::ScanSequence sequence = llc_ros::readBagSequence(dir.file("early.bag"), read);
+  const llc::OdometryTimeOffsetProbeResult& r = probe.result();
+  ASSERT_TRUE(r.decided && r.estimate.ok) << r.moving_pairs << " pairs; " << r.estimate.reason;
+  EXPECT_NEAR(r.offset, -period, 1e-6) << r.estimate.reason;
+  ASSERT_EQ(sequence.scans.size(), truth.frames.size());
+  ASSERT_GT(r.decided_at_scan, 0u);
+  ASSERT_LT(r.decided_at_scan + 10, sequence.scans.size());
+  for (std::size_t k = 0; k < sequence.scans.size(); ++k) {
+    // Up to the choice a frame ahead, from it on the scan's own (within the stamps' 10 um).
+    const llc::Pose2& expected = k < r.decided_at_scan ? early.frames[k].odometry : truth.frames[k].odometry;
+    ASSERT_NEAR(sequence.scans[k].odometry.x, expected.x, 1e-5) << k;
+    ASSERT_NEAR(sequence.scans[k].odometry.y, expected.y, 1e-5) << k;
+  }
+  // In step, it keeps 0.
+  llc::OdometryTimeOffsetProbe in_step(llc::ScanOdometry{}, llc::ScanAligner{}, 0.0, few);
+  llc_ros::writeSimBag(truth, dir.file("sim.bag"));
+  read.odometry_time_offset_probe = &in_step;
+  llc_ros::readBagSequence(dir.file("sim.bag"), read);
+  ASSERT_TRUE(in_step.result().decided);
+  EXPECT_EQ(in_step.result().offset, 0.0) << in_step.result().estimate.reason;
 }
 
 TEST(SimBag, ScansOutsideTheOdometrysSpanAreSkippedForMappingAsTheNodeletsGiveThemUp) {

@@ -44,6 +44,59 @@ double pairedT(const std::vector<double>& a, const std::vector<double>& b, std::
 
 }  // namespace
 
+void addOffsetPair(const OdometryStep& step, const Pose2& guess, OdometryOffsetScore* score) {
+  ++score->pairs;
+  score->correction_rad.push_back(std::numeric_limits<double>::quiet_NaN());
+  if (!step.matched) return;
+  ++score->matched;
+  const Pose2 correction = between(guess, step.motion);
+  // A running mean over the matched pairs (mean_correction_m is only ever read through here).
+  score->mean_correction_m += (std::hypot(correction.x, correction.y) - score->mean_correction_m) / double(score->matched);
+  score->correction_rad.back() = std::abs(correction.theta);
+}
+
+void pickBestOffset(OdometryOffsetResult* result_out, const std::string& unit) {
+  OdometryOffsetResult& result = *result_out;
+  result.ok = false;
+  result.best_offset = 0;
+  for (OdometryOffsetScore& s : result.scores) {
+    std::vector<double> radians;  // of the matched pairs
+    std::copy_if(s.correction_rad.begin(), s.correction_rad.end(), std::back_inserter(radians),
+                 [](double r) { return std::isfinite(r); });
+    s.mean_correction_rad = mean(radians);
+  }
+  const OdometryOffsetScore* best = nullptr;
+  for (const OdometryOffsetScore& s : result.scores) {
+    if (s.matched < s.pairs / 4) continue;  // a mean of a few lucky pairs says nothing
+    if (!best || s.mean_correction_rad < best->mean_correction_rad ||
+        (s.mean_correction_rad == best->mean_correction_rad && std::abs(s.offset) < std::abs(best->offset)))
+      best = &s;
+  }
+  if (!best) {
+    result.reason = "scan matching failed on most pairs at every offset";
+    return;
+  }
+  result.ok = true;
+  const OdometryOffsetScore* zero = nullptr;
+  for (const OdometryOffsetScore& s : result.scores)
+    if (s.offset == 0 && s.matched >= s.pairs / 4) zero = &s;
+  std::ostringstream why;
+  why << std::setprecision(3);
+  if (best->offset == 0) {
+    why << "offset 0 corrects least (" << best->mean_correction_rad << " rad)";
+  } else if (!zero) {
+    result.best_offset = best->offset;
+    why << "offset " << best->offset << unit << ": scan matching failed on most pairs at offset 0";
+  } else {
+    result.best_offset = best->offset;
+    std::size_t paired = 0;
+    const double t = pairedT(zero->correction_rad, best->correction_rad, &paired);
+    why << "offset " << best->offset << unit << " corrects " << best->mean_correction_rad << " rad against "
+        << zero->mean_correction_rad << " at 0 (paired t " << t << " over " << paired << " pairs)";
+  }
+  result.reason = why.str();
+}
+
 OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const ScanOdometry& odometry,
                                             const ScanAligner& aligner, const OdometryOffsetOptions& options) {
   const std::string error = options.validate();
@@ -79,56 +132,14 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
   for (int offset = -options.max_offset; offset <= options.max_offset; ++offset) {
     OdometryOffsetScore score;
     score.offset = offset;
-    std::vector<double> metres;
     for (const long i : pairs) {
       const Pose2 guess = between(sequence.scans[std::size_t(i + offset)].odometry,
                                   sequence.scans[std::size_t(i + 1 + offset)].odometry);
-      const OdometryStep step = odometry.match(scan(i), scan(i + 1), guess, true);
-      ++score.pairs;
-      score.correction_rad.push_back(std::numeric_limits<double>::quiet_NaN());
-      if (!step.matched) continue;
-      ++score.matched;
-      const Pose2 correction = between(guess, step.motion);
-      metres.push_back(std::hypot(correction.x, correction.y));
-      score.correction_rad.back() = std::abs(correction.theta);
+      addOffsetPair(odometry.match(scan(i), scan(i + 1), guess, true), guess, &score);
     }
-    score.mean_correction_m = mean(metres);
-    std::vector<double> radians;  // of the matched pairs
-    std::copy_if(score.correction_rad.begin(), score.correction_rad.end(), std::back_inserter(radians),
-                 [](double r) { return std::isfinite(r); });
-    score.mean_correction_rad = mean(radians);
     result.scores.push_back(score);
   }
-  const OdometryOffsetScore* best = nullptr;
-  for (const OdometryOffsetScore& s : result.scores) {
-    if (s.matched < s.pairs / 4) continue;  // a mean of a few lucky pairs says nothing
-    if (!best || s.mean_correction_rad < best->mean_correction_rad ||
-        (s.mean_correction_rad == best->mean_correction_rad && std::abs(s.offset) < std::abs(best->offset)))
-      best = &s;
-  }
-  if (!best) {
-    result.reason = "scan matching failed on most pairs at every offset";
-    return result;
-  }
-  result.ok = true;
-  const OdometryOffsetScore* zero = nullptr;
-  for (const OdometryOffsetScore& s : result.scores)
-    if (s.offset == 0 && s.matched >= s.pairs / 4) zero = &s;
-  std::ostringstream why;
-  why << std::setprecision(3);
-  if (best->offset == 0) {
-    why << "offset 0 corrects least (" << best->mean_correction_rad << " rad)";
-  } else if (!zero) {
-    result.best_offset = best->offset;
-    why << "offset " << best->offset << ": scan matching failed on most pairs at offset 0";
-  } else {
-    result.best_offset = best->offset;
-    std::size_t paired = 0;
-    const double t = pairedT(zero->correction_rad, best->correction_rad, &paired);
-    why << "offset " << best->offset << " corrects " << best->mean_correction_rad << " rad against " << zero->mean_correction_rad
-        << " at 0 (paired t " << t << " over " << paired << " pairs)";
-  }
-  result.reason = why.str();
+  pickBestOffset(&result, "");
   return result;
 }
 

@@ -26,25 +26,26 @@ namespace {
 
 /// Poses at times, for interpolation at a scan's stamp.
 struct PoseTrack {
-  std::vector<std::pair<double, llc::Pose2>> samples;  ///< (stamp, pose), stamps increasing
+  std::vector<std::pair<ros::Time, llc::Pose2>> samples;  ///< (stamp, pose), stamps increasing
 
-  void add(double stamp, const llc::Pose2& pose) {
+  void add(const ros::Time& stamp, const llc::Pose2& pose) {
     if (samples.empty() || stamp > samples.back().first) samples.emplace_back(stamp, pose);
   }
   /// Whether a stamp lies within the samples' span (where tf answers without extrapolating).
-  bool covers(double stamp) const {
+  bool covers(const ros::Time& stamp) const {
     return !samples.empty() && stamp >= samples.front().first && stamp <= samples.back().first;
   }
-  /// Linear in position, shortest arc in heading; held at the ends.
-  llc::Pose2 at(double stamp) const {
+  /// As tf2 interpolates (its TimeCache): the ratio from whole nanoseconds, the position
+  /// (1 - r) a + r b; the heading on the shortest arc. Held at the ends.
+  llc::Pose2 at(const ros::Time& stamp) const {
     auto after = std::lower_bound(samples.begin(), samples.end(), stamp,
-                                  [](const std::pair<double, llc::Pose2>& s, double t) { return s.first < t; });
+                                  [](const std::pair<ros::Time, llc::Pose2>& s, const ros::Time& t) { return s.first < t; });
     if (after == samples.begin()) return samples.front().second;
     if (after == samples.end()) return samples.back().second;
     const auto& [t1, b] = *after;
     const auto& [t0, a] = *(after - 1);
-    const double f = (stamp - t0) / (t1 - t0);
-    return {a.x + f * (b.x - a.x), a.y + f * (b.y - a.y),
+    const double f = double((stamp - t0).toNSec()) / double((t1 - t0).toNSec());
+    return {(1.0 - f) * a.x + f * b.x, (1.0 - f) * a.y + f * b.y,
             llc::normalizeAngle(a.theta + f * llc::normalizeAngle(b.theta - a.theta))};
   }
 };
@@ -114,10 +115,10 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         if (!odom) throw BagError(path + ": " + topic + " does not hold nav_msgs/Odometry but " + m.getDataType());
         if (topic == topics.odom) {
           if (base.empty() && !odom->child_frame_id.empty()) base = odom->child_frame_id;
-          odometry.add(odom->header.stamp.toSec(), toPose2(odom->pose.pose));
+          odometry.add(odom->header.stamp, toPose2(odom->pose.pose));
           ++r.odom_messages;
         } else {
-          truth.add(odom->header.stamp.toSec(), toPose2(odom->pose.pose));
+          truth.add(odom->header.stamp, toPose2(odom->pose.pose));
           ++r.truth_messages;
         }
       }
@@ -154,15 +155,11 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         skip("a front scan at " + std::to_string(stamp) + " s is not newer than the one before it");
         continue;
       }
-      // Where the nodelets read the wheels: at stamp + offset, or at the stamp itself where
-      // the odometry does not reach that far (the start of a drive); a scan whose own stamp the
-      // odometry does not reach they never get odometry for (tf does not extrapolate).
-      const double shifted = stamp + options.odometry_time_offset;
-      const double odometry_stamp = odometry.covers(shifted) || !odometry.covers(stamp) ? shifted : stamp;
-      if (options.skip_scans_outside_odometry && !odometry.samples.empty() && !odometry.covers(stamp)) {
+      const ros::Time& scan_time = front->header.stamp;
+      if (options.skip_scans_outside_odometry && !odometry.samples.empty() && !odometry.covers(scan_time)) {
         ++r.scans_outside_odometry;
         skip("front scan at " + std::to_string(stamp) + " s: " +
-             (stamp < odometry.samples.front().first ? "before the first" : "after the last") +
+             (scan_time < odometry.samples.front().first ? "before the first" : "after the last") +
              " odometry message (the nodelets get no odometry for it either: tf does not extrapolate)");
         continue;
       }
@@ -192,8 +189,22 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
         ++sequence.merged_count;
       }
       logged.scan = asTransmitted(logged.scan);  // the numbers the nodelets get in Scan360
-      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(odometry_stamp));
-      logged.truth = truth.samples.empty() ? logged.odometry : truth.at(stamp);
+      // Where the nodelets read the wheels: at stamp + offset (the probe's, when there is one),
+      // or at the stamp itself where the odometry does not reach that far (the start of a
+      // drive); a scan whose own stamp the odometry does not reach they never get odometry for
+      // (tf does not extrapolate). Times in whole nanoseconds, as tf keeps them.
+      double offset = options.odometry_time_offset;
+      if (options.odometry_time_offset_probe && !odometry.samples.empty())
+        offset = options.odometry_time_offset_probe->observe(stamp, logged.scan, [&](double shift, llc::Pose2* pose) {
+          const ros::Time t = offsetStamp(scan_time, shift);
+          if (!odometry.covers(t)) return false;
+          *pose = canonicalWheelPose(odometry.at(t));
+          return true;
+        });
+      const ros::Time shifted = offsetStamp(scan_time, offset);
+      const ros::Time odometry_time = odometry.covers(shifted) || !odometry.covers(scan_time) ? shifted : scan_time;
+      logged.odometry = odometry.samples.empty() ? llc::Pose2{} : canonicalWheelPose(odometry.at(odometry_time));
+      logged.truth = truth.samples.empty() ? logged.odometry : truth.at(scan_time);
       sequence.scans.push_back(std::move(logged));
       seqs.push_back(front->header.seq);
     }

@@ -1,6 +1,7 @@
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
 #include <cmath>
+#include <cstdint>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/exceptions.h>
@@ -77,6 +78,22 @@ llc::Pose2 canonicalWheelPose(const llc::Pose2& pose) {
   const auto snap = [](double value) { return std::round(value * 1e9) / 1e9; };
   // (The heading may end up to 5e-10 rad beyond pi: every later step normalises it.)
   return {snap(pose.x), snap(pose.y), snap(llc::normalizeAngle(pose.theta))};
+}
+
+ros::Time offsetStamp(const ros::Time& stamp, double offset) {
+  const ros::Duration shift(offset);
+  if (shift.toNSec() < 0 && stamp.toNSec() <= std::uint64_t(-shift.toNSec())) return ros::Time(0, 1);
+  return stamp + shift;
+}
+
+llc::OdometryLookup tfOdometryLookup(const tf2_ros::Buffer& buffer, const std::string& odom_frame, const std::string& frame,
+                                     const ros::Time& stamp) {
+  return [&buffer, odom_frame, frame, stamp](double offset, llc::Pose2* pose) {
+    std::string error;
+    if (!lookupPose2(buffer, odom_frame, frame, offsetStamp(stamp, offset), pose, &error)) return false;
+    *pose = canonicalWheelPose(*pose);
+    return true;
+  };
 }
 
 }  // namespace llc_ros

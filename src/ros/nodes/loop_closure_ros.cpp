@@ -55,6 +55,9 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   const llc::SlamOptions& slam = system_.slam;
   front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
+  if (options_.use_wheel_odometry && options_.estimate_odometry_time_offset)
+    odometry_probe_ = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
+                                                                      options_.odometry_time_offset);
   model_path_ = options_.model_path;
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
@@ -152,12 +155,11 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
 bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose,
                                          std::string* error) {
   const ros::Time& stamp = msg.header.stamp;
-  const double shifted = stamp.toSec() + options_.odometry_time_offset;  // never 0: tf reads that as "latest"
   bool found = false;
   if (options_.odometry_time_offset == 0.0) {
     found = lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
-  } else if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id,
-                         shifted > 1e-9 ? ros::Time(shifted) : ros::Time(0, 1), pose, error)) {
+  } else if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, offsetStamp(stamp, options_.odometry_time_offset),
+                         pose, error)) {
     found = true;
   } else {
     // Before the first odometry (the drive's first scans), or after a gap in tf: the odometry at
@@ -301,7 +303,9 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", error.c_str());
     return;
   }
-  llc::Keyframe keyframe = llc::makeKeyframe(std::move(scan), pending.index, pending.has_wheel_odometry ? &pending.wheel_odometry : nullptr);
+  llc::Pose2 wheel_odometry = pending.wheel_odometry;
+  if (odometry_probe_ && pending.has_wheel_odometry) probeOdometryOffset(msg, scan, &wheel_odometry);
+  llc::Keyframe keyframe = llc::makeKeyframe(std::move(scan), pending.index, pending.has_wheel_odometry ? &wheel_odometry : nullptr);
   const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);
   if (!step.skip_reason.empty()) {
     last_problem_ = step.skip_reason;
@@ -494,6 +498,23 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
   return true;
 }
 
+void LoopClosureRos::probeOdometryOffset(const laser_loop_closure::Scan360& msg, const llc::Scan& scan, llc::Pose2* wheel_odometry) {
+  const bool was_decided = odometry_probe_->result().decided;
+  const llc::OdometryLookup lookup = tfOdometryLookup(tf_buffer_, options_.odom_frame, msg.header.frame_id, msg.header.stamp);
+  const double offset = odometry_probe_->observe(msg.header.stamp.toSec(), scan, lookup);
+  const llc::OdometryTimeOffsetProbeResult& r = odometry_probe_->result();
+  if (r.decided && !was_decided) {
+    if (r.estimate.ok)
+      ROS_INFO("loop_closure: wheel odometry read %.3f s from each scan's stamp from now on (estimate_odometry_time_offset: %s)",
+               r.offset, r.estimate.reason.c_str());
+    else
+      ROS_WARN("loop_closure: the odometry time offset stays %.3f s: %s", r.offset, r.estimate.reason.c_str());
+  }
+  llc::Pose2 pose;
+  if (offset != options_.odometry_time_offset && llc::OdometryTimeOffsetProbe::readAt(lookup, offset, &pose))
+    *wheel_odometry = pose;
+}
+
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0, behind_older = 0;
   std::size_t jumps_back = 0, given_up = 0, behind_newer = 0, at_scan_stamp = 0;
@@ -532,6 +553,14 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
   status.add("scans with odometry at their own stamp, none at stamp + odometry_time_offset", at_scan_stamp);
+  if (odometry_probe_) {
+    const llc::OdometryTimeOffsetProbeResult& r = odometry_probe_->result();
+    status.add("odometry time offset (s)", r.offset);
+    status.add("odometry time offset estimate",
+               r.decided ? r.estimate.reason
+                         : std::to_string(r.moving_pairs) + " of " + std::to_string(llc::OdometryTimeOffsetProbeOptions{}.pairs) +
+                               " scan pairs so far (they come in turns and changes of speed)");
+  }
   status.add("without wheels, scans came out of header.seq order", order.out_of_order_seen ? "yes" : "no");
   status.add("scans held for the ones before them in header.seq order", order.reordered);
   status.add("scans skipped, late for their place in header.seq order", order.late_skipped);

@@ -47,4 +47,11 @@ struct OdometryOffsetResult {
 OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const ScanOdometry& odometry,
                                             const ScanAligner& aligner, const OdometryOffsetOptions& options = {});
 
+/// Shared by estimateOdometryOffset and OdometryTimeOffsetProbe: one pair's ICP from `guess`
+/// (the odometry's motion between the two scans) counted into `score`.
+void addOffsetPair(const OdometryStep& step, const Pose2& guess, OdometryOffsetScore* score);
+/// The scores' means (after every addOffsetPair), the best offset and why: sets result->ok,
+/// best_offset and reason (`unit` follows each offset in the reason, e.g. " scans").
+void pickBestOffset(OdometryOffsetResult* result, const std::string& unit);
+
 }  // namespace llc

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/slam/odometry_time_offset_probe.hpp"
 #include "laser_loop_closure/core/slam/seq_reorder.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 
@@ -33,6 +34,10 @@ struct BagReadOptions {
   /// whose stamps come d s after the wheels' (stamped on arrival) wants -d. As the nodelets'
   /// odometry_time_offset; `llc slam --odometry-offset auto` suggests it.
   double odometry_time_offset = 0.0;
+  /// When set (mapping with wheels), each scan is shown to it in order and its odometry read at
+  /// the offset it returns: the nodelets' estimate_odometry_time_offset (odometry_time_offset
+  /// above is then its initial offset). Not owned.
+  llc::OdometryTimeOffsetProbe* odometry_time_offset_probe = nullptr;
   /// Skip the front scans that the nodelets give up for want of odometry: those whose own
   /// stamp lies before the first or after the last odometry message (tf never extrapolates),
   /// counted in the report. For mapping with wheel odometry, so that `llc slam --bag` sees the

@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 
+#include "laser_loop_closure/core/slam/odometry_time_offset_probe.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 
 namespace llc_ros {
@@ -65,5 +66,14 @@ bool lookupPose2(const tf2_ros::Buffer& buffer, const std::string& parent, const
 /// and the front end carries a last bit on into other loops (MIT CSAIL's bag with wheels: 20
 /// loops at 8x, 25 at 2x). On the grid both are one pose, as is a bag's own interpolation.
 llc::Pose2 canonicalWheelPose(const llc::Pose2& pose);
+
+/// The wheel odometry (odom_frame -> frame) in `buffer` at `stamp` plus an offset (s, added in
+/// whole nanoseconds as the bag reader adds it), on canonicalWheelPose's grid; false where tf
+/// holds none (as lookupPose2, it never waits). `buffer` must outlive it.
+llc::OdometryLookup tfOdometryLookup(const tf2_ros::Buffer& buffer, const std::string& odom_frame, const std::string& frame,
+                                     const ros::Time& stamp);
+/// `stamp` + `offset` s in whole nanoseconds (ros::Duration rounds the offset), never before
+/// time 0 + 1 ns (tf reads time 0 as "the latest").
+ros::Time offsetStamp(const ros::Time& stamp, double offset);
 
 }  // namespace llc_ros

@@ -41,6 +41,7 @@
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/ros/io/session_parts.hpp"
 #include "laser_loop_closure/ros/io/tf_listener.hpp"
+#include "laser_loop_closure/core/slam/odometry_time_offset_probe.hpp"
 #include "laser_loop_closure/core/slam/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 
@@ -59,9 +60,13 @@ struct LoopClosureNodeOptions {
   /// (0: wait for the wheels for ever).
   int wheel_odometry_wait_scans = 50;
   /// s added to each scan's stamp where its wheel odometry is looked up in tf, in [-1, 0]: a
-  /// scanner whose stamps come d s after the wheels' (stamped on arrival) wants -d. `llc slam
-  /// --bag B --odometry-offset auto` suggests it (odometry_time_offset_suggested).
+  /// scanner whose stamps come d s after the wheels' (stamped on arrival) wants -d. With
+  /// estimate_odometry_time_offset, only until the estimate has chosen.
   double odometry_time_offset = 0.0;
+  /// Estimate odometry_time_offset from the drive (llc::OdometryTimeOffsetProbe: 0 to 3 scan
+  /// periods back, chosen after 100 moving scan pairs whose candidates part in heading), and
+  /// read the wheels there from then on; `llc slam --bag` does the same.
+  bool estimate_odometry_time_offset = true;
   int tf_queue_size = 100;           ///< scans waiting for their odometry transform (none waits on a clock); when full the oldest is dropped
   int queue_size = 200;              ///< scans (odometry attached) waiting for the worker thread; when full the oldest is dropped
   /// s of scan time the worker may fall behind the newest scan before it skips the oldest
@@ -89,6 +94,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("publish_odometry_tf", o.publish_odometry_tf);
   visit("wheel_odometry_wait_scans", o.wheel_odometry_wait_scans);
   visit("odometry_time_offset", o.odometry_time_offset);
+  visit("estimate_odometry_time_offset", o.estimate_odometry_time_offset);
   visit("tf_queue_size", o.tf_queue_size);
   visit("queue_size", o.queue_size);
   visit("max_lag", o.max_lag);
@@ -162,6 +168,10 @@ class LoopClosureRos {
   bool trainClassifier(laser_loop_closure::TrainClassifier::Request& request,
                        laser_loop_closure::TrainClassifier::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// estimate_odometry_time_offset: shows the scan to odometry_probe_ and, where its offset is
+  /// not the configured one, reads the scan's wheels there instead (tf holds them: they are no
+  /// newer than the scan's own stamp, which passed the filter).
+  void probeOdometryOffset(const laser_loop_closure::Scan360& msg, const llc::Scan& scan, llc::Pose2* wheel_odometry);
 
   LoopClosureNodeOptions options_;
   llc::SystemOptions system_;
@@ -204,6 +214,7 @@ class LoopClosureRos {
   std::mutex mutex_;     ///< guards everything below and front_
   std::mutex training_;  ///< one training at a time
   std::size_t malformed_ = 0;
+  std::unique_ptr<llc::OdometryTimeOffsetProbe> odometry_probe_;  ///< estimate_odometry_time_offset (with wheels)
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< candidates not applied, by llc::LoopRefusal
   std::size_t keyframes_restored_ = 0;       ///< keyframes of the last session restored (~load_session of the back end)
