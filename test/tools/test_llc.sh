@@ -179,9 +179,14 @@ printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam: --odometry-time-offset out of range" 2 "odometry-time-offset must be in \[-1, 1\] s" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --odometry-time-offset 2
 check "slam: --odometry-time-offset on a log" 2 "odometry-time-offset is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --odometry-time-offset -0.1
+check "slam: --estimate-odometry-time-offset on a log" 2 "estimate-odometry-time-offset is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --estimate-odometry-time-offset true
+check "slam: --estimate-odometry-time-offset not a boolean" 2 "estimate-odometry-time-offset must be true or false" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --estimate-odometry-time-offset yes
+# sim.bag's odometry is in step with its scans: the estimate keeps 0 (or has not chosen yet).
+check "slam on sim.bag: the odometry time offset estimated" 0 "^odometry_time_offset=0 " -- cat "$TMP/slam/report.txt"
 check "slam: --seq-reorder-scans negative" 2 "seq_reorder_scans must be 0" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --no-wheel-odometry --seq-reorder-scans -1
 check "slam: --seq-reorder-scans on a log" 2 "seq-reorder-scans is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --seq-reorder-scans 5
 check "slam without wheel odometry" 0 "^odometry_steps_from_wheels=0$" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam2" --quiet --no-wheel-odometry
+check "slam on sim.bag: without wheels, no estimate lines" 1 "" -- grep -q "^odometry_time_offset" "$TMP/slam2/report.txt"
 check "slam: the saved session maps a second run as a new chain" 0 "restored [0-9]+ keyframes .*a new chain" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_again" --quiet --load-session "$TMP/sim.llcsession"
 check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F= -v first="$(awk -F, '$3 == 1' "$TMP/slam/loops.csv" | wc -l)" '
     /^loops_accepted=/ {n = $2} END {print (n > 2 * first ? "ok" : "not ok: " n " loops, the first run " first)}' "$TMP/slam_again/report.txt"
@@ -366,6 +371,12 @@ if [ -f "$LOG" ]; then
     check "llc relations on scans.csv gives slam's figure" 0 "^relation_translation_mean_m=$mean$" -- "$LLC" relations --log "$MIT" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations" --out "$TMP/mit/errors.csv"
     check "llc relations on the keyframes, carried by odometry" 0 "^relations_carried=[1-9]" -- "$LLC" relations --log "$MIT" --keyframes "$TMP/mit/trajectory.csv" --relations "${MIT%.log.gz}.relations"
     check "relation_tail on MIT CSAIL: every relation, and where its largest ones hang" 0 "^relations=1172 " -- /usr/bin/python3 "$REPO/scripts/lib/relation_tail.py" "$TMP/mit"
+    MIT_BAG="$DATA/rosbag/mit-csail.bag"
+    if [ -f "$MIT_BAG" ]; then
+      # Its bag stamps each scan a scan after its odometry: the estimate, as the nodelets make it.
+      check "slam --bag on MIT CSAIL: the odometry time offset found" 0 "^odometry_time_offset=-0.21 .*from scan 156 on" -- \
+        sh -c "'$LLC' slam --bag '$MIT_BAG' --front-topic /scan --out '$TMP/mit_bag' --quiet && cat '$TMP/mit_bag/report.txt'"
+    fi
     check "relations: poses of another log" 1 "not in the log" -- "$LLC" relations --log "$TMP/sim/sim.log" --poses "$TMP/mit/scans.csv" --relations "${MIT%.log.gz}.relations"
   fi
   FR079_LOG="$DATA/relations/fr079.log.gz"
