@@ -55,9 +55,11 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   const llc::SlamOptions& slam = system_.slam;
   front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
+  std::unique_ptr<llc::OdometryTimeOffsetProbe> probe;
   if (options_.use_wheel_odometry && options_.estimate_odometry_time_offset)
-    odometry_probe_ = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
-                                                                      options_.odometry_time_offset);
+    probe = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
+                                                           options_.odometry_time_offset);
+  wheels_ = std::make_unique<WheelOdometryReader>(tf_buffer_, options_.odom_frame, options_.odometry_time_offset, std::move(probe));
   model_path_ = options_.model_path;
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
@@ -152,27 +154,6 @@ void LoopClosureRos::onScanReceived(const laser_loop_closure::Scan360::ConstPtr&
   if (odometry_filter_ && !without_wheels_) odometry_filter_->add(msg);  // on to onScanWithOdometry or onOdometryFailure
 }
 
-bool LoopClosureRos::lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose,
-                                         std::string* error) {
-  const ros::Time& stamp = msg.header.stamp;
-  bool found = false;
-  if (options_.odometry_time_offset == 0.0) {
-    found = lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
-  } else if (lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, offsetStamp(stamp, options_.odometry_time_offset),
-                         pose, error)) {
-    found = true;
-  } else {
-    // Before the first odometry (the drive's first scans), or after a gap in tf: the odometry at
-    // the scan's own stamp, which its tf filter found (the bag reader holds its first message;
-    // on sim.bag, whose odometry starts with the scans, the two agree: online_offline.test).
-    found = lookupPose2(tf_buffer_, options_.odom_frame, msg.header.frame_id, stamp, pose, error);
-    odometry_at_scan_stamp_ += found;
-  }
-  // On canonicalWheelPose's grid: what tf answers must not depend on when it is asked.
-  if (found) *pose = canonicalWheelPose(*pose);
-  return found;
-}
-
 void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) {
   // The tf filter lets a scan go as soon as its transform is in the buffer, so after a gap in
   // the odometry a new scan can pass before older ones that waited; the front end must see
@@ -196,7 +177,7 @@ void LoopClosureRos::resolveInOrder(std::size_t index, const PendingScan* scan) 
     PendingScan head = waiting->second;
     awaiting_odometry_.erase(waiting);
     std::string error;
-    head.has_wheel_odometry = lookupWheelOdometry(*head.msg, &head.wheel_odometry, &error);
+    head.has_wheel_odometry = wheels_->read(*head.msg, &head.wheel_odometry, &error);
     if (head.has_wheel_odometry) {
       ++filter_passed_;
       resolved_[head.index] = head;
@@ -218,7 +199,7 @@ void LoopClosureRos::onScanWithOdometry(const laser_loop_closure::Scan360::Const
   ++filter_passed_;
   // The filter saw the transform in the buffer: this lookup does not wait.
   std::string error;
-  pending.has_wheel_odometry = lookupWheelOdometry(*msg, &pending.wheel_odometry, &error);
+  pending.has_wheel_odometry = wheels_->read(*msg, &pending.wheel_odometry, &error);
   if (!pending.has_wheel_odometry) {
     ++lookup_failed_;
     last_filter_problem_ = "no wheel odometry: " + error;
@@ -304,7 +285,14 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
     return;
   }
   llc::Pose2 wheel_odometry = pending.wheel_odometry;
-  if (odometry_probe_ && pending.has_wheel_odometry) probeOdometryOffset(msg, scan, &wheel_odometry);
+  if (pending.has_wheel_odometry && wheels_->estimate(msg, scan, &wheel_odometry)) {
+    const llc::OdometryTimeOffsetProbeResult& r = *wheels_->estimateResult();
+    if (r.estimate.ok)
+      ROS_INFO("loop_closure: wheel odometry read %.3f s from each scan's stamp from now on (estimate_odometry_time_offset: %s)",
+               r.offset, r.estimate.reason.c_str());
+    else
+      ROS_WARN("loop_closure: the odometry time offset stays %.3f s: %s", r.offset, r.estimate.reason.c_str());
+  }
   llc::Keyframe keyframe = llc::makeKeyframe(std::move(scan), pending.index, pending.has_wheel_odometry ? &wheel_odometry : nullptr);
   const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);
   if (!step.skip_reason.empty()) {
@@ -498,23 +486,6 @@ bool LoopClosureRos::trainClassifier(laser_loop_closure::TrainClassifier::Reques
   return true;
 }
 
-void LoopClosureRos::probeOdometryOffset(const laser_loop_closure::Scan360& msg, const llc::Scan& scan, llc::Pose2* wheel_odometry) {
-  const bool was_decided = odometry_probe_->result().decided;
-  const llc::OdometryLookup lookup = tfOdometryLookup(tf_buffer_, options_.odom_frame, msg.header.frame_id, msg.header.stamp);
-  const double offset = odometry_probe_->observe(msg.header.stamp.toSec(), scan, lookup);
-  const llc::OdometryTimeOffsetProbeResult& r = odometry_probe_->result();
-  if (r.decided && !was_decided) {
-    if (r.estimate.ok)
-      ROS_INFO("loop_closure: wheel odometry read %.3f s from each scan's stamp from now on (estimate_odometry_time_offset: %s)",
-               r.offset, r.estimate.reason.c_str());
-    else
-      ROS_WARN("loop_closure: the odometry time offset stays %.3f s: %s", r.offset, r.estimate.reason.c_str());
-  }
-  llc::Pose2 pose;
-  if (offset != options_.odometry_time_offset && llc::OdometryTimeOffsetProbe::readAt(lookup, offset, &pose))
-    *wheel_odometry = pose;
-}
-
 void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::size_t received = 0, passed = 0, failed = 0, lookup_failed = 0, awaiting = 0, behind_older = 0;
   std::size_t jumps_back = 0, given_up = 0, behind_newer = 0, at_scan_stamp = 0;
@@ -527,7 +498,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     awaiting = awaiting_odometry_.size();
     behind_older = resolved_.size();
     jumps_back = clock_jumps_back_, given_up = scans_given_up_at_jumps_, behind_newer = given_up_behind_newer_;
-    at_scan_stamp = odometry_at_scan_stamp_;
+    at_scan_stamp = wheels_->atScanStamp();
     filter_problem = last_filter_problem_;
   }
   const llc::ScanBacklogCounters backlog = backlog_->counters();
@@ -553,8 +524,8 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("mapping without wheel odometry (none came)", without_wheels_ ? "yes" : "no");
   status.add("scans without wheel odometry", failed + lookup_failed);
   status.add("scans with odometry at their own stamp, none at stamp + odometry_time_offset", at_scan_stamp);
-  if (odometry_probe_) {
-    const llc::OdometryTimeOffsetProbeResult& r = odometry_probe_->result();
+  if (const llc::OdometryTimeOffsetProbeResult* estimate = wheels_->estimateResult()) {
+    const llc::OdometryTimeOffsetProbeResult& r = *estimate;
     status.add("odometry time offset (s)", r.offset);
     status.add("odometry time offset estimate",
                r.decided ? r.estimate.reason

@@ -41,6 +41,7 @@
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/ros/io/session_parts.hpp"
 #include "laser_loop_closure/ros/io/tf_listener.hpp"
+#include "laser_loop_closure/ros/nodes/wheel_odometry_reader.hpp"
 #include "laser_loop_closure/core/slam/odometry_time_offset_probe.hpp"
 #include "laser_loop_closure/core/slam/slam_front_end.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
@@ -134,9 +135,6 @@ class LoopClosureRos {
   /// Hands scan `index` (null: it was dropped) on to the backlog once every older scan has been
   /// handed on or dropped: the front end sees the scans in the order they came. Holds receive_mutex_.
   void resolveInOrder(std::size_t index, const PendingScan* scan);
-  /// The scan's wheel odometry from tf at its stamp + odometry_time_offset (when that is not in
-  /// tf, at its stamp: the start of a drive; counted); false with the lookup's error. Under receive_mutex_.
-  bool lookupWheelOdometry(const laser_loop_closure::Scan360& msg, llc::Pose2* pose, std::string* error);
   /// To the backlog; without wheels through seq_order_ first. Under receive_mutex_.
   void enqueue(PendingScan scan);
   /// The scans seq_order_ holds, once no scan came for half a second of wall time (a bag ended
@@ -168,10 +166,6 @@ class LoopClosureRos {
   bool trainClassifier(laser_loop_closure::TrainClassifier::Request& request,
                        laser_loop_closure::TrainClassifier::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
-  /// estimate_odometry_time_offset: shows the scan to odometry_probe_ and, where its offset is
-  /// not the configured one, reads the scan's wheels there instead (tf holds them: they are no
-  /// newer than the scan's own stamp, which passed the filter).
-  void probeOdometryOffset(const laser_loop_closure::Scan360& msg, const llc::Scan& scan, llc::Pose2* wheel_odometry);
 
   LoopClosureNodeOptions options_;
   llc::SystemOptions system_;
@@ -207,14 +201,13 @@ class LoopClosureRos {
   static constexpr double kClockJumpBack = 1.0;
   ros::Time newest_received_stamp_;
   std::size_t clock_jumps_back_ = 0, scans_given_up_at_jumps_ = 0, given_up_behind_newer_ = 0;
-  /// Scans whose odometry tf did not hold at stamp + odometry_time_offset, read at the stamp.
-  std::size_t odometry_at_scan_stamp_ = 0;
+  /// A scan's wheel odometry from tf (read on this side; estimate() on the worker's, under mutex_).
+  std::unique_ptr<WheelOdometryReader> wheels_;
   std::string last_filter_problem_;
 
   std::mutex mutex_;     ///< guards everything below and front_
   std::mutex training_;  ///< one training at a time
   std::size_t malformed_ = 0;
-  std::unique_ptr<llc::OdometryTimeOffsetProbe> odometry_probe_;  ///< estimate_odometry_time_offset (with wheels)
   std::vector<llc::Pose2> optimised_poses_;  ///< from path: keyframe k at index k
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< candidates not applied, by llc::LoopRefusal
   std::size_t keyframes_restored_ = 0;       ///< keyframes of the last session restored (~load_session of the back end)
