@@ -176,6 +176,10 @@ check "slam: --wrong-loop-deg 0" 2 "wrong-loop-m and --wrong-loop-deg must be > 
 check "slam --drift: unknown preset" 2 "--drift must be 'moderate' or 'strong'" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift wild
 check "slam --drift: negative noise" 2 "noises must not be negative" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_drift2" --drift-noise-m -1
 printf 'place_gate:\n  radius: -1\n' > "$TMP/bad_gate.yaml"
+{ cat "$REPO/config/classifier.yaml"; echo "version: 1"; } > "$TMP/model_twice.yaml"
+check "slam: a model with a key written twice" 1 "model_twice.yaml.*key 'version' is repeated" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --model "$TMP/model_twice.yaml"
+printf 'odometry:\n  keyframe_distance: 0.5\n  keyframe_distance: 2.0\n' > "$TMP/twice.yaml"
+check "slam: a config with a key written twice" 1 "twice.yaml: line 3: key 'keyframe_distance' is repeated" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/twice.yaml"
 check "slam: a negative place radius" 1 "place_gate: radius must be > 0 m" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --config "$TMP/bad_gate.yaml"
 check "slam: --odometry-time-offset out of range" 2 "odometry-time-offset must be in \[-1, 1\] s" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --odometry-time-offset 2
 check "slam: --odometry-time-offset on a log" 2 "odometry-time-offset is for a bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam3" --odometry-time-offset -0.1

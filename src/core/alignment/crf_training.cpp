@@ -1,4 +1,5 @@
 #include "laser_loop_closure/core/alignment/crf_training.hpp"
+#include "laser_loop_closure/core/common/yaml_checks.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -93,6 +94,8 @@ CrfWeights loadCrfWeights(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw CrfWeightsError(path + ": not valid YAML (" + e.what() + ")");
   }
+  const std::string repeated = repeatedYamlKey(root);
+  if (!repeated.empty()) throw CrfWeightsError(path + ": " + repeated);
   try {
     if (!root.IsMap() || root["format"].as<std::string>("") != "laser_loop_closure/crf_weights")
       throw CrfWeightsError(path + ": not a laser_loop_closure CRF weights file");

@@ -1,4 +1,5 @@
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/common/yaml_checks.hpp"
 
 #include "laser_loop_closure/core/common/file_util.hpp"
 
@@ -102,6 +103,8 @@ ClassifierModel loadClassifierModel(const std::string& path, const FeatureOption
     refuse(path, std::string("not valid YAML (") + e.what() + ")");
   }
   if (!root.IsMap()) refuse(path, "not a classifier model (expected a YAML map)");
+  const std::string repeated = repeatedYamlKey(root);
+  if (!repeated.empty()) refuse(path, repeated);
   if (!root["format"] || root["format"].as<std::string>("") != kFormat)
     refuse(path, std::string("not a classifier model (format is not '") + kFormat + "')");
   const int version = required<int>(root, "version", path, "the file");

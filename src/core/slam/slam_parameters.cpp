@@ -1,4 +1,5 @@
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
+#include "laser_loop_closure/core/common/yaml_checks.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -78,6 +79,8 @@ void loadSystemOptionsYaml(const std::string& path, SystemOptions* options) {
   } catch (const std::exception& e) {
     throw std::runtime_error(path + ": cannot read as YAML (" + e.what() + ")");
   }
+  const std::string repeated = repeatedYamlKey(root);
+  if (!repeated.empty()) throw std::runtime_error(path + ": " + repeated);
   std::vector<std::pair<std::string, YAML::Node>> entries;
   if (!root.IsNull()) flatten(root, "", &entries, path);
   applyEntries(entries, path, options);
