@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -374,6 +375,37 @@ TEST(SimBag, BadBagsAndTopicsGiveAClearError) {
   wrong = {};
   wrong.topics.front = "/nothing";
   EXPECT_THROW(llc_ros::readBagSequence(dir.file("sim.bag"), wrong), llc_ros::BagError);
+}
+
+TEST(SimBag, AScanWhoseLengthClaimsMoreThanItsBytesIsLeftOutAndCounted) {
+  llc_test::TempDir dir;
+  const SimFixture sim(false);
+  llc_ros::writeSimBag(sim.drive, dir.file("sim.bag"));
+  std::string bytes = llc_test::readText(dir.file("sim.bag"));
+  // The sixth front scan's ranges length (after its frame_id and seven float32) set to 4.3e8:
+  // 1.7 GB for roscpp's deserializer to allocate before it finds the bytes missing.
+  const std::uint32_t beams = std::uint32_t(sim.drive.front.beams);
+  std::size_t from = 0, found = 0, at = std::string::npos;
+  while (found < 6) {
+    const std::size_t name = bytes.find("laser_front", from);
+    ASSERT_NE(name, std::string::npos);
+    from = name + 1;
+    std::uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + name + 11 + 28, sizeof length);
+    if (length == beams && ++found == 6) at = name + 11 + 28;
+  }
+  const std::uint32_t claimed = 430000000u;
+  bytes.replace(at, sizeof claimed, reinterpret_cast<const char*>(&claimed), sizeof claimed);
+  std::ofstream(dir.file("damaged.bag"), std::ios::binary) << bytes;
+  llc_ros::BagReadReport good, damaged;
+  const llc::ScanSequence all = llc_ros::readBagSequence(dir.file("sim.bag"), {}, &good);
+  const llc::ScanSequence read = llc_ros::readBagSequence(dir.file("damaged.bag"), {}, &damaged);
+  EXPECT_EQ(good.damaged_messages, 0u);
+  EXPECT_EQ(damaged.damaged_messages, 1u);
+  EXPECT_NE(damaged.first_damaged.find("sensor_msgs/LaserScan on /scan_front"), std::string::npos) << damaged.first_damaged;
+  ASSERT_EQ(read.scans.size() + 1, all.scans.size());
+  EXPECT_EQ(read.scans[4].scan.ranges, all.scans[4].scan.ranges);
+  EXPECT_EQ(read.scans[5].scan.ranges, all.scans[6].scan.ranges);  // the sixth left out, the rest as they were
 }
 
 TEST(SimBag, MalformedAndOutOfOrderScansAreSkippedAndAMissingMountFallsBack) {

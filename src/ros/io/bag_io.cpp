@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <utility>
@@ -10,7 +11,9 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/exception.h>
 #include <ros/message_traits.h>
+#include <ros/serialization.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/LaserScan.h>
@@ -19,6 +22,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
+#include "laser_loop_closure/ros/io/serialized_bounds.hpp"
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
 namespace llc_ros {
@@ -50,11 +54,47 @@ struct PoseTrack {
   }
 };
 
+/// Messages read as their bytes allow: rosbag's instantiate() lets a corrupted length claim
+/// gigabytes before it fails, so the bytes are walked first (serializedMessageFits).
+class CheckedMessages {
+ public:
+  CheckedMessages(const std::string& path, BagReadReport* report) : report_(report) {
+    std::ifstream file(path, std::ios::binary | std::ios::ate);
+    file_bytes_ = file ? std::uint64_t(file.tellg()) : 0;
+  }
+  /// The message as T; null when it holds another type (as instantiate) or is damaged (counted).
+  template <class T>
+  boost::shared_ptr<T> read(const rosbag::MessageInstance& m) {
+    if (!m.isType<T>()) return nullptr;
+    const std::uint32_t size = m.size();
+    std::vector<std::uint8_t> bytes;
+    if (size <= file_bytes_) {
+      bytes.resize(size);
+      ros::serialization::OStream out(bytes.data(), size);
+      m.write(out);
+    }
+    if (size > file_bytes_ || !serializedMessageFits(m.getDataType(), bytes.data(), size)) {
+      if (report_->damaged_messages++ == 0)
+        report_->first_damaged = "a " + m.getDataType() + " on " + m.getTopic() + " at " + std::to_string(m.getTime().toSec()) +
+                                 " s whose " + std::to_string(size) + " bytes do not hold it";
+      return nullptr;
+    }
+    auto msg = boost::make_shared<T>();
+    ros::serialization::IStream in(bytes.data(), size);
+    ros::serialization::deserialize(in, *msg);
+    return msg;
+  }
+
+ private:
+  BagReadReport* report_;
+  std::uint64_t file_bytes_ = 0;
+};
+
 /// The static transforms of the bag (/tf_static), for MountCache.
-void loadStaticTransforms(rosbag::Bag& bag, tf2::BufferCore* buffer) {
+void loadStaticTransforms(rosbag::Bag& bag, CheckedMessages& messages, tf2::BufferCore* buffer) {
   rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf_static"}));
   for (const rosbag::MessageInstance& m : view) {
-    const tf2_msgs::TFMessage::ConstPtr tf = m.instantiate<tf2_msgs::TFMessage>();
+    const tf2_msgs::TFMessage::ConstPtr tf = messages.read<tf2_msgs::TFMessage>(m);
     if (!tf) continue;
     for (geometry_msgs::TransformStamped t : tf->transforms) {
       // tf1's leading slashes, as tf2 names the frames (tf2 refuses them otherwise).
@@ -98,7 +138,8 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     throw BagError(path + ": the odometry time offset must be a finite number of seconds");
   try {
     tf2::BufferCore static_transforms;
-    loadStaticTransforms(bag, &static_transforms);
+    CheckedMessages messages(path, &r);
+    loadStaticTransforms(bag, messages, &static_transforms);
     const BagTopics& topics = options.topics;
     std::vector<sensor_msgs::LaserScan::ConstPtr> fronts, backs;
     PoseTrack odometry, truth;
@@ -107,12 +148,15 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     for (const rosbag::MessageInstance& m : view) {
       const std::string& topic = m.getTopic();
       if (topic == topics.front || topic == topics.back) {
-        const sensor_msgs::LaserScan::ConstPtr scan = m.instantiate<sensor_msgs::LaserScan>();
-        if (!scan) throw BagError(path + ": " + topic + " does not hold sensor_msgs/LaserScan but " + m.getDataType());
-        (topic == topics.front ? fronts : backs).push_back(scan);
+        if (!m.isType<sensor_msgs::LaserScan>())
+          throw BagError(path + ": " + topic + " does not hold sensor_msgs/LaserScan but " + m.getDataType());
+        const sensor_msgs::LaserScan::ConstPtr scan = messages.read<sensor_msgs::LaserScan>(m);
+        if (scan) (topic == topics.front ? fronts : backs).push_back(scan);
       } else {
-        const nav_msgs::Odometry::ConstPtr odom = m.instantiate<nav_msgs::Odometry>();
-        if (!odom) throw BagError(path + ": " + topic + " does not hold nav_msgs/Odometry but " + m.getDataType());
+        if (!m.isType<nav_msgs::Odometry>())
+          throw BagError(path + ": " + topic + " does not hold nav_msgs/Odometry but " + m.getDataType());
+        const nav_msgs::Odometry::ConstPtr odom = messages.read<nav_msgs::Odometry>(m);
+        if (!odom) continue;
         if (topic == topics.odom) {
           if (base.empty() && !odom->child_frame_id.empty()) base = odom->child_frame_id;
           odometry.add(odom->header.stamp, toPose2(odom->pose.pose));
@@ -211,6 +255,7 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     if (options.without_wheels || odometry.samples.empty()) putInSeqOrder(options.seq_reorder, seqs, &sequence, &r);
     return sequence;
   } catch (const rosbag::BagException& e) {
+    throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");  } catch (const ros::Exception& e) {  // the serializer's overruns: a record's bytes end early
     throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");
   }
 }

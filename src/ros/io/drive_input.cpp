@@ -25,6 +25,9 @@ llc::ScanSequence loadDrive(const std::string& path, const BagReadOptions& bag, 
     if (report.skipped_scans > 0 && warnings)
       warnings->push_back(path + ": skipped " + std::to_string(report.skipped_scans) +
                           " front scans; the first: " + report.first_problem);
+    if (report.damaged_messages > 0 && warnings)
+      warnings->push_back(path + ": left out " + std::to_string(report.damaged_messages) +
+                          " damaged messages; the first: " + report.first_damaged);
     if (warnings)
       for (const std::string& frame : report.fallback_frames)
         warnings->push_back(path + ": /tf_static does not mount scanner frame '" + frame +

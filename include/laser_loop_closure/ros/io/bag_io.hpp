@@ -57,6 +57,10 @@ struct BagReadReport {
   /// Of those, scans outside the odometry's time span (skip_scans_outside_odometry).
   std::size_t scans_outside_odometry = 0;
   std::string first_problem;
+  /// Messages whose bytes do not hold their type (a length beyond them: serializedMessageFits),
+  /// left out; the first described in first_damaged.
+  std::size_t damaged_messages = 0;
+  std::string first_damaged;
   bool truth_from_odometry = false;  ///< no truth topic: poses for labelling came from odometry
   std::vector<std::string> fallback_frames;  ///< scanner frames /tf_static did not mount: on fallback_mount
   llc::SeqReorderCounters seq_reorder;  ///< without wheels: scans put back in header.seq order (those late are in skipped_scans)
