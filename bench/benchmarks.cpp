@@ -5,6 +5,7 @@
 #include <malloc.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -246,8 +247,9 @@ std::unique_ptr<llc::Esdf> esdfOf(std::size_t n) {
       const std::size_t back = std::min<std::size_t>(k, 25 + random.index(975));
       const std::size_t a = k - back;
       // Measured as the current estimate says: consistent, so the gate would pass it.
-      esdf->updateWithInformation(llc::PoseEdge{a, k, llc::between(esdf->mean()[a], esdf->mean()[k]), loop.inverse()}, false,
-                                  k + 50 >= n);
+      const llc::EsdfUpdateResult update = esdf->updateWithInformation(
+          llc::PoseEdge{a, k, llc::between(esdf->mean()[a], esdf->mean()[k]), loop.inverse()}, false, k + 50 >= n);
+      if (!update.applied) throw std::runtime_error("benchmark graph: a consistent loop was refused: " + update.reject_reason);
     }
   }
   return esdf;

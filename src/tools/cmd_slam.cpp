@@ -230,7 +230,7 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
     trajectory << keyframes[k].scan_index << "," << std::fixed << std::setprecision(6) << keyframes[k].stamp << ","
                << poses[k].x << "," << poses[k].y << "," << poses[k].theta << "\n";
   llc::AtomicTextFile loops(dir + "/loops.csv");
-  loops << "a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,reason\n";
+  loops << "a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,refusal,reason\n";
   std::vector<llc::PictureLoop> picture_loops;
   for (const llc::LoopRecord& record : slam.loops()) {
     // Why it was refused, as one quoted CSV field (the stage first: "validation: ...",
@@ -248,7 +248,7 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
             << std::setprecision(4) << record.innovation_chi2;
     else
       loops << ",,,";
-    loops << "," << (record.by_consensus ? 1 : 0) << ",\"" << reason << "\"\n";
+    loops << "," << (record.by_consensus ? 1 : 0) << "," << llc::loopRefusalName(record.refusal) << ",\"" << reason << "\"\n";
     // Candidates that alignment refused are many and say little in a picture (they are in loops.csv).
     if (record.loop.accepted)
       picture_loops.push_back({record.loop.from, record.loop.to, record.applied, record.by_consensus});
@@ -498,7 +498,7 @@ int runSlam(const Args& args) {
     if (step.keyframe && !step.back_end_note.empty() && loosely_linked++ == 0)
       std::cerr << "warning: keyframe " << step.keyframe_index << ": " << step.back_end_note << " (later ones are only counted)\n";
     if (step.keyframe && !step.odometry.reject_reason.empty()) ++odometry_reasons[general(step.odometry.reject_reason)];
-    for (const llc::LoopClosure& skipped : step.loops.not_aligned) ++refusals[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
+    for (const llc::LoopClosure& skipped : step.loops.not_aligned) ++refusals[std::size_t(skipped.refusal)];
     not_aligned.insert(not_aligned.end(), step.loops.not_aligned.begin(), step.loops.not_aligned.end());
     progress.update(i + 1, slam.counters().keyframes, slam.counters().loops_accepted);
   }
@@ -508,7 +508,7 @@ int runSlam(const Args& args) {
     const llc::LoopRecord& record = slam.loops()[k];
     if (record.applied) continue;
     ++loop_reasons[general(record.reject_reason)];
-    ++refusals[std::size_t(llc::loopRefusalOf(record.reject_reason))];
+    ++refusals[std::size_t(record.refusal)];
   }
   writeOutputs(slam, options.map, dir);
   if (args.has("save-session")) {

@@ -50,10 +50,10 @@ check "slam --save-graph: a vertex per keyframe, an edge per step and per applie
 check "slam --save-graph: the vertices are trajectory.csv's poses" 0 "^ok$" -- bash -c "paste -d' ' <(tail -n +2 '$TMP/slam/trajectory.csv' | tr , ' ') <(grep '^VERTEX_SE2 ' '$TMP/slam.g2o') | awk '{d = (\$3 - \$8) ^ 2 + (\$4 - \$9) ^ 2 + (\$5 - \$10) ^ 2; if (d > 1e-10) bad++} END {print (NR > 300 && !bad ? \"ok\" : \"not ok\")}'"
 check "slam --save-graph: llc graph --batch stays at the run's optimum" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/slam.g2o' --out '$TMP/slam_batch.g2o' --batch | awk '/initial_chi2=/ {sub(/.*initial_chi2=/, \"\"); a = \$1 + 0} /^chi2=/ {sub(/^chi2=/, \"\"); b = \$1 + 0} END {print (a > 0 && b <= a && b > 0.99 * a ? \"ok\" : \"not ok: \" a \" -> \" b)}'"
 check "slam trajectory header" 0 "^index,stamp,x,y,theta$" -- head -1 "$TMP/slam/trajectory.csv"
-check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,reason$" -- head -1 "$TMP/slam/loops.csv"
-# Every refused candidate says at which stage and why; an applied one says nothing.
+check "slam loops header" 0 "^a,b,accepted,score,inlier_share,x,y,theta,innovation_chi2,by_consensus,refusal,reason$" -- head -1 "$TMP/slam/loops.csv"
+# Every refused candidate says at which stage (the refusal column) and why; an applied one says nothing.
 check "slam loops: a reason for each refused one, none for an applied one" 0 "^ok [1-9][0-9]* [1-9][0-9]*$" -- awk -F, '
-    NR > 1 { r = substr($0, index($0, "\"")); if ($3 == 1) { applied++; if (r != "\"\"") bad++ } else { refused++; if (r !~ /^"(validation|context|backend|crf|icp|alignment)[^"]*: [^"]+"$/) bad++ } }
+    NR > 1 { r = substr($0, index($0, "\"")); if ($3 == 1) { applied++; if (r != "\"\"" || $11 != "none") bad++ } else { refused++; if (r !~ /^"(validation|context|backend|crf|icp|alignment)[^"]*: [^"]+"$/ || $11 !~ /^(validation|context|back_end_[a-z]+|crf_match|icp|place_gate)$/) bad++ } }
     END { print (bad ? "not ok " bad : "ok " applied " " refused) }' "$TMP/slam/loops.csv"
 # A loop that reached the back end carries its aligned pose and a chi-square on the right side
 # of the gate (16.27, config/slam.yaml); a candidate refused before it carries none.

@@ -146,7 +146,8 @@ IcpResult ScanAligner::refine(const PreparedScan& a, const PreparedScan& b, cons
 ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
   const auto start = std::chrono::steady_clock::now();
   ScanAlignmentResult result;
-  auto finish = [&](std::string reason) {
+  auto finish = [&](AlignmentRefusal refusal, std::string reason) {
+    result.refusal = refusal;
     result.reject_reason = std::move(reason);
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
@@ -191,8 +192,8 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
     take(tryStarts(a, b, result.global.poses, options_));
   }
   if (converged.empty() && crf_found_none && result.global.poses.empty())
-    return finish("crf: " + result.crf.reject_reason + "; global search: " + result.global.reject_reason);
-  if (converged.empty()) return finish("icp: " + result.icp.reject_reason);
+    return finish(AlignmentRefusal::kNoStart, "crf: " + result.crf.reject_reason + "; global search: " + result.global.reject_reason);
+  if (converged.empty()) return finish(AlignmentRefusal::kIcp, "icp: " + result.icp.reject_reason);
   std::size_t winner = pickAlignment(fits, options_.min_relative_overlap);
   // The local optima of a corridor line up along it: restart from the winner shifted that way
   // (unless it fits so poorly that the pair is most likely two places, as most candidates are).
@@ -206,7 +207,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   result.pose = result.icp.pose;
   result.covariance = result.icp.covariance;
   result.validation = validateShape(b.points, a.icp_target.tree, result.pose, options_.validation, &a.view);
-  if (!result.validation.accepted) return finish("validation: " + result.validation.reject_reason);
+  if (!result.validation.accepted) return finish(AlignmentRefusal::kValidation, "validation: " + result.validation.reject_reason);
   const ShapeValidationOptions& validation = options_.validation;
   // The tests beyond the paper refuse the same way: `format` shows the measured value and its limit.
   auto refuse = [&](const char* format, double value, double limit) {
@@ -214,7 +215,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
     char text[96];
     std::snprintf(text, sizeof text, format, value, limit);
     result.validation.reject_reason = text;
-    return finish(std::string("validation: ") + text);
+    return finish(AlignmentRefusal::kValidation, std::string("validation: ") + text);
   };
   if (validation.max_position_std > 0.0) {
     // The largest eigenvalue of the symmetric 2x2 x-y block, in closed form.
@@ -232,7 +233,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
       return refuse("seen-through share %.3f above %.3f", result.validation.seen_through_share, validation.max_seen_through_share);
   }
   result.accepted = true;
-  return finish("");
+  return finish(AlignmentRefusal::kNone, "");
 }
 
 }  // namespace llc

@@ -347,6 +347,7 @@ EsdfUpdateResult Esdf::update(std::size_t from, std::size_t to, const Pose2& mea
   PoseEdge e{from, to, measurement, errorInformation(measurement, covariance)};
   if (!e.information.allFinite()) {
     EsdfUpdateResult r;
+    r.refusal = EsdfRefusal::kMalformed;
     r.reject_reason = "measurement covariance is not invertible";
     return r;
   }
@@ -356,16 +357,21 @@ EsdfUpdateResult Esdf::update(std::size_t from, std::size_t to, const Pose2& mea
 EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool solve) {
   EsdfUpdateResult result;
   if (e.from >= size() || e.to >= size() || e.from == e.to) {
+    result.refusal = EsdfRefusal::kMalformed;
     result.reject_reason = "poses " + std::to_string(e.from) + " and " + std::to_string(e.to) + " are not two poses of the filter";
     return result;
   }
   // A NaN here would poison every mean at the next solve, and an information beyond what
   // double precision holds beside the others would scatter them: refuse both instead.
   result.reject_reason = unusableConstraint(e, options_.max_information);
-  if (!result.reject_reason.empty()) return result;
+  if (!result.reject_reason.empty()) {
+    result.refusal = EsdfRefusal::kMalformed;
+    return result;
+  }
   if (gate) {
     result.innovation_chi2 = innovationChi2(e);
     if (!(result.innovation_chi2 <= options_.loop_chi2_threshold)) {
+      result.refusal = EsdfRefusal::kGate;
       result.reject_reason = "innovation chi2 " + std::to_string(result.innovation_chi2) + " above " +
                              std::to_string(options_.loop_chi2_threshold);
       return result;
@@ -390,6 +396,7 @@ EsdfUpdateResult Esdf::updateWithInformation(const PoseEdge& e, bool gate, bool 
   } catch (const std::runtime_error& e) {
     takeBackNewestEdge(std::move(linearization_before));
     result.applied = false;
+    result.refusal = EsdfRefusal::kUnsolvable;
     result.reject_reason = std::string("the system could not be solved with it (") + e.what() + "): taken back";
   }
   return result;

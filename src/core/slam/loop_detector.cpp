@@ -17,6 +17,17 @@ StrongClassifier withThreshold(const StrongClassifier& classifier, double thresh
   return copy;
 }
 
+/// The loop's refusal for the aligner's stage that refused it.
+LoopRefusal loopRefusalOf(AlignmentRefusal refusal) {
+  switch (refusal) {
+    case AlignmentRefusal::kNone: return LoopRefusal::kNone;
+    case AlignmentRefusal::kNoStart: return LoopRefusal::kCrfMatch;
+    case AlignmentRefusal::kIcp: return LoopRefusal::kIcp;
+    case AlignmentRefusal::kValidation: return LoopRefusal::kValidation;
+  }
+  return LoopRefusal::kOther;
+}
+
 }  // namespace
 
 std::string LoopDetectorOptions::validate() const {
@@ -113,6 +124,7 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   loop.pose = alignment.pose;
   loop.inlier_share = alignment.validation.inlier_share;
   loop.accepted = alignment.accepted;
+  loop.refusal = loopRefusalOf(alignment.refusal);
   loop.reject_reason = alignment.reject_reason;
   loop.seconds = alignment.seconds;
   loop.covariance = loopCovariance(alignment.pose, alignment.covariance, options_);
@@ -138,6 +150,7 @@ LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to,
   char text[128];
   std::snprintf(text, sizeof text, "validation: from the map's pose ICP fits %.3f, below nearby_min_predicted_fit %.3f", fit,
                 options_.nearby_min_predicted_fit);
+  loop.refusal = LoopRefusal::kValidation;
   loop.reject_reason = text;
   loop.seconds = secondsSince(start);
   return loop;
@@ -158,6 +171,7 @@ ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t bef
       checkLoopContext(old_context, new_context, loop.pose, loop.covariance, options_.context, aligner_.options().icp);
   if (!checked.accepted) {
     loop.accepted = false;
+    loop.refusal = LoopRefusal::kContext;
     loop.reject_reason = checked.reject_reason;
   }
   return checked;
@@ -176,18 +190,19 @@ LoopDetectionResult LoopDetector::detect(std::size_t index, const CandidateCheck
   }
   // Checks one candidate and aligns it when let through; true once a loop is found.
   auto tryCandidate = [&](std::size_t keyframe, double score, const Pose2* predicted = nullptr) {
-    std::string refused;
+    LoopVerdict verdict;
     if (check) {
       const auto check_start = std::chrono::steady_clock::now();
-      refused = check(keyframe, index);
+      verdict = check(keyframe, index);
       result.check_seconds += secondsSince(check_start);
     }
-    if (!refused.empty()) {
+    if (verdict.refused()) {
       LoopClosure skipped;
       skipped.from = keyframe;
       skipped.to = index;
       skipped.score = score;
-      skipped.reject_reason = std::move(refused);
+      skipped.refusal = verdict.refusal;
+      skipped.reject_reason = std::move(verdict.reason);
       result.not_aligned.push_back(std::move(skipped));
       return false;
     }

@@ -103,6 +103,11 @@ class Reader {
     at_ += n * sizeof(double);
     return v;
   }
+  LoopRefusal refusal() {
+    const std::uint8_t code = raw<std::uint8_t>();
+    if (code >= kLoopRefusalKinds) fail("a refusal code of " + std::to_string(code));
+    return LoopRefusal(code);
+  }
   bool done() const { return at_ == end_; }
   [[noreturn]] void fail(const std::string& what) const {
     throw SessionError(path_ + ": corrupt session (" + what + " at byte " + std::to_string(at_) + ")");
@@ -137,7 +142,25 @@ std::string payload(const SlamSession& s) {
   }
   // Version 2: one flag per loop record, after them all (so a version-1 body is a prefix).
   for (const LoopRecord& r : s.loops) w.flag(r.by_consensus);
+  // Version 3: the loop's and the record's refusal codes, per loop record, after them all.
+  for (const LoopRecord& r : s.loops) w.raw(std::uint8_t(r.loop.refusal)), w.raw(std::uint8_t(r.refusal));
   return std::move(w.bytes());
+}
+
+/// Versions 1 and 2 kept a loop's refusal only as the first words of its reason, as the stages
+/// of those versions wrote them: decoded here, once, for such a file (nothing else reads reasons).
+LoopRefusal refusalWrittenIn(const std::string& reason) {
+  auto starts = [&](const char* prefix) { return reason.rfind(prefix, 0) == 0; };
+  if (reason.empty()) return LoopRefusal::kNone;
+  if (starts("place gate: ")) return LoopRefusal::kPlaceGate;
+  if (starts("crf: ")) return LoopRefusal::kCrfMatch;
+  if (starts("icp: ")) return LoopRefusal::kIcp;
+  if (starts("validation: ")) return LoopRefusal::kValidation;
+  if (starts("context: ")) return LoopRefusal::kContext;
+  if (starts("backend: innovation chi2 ")) return LoopRefusal::kBackEndGate;
+  if (starts("backend: the system could not be solved")) return LoopRefusal::kBackEndUnsolvable;
+  if (starts("backend: ")) return LoopRefusal::kBackEndMalformed;
+  return LoopRefusal::kOther;
 }
 
 // The fewest bytes each item of the payload takes (fixed fields, empty vectors and texts).
@@ -167,6 +190,11 @@ SlamSession parse(Reader& r, std::uint32_t version) {
   }
   if (version >= 2)
     for (LoopRecord& rec : s.loops) rec.by_consensus = r.flag();
+  if (version >= 3) {
+    for (LoopRecord& rec : s.loops) rec.loop.refusal = r.refusal(), rec.refusal = r.refusal();
+  } else {
+    for (LoopRecord& rec : s.loops) rec.loop.refusal = refusalWrittenIn(rec.loop.reject_reason), rec.refusal = refusalWrittenIn(rec.reject_reason);
+  }
   if (!r.done()) r.fail("bytes left over");
   return s;
 }
@@ -199,6 +227,8 @@ std::string SlamSession::validate() const {
     if (loops[i].loop.from >= n || loops[i].loop.to >= n) return "loop " + std::to_string(i) + " names an unknown keyframe";
     if (loops[i].by_consensus && !loops[i].applied)
       return "loop " + std::to_string(i) + " is marked applied by consensus but not applied";
+    if (loops[i].applied && loops[i].refusal != LoopRefusal::kNone)
+      return "loop " + std::to_string(i) + " is applied but marked refused";
   }
   return "";
 }

@@ -22,8 +22,16 @@ bool usableCovariance(const Eigen::Matrix3d& c) {
 
 /// Refused by the chi-square gate itself (not by the filter's limits after it): the loops a
 /// consensus may apply later.
-bool refusedByGate(const LoopRecord& record) {
-  return !record.applied && loopRefusalOf(record.reject_reason) == LoopRefusal::kBackEndGate;
+bool refusedByGate(const LoopRecord& record) { return !record.applied && record.refusal == LoopRefusal::kBackEndGate; }
+
+LoopRefusal loopRefusalOf(EsdfRefusal refusal) {
+  switch (refusal) {
+    case EsdfRefusal::kNone: return LoopRefusal::kNone;
+    case EsdfRefusal::kMalformed: return LoopRefusal::kBackEndMalformed;
+    case EsdfRefusal::kGate: return LoopRefusal::kBackEndGate;
+    case EsdfRefusal::kUnsolvable: return LoopRefusal::kBackEndUnsolvable;
+  }
+  return LoopRefusal::kOther;
 }
 
 const EsdfOptions& checked(const EsdfOptions& options) {
@@ -126,6 +134,7 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
   record.loop = loop;
   auto refuse = [&](const std::string& why) {
     ++counters_.refused_loops;
+    record.refusal = LoopRefusal::kBackEndMalformed;
     record.reject_reason = "backend: " + why;
     loops_.push_back(record);
     return record;
@@ -142,6 +151,7 @@ LoopRecord SlamBackEnd::addLoop(const LoopClosure& loop) {
   if (update.applied) {
     ++counters_.loops_accepted;
   } else {
+    record.refusal = loopRefusalOf(update.refusal);
     record.reject_reason = "backend: " + update.reject_reason;
     ++counters_.refused_by_gate;
   }
@@ -159,12 +169,14 @@ void SlamBackEnd::applyByConsensus(std::size_t index) {
     // Without the gate: each alone missed the map, together they say where it is wrong.
     const EsdfUpdateResult update = esdf_->update(record.loop.from, record.loop.to, record.loop.pose, record.loop.covariance, false);
     if (!update.applied) {  // the filter's own limits (an information it cannot hold): stays refused
+      record.refusal = loopRefusalOf(update.refusal);
       record.reject_reason = "backend: " + update.reject_reason + " (applied with " + std::to_string(agreed.group.size() - 1) +
                              " refused loops that agreed)";
       continue;
     }
     record.applied = true;
     record.by_consensus = true;
+    record.refusal = LoopRefusal::kNone;
     record.reject_reason.clear();
     ++counters_.loops_accepted;
     ++counters_.applied_by_consensus;

@@ -442,7 +442,7 @@ LoopDetectionResult SlamFrontEnd::detectLoops(std::size_t keyframe_index, const 
   counters_.seconds_context += loops.context_seconds;
   for (const LoopClosure& loop : loops.aligned) {
     if (loop.accepted) ++counters_.loops_found;
-    else if (loopRefusalOf(loop.reject_reason) == LoopRefusal::kContext) ++counters_.refused_by_context;
+    else if (loop.refusal == LoopRefusal::kContext) ++counters_.refused_by_context;
     else ++counters_.refused_by_alignment;
   }
   // The nearby ones are aligned last.

@@ -22,11 +22,11 @@ std::string PlaceGateOptions::validate() const {
   return "";
 }
 
-std::string placeGateVerdict(const PlaceGateOptions& options, double chi2) {
-  if (chi2 <= options.chi2_threshold) return "";
+LoopVerdict placeGateVerdict(const PlaceGateOptions& options, double chi2) {
+  if (chi2 <= options.chi2_threshold) return {};
   char why[96];
   std::snprintf(why, sizeof why, "place gate: too far apart for one place (statistic %.1f)", chi2);
-  return why;
+  return {LoopRefusal::kPlaceGate, why};
 }
 
 std::string SlamOptions::validate() const {
@@ -125,6 +125,7 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
       pipeline_index_of_.push_back(loops_.size());
     } else {
       record.loop = loop;
+      record.refusal = loop.refusal;
       record.reject_reason = loop.reject_reason;
     }
     step.records.push_back(record);

@@ -40,20 +40,4 @@ const char* scanRefusalName(ScanRefusal refusal) {
   return "none";
 }
 
-LoopRefusal loopRefusalOf(const std::string& reason) {
-  auto starts = [&](const char* prefix) { return reason.rfind(prefix, 0) == 0; };
-  if (reason.empty()) return LoopRefusal::kNone;
-  // The prefixes are written by placeGateVerdict, ScanAligner::align, checkLoopContext, SlamBackEnd::addLoop and
-  // Esdf::update; test_slam's LoopRefusal test makes each of them refuse for real.
-  if (starts("place gate: ")) return LoopRefusal::kPlaceGate;
-  if (starts("crf: ")) return LoopRefusal::kCrfMatch;
-  if (starts("icp: ")) return LoopRefusal::kIcp;
-  if (starts("validation: ")) return LoopRefusal::kValidation;
-  if (starts("context: ")) return LoopRefusal::kContext;
-  if (starts("backend: innovation chi2 ")) return LoopRefusal::kBackEndGate;
-  if (starts("backend: the system could not be solved")) return LoopRefusal::kBackEndUnsolvable;
-  if (starts("backend: ")) return LoopRefusal::kBackEndMalformed;
-  return LoopRefusal::kOther;
-}
-
 }  // namespace llc

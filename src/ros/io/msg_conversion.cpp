@@ -228,6 +228,7 @@ laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, c
   toArray(loop.covariance, &msg.covariance);
   msg.inlier_share = loop.inlier_share;
   msg.accepted = loop.accepted;
+  msg.refusal = std::uint8_t(loop.refusal);
   msg.reject_reason = loop.reject_reason;
   return msg;
 }
@@ -235,6 +236,7 @@ laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, c
 laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopRecord& record, const std_msgs::Header& header) {
   laser_loop_closure::LoopClosure msg = toLoopClosureMsg(record.loop, header);
   msg.accepted = record.applied;
+  msg.refusal = std::uint8_t(record.refusal);
   msg.reject_reason = record.reject_reason;
   msg.innovation_chi2 = record.innovation_chi2;
   return msg;
@@ -249,6 +251,8 @@ llc::LoopClosure fromLoopClosureMsg(const laser_loop_closure::LoopClosure& msg) 
   loop.covariance = fromArray(msg.covariance);
   loop.inlier_share = msg.inlier_share;
   loop.accepted = msg.accepted;
+  // A code this build does not know (a newer sender) counts as kOther, not as a crash or a guess.
+  loop.refusal = msg.refusal < llc::kLoopRefusalKinds ? llc::LoopRefusal(msg.refusal) : llc::LoopRefusal::kOther;
   loop.reject_reason = msg.reject_reason;
   return loop;
 }

@@ -167,6 +167,7 @@ void EsdfBackendRos::takeLoop(const laser_loop_closure::LoopClosure::ConstPtr& m
   if (!msg->accepted) {
     llc::LoopRecord record;
     record.loop = fromLoopClosureMsg(*msg);
+    record.refusal = record.loop.refusal;
     record.reject_reason = msg->reject_reason;
     refused_by_alignment_.push_back(record);
     return;
@@ -234,7 +235,7 @@ bool EsdfBackendRos::nearbyKeyframes(laser_loop_closure::NearbyKeyframes::Reques
 void EsdfBackendRos::applyLoop(const laser_loop_closure::LoopClosure& msg) {
   const llc::LoopRecord record = back_->addLoop(fromLoopClosureMsg(msg));
   if (!record.applied) {
-    ++refusals_[std::size_t(llc::loopRefusalOf(record.reject_reason))];
+    ++refusals_[std::size_t(record.refusal)];
     ROS_DEBUG("esdf_backend: loop %u -> %u refused: %s", msg.from_keyframe, msg.to_keyframe, record.reject_reason.c_str());
   }
   record_pub_.publish(toLoopClosureMsg(record, msg.header));

@@ -324,9 +324,9 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   for (const llc::LoopClosure& loop : loops.aligned) {
     loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
     ++loops_published_;
-    ++refusals_[std::size_t(llc::loopRefusalOf(loop.reject_reason))];
+    ++refusals_[std::size_t(loop.refusal)];
   }
-  for (const llc::LoopClosure& skipped : loops.not_aligned) ++refusals_[std::size_t(llc::loopRefusalOf(skipped.reject_reason))];
+  for (const llc::LoopClosure& skipped : loops.not_aligned) ++refusals_[std::size_t(skipped.refusal)];
 }
 
 template <class Service>
@@ -344,7 +344,7 @@ std::string LoopClosureRos::callBackEnd(ros::ServiceClient& client, ros::WallTim
   return why;
 }
 
-std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::size_t keyframe) {
+llc::LoopVerdict LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::size_t keyframe) {
   ++place_checks_;
   laser_loop_closure::PlaceCheck check;
   check.request.from_keyframe = std::uint32_t(from);
@@ -357,7 +357,7 @@ std::string LoopClosureRos::placeCheck(std::size_t from, std::size_t to, std::si
     ++place_checks_unanswered_;
     ROS_WARN_THROTTLE(10.0, "loop_closure: the place gate got no answer from %s (%s): candidates are aligned ungated",
                       options_.place_check_service.c_str(), why.c_str());
-    return "";
+    return {};
   }
   return llc::placeGateVerdict(system_.slam.place_gate, check.response.chi2);
 }

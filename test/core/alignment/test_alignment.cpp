@@ -369,6 +369,7 @@ TEST(Aligner, ConvergesWithThirtyPercentClutterAndPartialOverlap) {
   ASSERT_TRUE(r.icp.converged) << r.reject_reason;
   expectPoseNear(r.pose, llc::between(a, b), 0.05, 0.01);
   EXPECT_TRUE(r.accepted) << r.reject_reason;
+  EXPECT_EQ(r.refusal, llc::AlignmentRefusal::kNone);
   // With the seen-through test (the default share), that clutter contradicts the match.
   options.validation.max_seen_through_share = llc::ShapeValidationOptions{}.max_seen_through_share;
   const llc::ScanAligner strict(options);
@@ -376,6 +377,7 @@ TEST(Aligner, ConvergesWithThirtyPercentClutterAndPartialOverlap) {
   expectPoseNear(s.pose, llc::between(a, b), 0.05, 0.01);
   EXPECT_FALSE(s.accepted);
   EXPECT_EQ(s.reject_reason.rfind("validation: seen-through share", 0), 0u) << s.reject_reason;
+  EXPECT_EQ(s.refusal, llc::AlignmentRefusal::kValidation);
   EXPECT_GT(s.validation.seen_through_share, 0.15);
 }
 
@@ -460,6 +462,7 @@ TEST(Aligner, PositionStdRefusesACorridorThatOnlyItsFarEndPinsDown) {
   const llc::ScanAlignmentResult refused = alignIn(strict, dead_end, a, b);
   EXPECT_FALSE(refused.accepted);
   EXPECT_EQ(refused.reject_reason.rfind("validation: position std", 0), 0u) << refused.reject_reason;
+  EXPECT_EQ(refused.refusal, llc::AlignmentRefusal::kValidation);
   EXPECT_NEAR(refused.validation.position_std, corridor_std, 1e-12);
   EXPECT_TRUE(alignIn(strict, room(), a, b).accepted);
   EXPECT_TRUE(alignIn(llc::ScanAligner{}, room(), a, b).accepted);

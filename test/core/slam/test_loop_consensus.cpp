@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <vector>
 
@@ -189,6 +190,34 @@ TEST(LoopConsensus, ARestoredSessionsRefusedLoopsWaitAgain) {
   EXPECT_EQ(third.counters().loops_accepted, 4u);
   EXPECT_EQ(third.counters().refused_by_gate, 0u);
   for (std::size_t id = 0; id < 4; ++id) EXPECT_TRUE(third.loops()[id].by_consensus) << id;
+}
+
+TEST(LoopConsensus, ARewordedReasonChangesNothingTheCodeDecides) {
+  llc::SlamBackEnd first;
+  slidChain(first);
+  for (std::size_t i = 0; i < 3; ++i) first.addLoop(loopOf(i, 15 + i, {15.0, 0.0, 0.0}));
+  llc::SlamSession session = llc::sessionOf(first, std::vector<std::vector<double>>(21, std::vector<double>(2, 0.0)));
+  ASSERT_EQ(session.loops.size(), 3u);
+  // Every gated loop's reason reworded (one to another stage's words), saved and loaded as a file.
+  session.loops[0].reject_reason = "reworded";
+  session.loops[1].reject_reason = "";
+  session.loops[2].reject_reason = "validation: a stage that did not refuse it";
+  const std::string path = ::testing::TempDir() + "reworded.llcsession";
+  llc::saveSession(session, path);
+  const llc::SlamSession loaded = llc::loadSession(path);
+  for (const llc::LoopRecord& record : loaded.loops) EXPECT_EQ(record.refusal, llc::LoopRefusal::kBackEndGate) << record.reject_reason;
+  llc::SlamBackEnd second;
+  ASSERT_EQ(second.restore(loaded), "");
+  EXPECT_TRUE(second.addLoop(loopOf(3, 18, {15.0, 0.0, 0.0})).applied);
+  EXPECT_EQ(second.lastConsensus(), (std::vector<std::size_t>{0, 1, 2, 3}));
+  // The other way round: the gate's words on loops whose code says validation refused them.
+  session = llc::sessionOf(first, std::vector<std::vector<double>>(21, std::vector<double>(2, 0.0)));
+  for (llc::LoopRecord& record : session.loops) record.refusal = llc::LoopRefusal::kValidation;
+  llc::SlamBackEnd third;
+  ASSERT_EQ(third.restore(session), "");
+  EXPECT_FALSE(third.addLoop(loopOf(3, 18, {15.0, 0.0, 0.0})).applied);
+  EXPECT_TRUE(third.lastConsensus().empty());
+  std::remove(path.c_str());
 }
 
 }  // namespace

@@ -35,7 +35,7 @@ TEST(LoopContext, EveryShapeValidatedLoopOfADriveIsCheckedAndNoneOfItsTrueLoopsI
     for (std::size_t i = 0; i < drive.frames.size(); ++i) {
       const llc::SlamStepResult step = slam.addScan(frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
       for (const llc::LoopClosure& loop : step.loops.aligned)
-        r.validated += loop.accepted || llc::loopRefusalOf(loop.reject_reason) == llc::LoopRefusal::kContext;
+        r.validated += loop.accepted || loop.refusal == llc::LoopRefusal::kContext;
       if (step.keyframe) truth.push_back(drive.frames[i].truth);
     }
     r.counters = slam.counters();

@@ -82,7 +82,9 @@ TEST(NearbyCandidates, TheMapsNearbyKeyframesAreAlignedWhenTheClassifierOffersNo
   // The place gate is asked about nearby keyframes as about the classifier's: what it refuses
   // frees the slot for the next one.
   const llc::LoopDetectionResult gated = detector.detect(
-      query, [](std::size_t from, std::size_t) { return from == 0 ? std::string("not here") : std::string(); },
+      query, [](std::size_t from, std::size_t) {
+        return from == 0 ? llc::LoopVerdict{llc::LoopRefusal::kPlaceGate, "not here"} : llc::LoopVerdict{};
+      },
       map.source());
   ASSERT_EQ(gated.not_aligned.size(), 1u);
   EXPECT_EQ(gated.not_aligned.front().from, 0u);
@@ -143,7 +145,7 @@ TEST(NearbyCandidates, ANearbyKeyframeWhoseMapPoseFitsNothingIsRefusedWithoutThe
     if (min_fit > 0.0) {
       EXPECT_FALSE(loop.accepted);
       EXPECT_NE(loop.reject_reason.find("nearby_min_predicted_fit"), std::string::npos) << loop.reject_reason;
-      EXPECT_EQ(llc::loopRefusalOf(loop.reject_reason), llc::LoopRefusal::kValidation);
+      EXPECT_EQ(loop.refusal, llc::LoopRefusal::kValidation);
     } else {
       ASSERT_TRUE(loop.accepted) << loop.reject_reason;
       const llc::Pose2 error = llc::between(truth, loop.pose);
@@ -177,7 +179,7 @@ TEST(NearbyCandidates, AreNotAskedForOnceTheClassifiersGaveALoopAndNeverAlignedT
   std::vector<std::size_t> asked;
   const auto refuse_all = [&](std::size_t from, std::size_t) {
     asked.push_back(from);
-    return std::string("not here");
+    return llc::LoopVerdict{llc::LoopRefusal::kPlaceGate, "not here"};
   };
   const llc::LoopDetectionResult refused = detector.detect(query, refuse_all, {});
   ASSERT_FALSE(refused.not_aligned.empty());

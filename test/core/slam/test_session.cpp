@@ -48,6 +48,7 @@ llc::SlamSession handSession() {
   s.loops.push_back(record);
   record.by_consensus = false;
   record.applied = false, record.reject_reason = "backend: innovation chi2 99 > 16.27";
+  record.refusal = llc::LoopRefusal::kBackEndGate;
   s.loops.push_back(record);
   return s;
 }
@@ -86,6 +87,8 @@ TEST(SessionFile, RoundTripsEveryField) {
   EXPECT_EQ(loaded.loops[0].innovation_chi2, 1.25);
   EXPECT_TRUE(loaded.loops[0].applied && !loaded.loops[1].applied);
   EXPECT_TRUE(loaded.loops[0].by_consensus && !loaded.loops[1].by_consensus);
+  EXPECT_EQ(loaded.loops[0].refusal, llc::LoopRefusal::kNone);
+  EXPECT_EQ(loaded.loops[1].refusal, llc::LoopRefusal::kBackEndGate);
   EXPECT_FALSE(std::ifstream(dir.file("s.llcsession.tmp")).good()) << "the temporary file stays behind";
 }
 
@@ -101,32 +104,57 @@ std::string rawBytes(T value) {
   return std::string(reinterpret_cast<const char*>(&value), sizeof value);
 }
 
-TEST(SessionFile, AVersionOneFileStillLoadsWithNoLoopAppliedByConsensus) {
-  // Version 1 is version 2 without the trailing flag per loop record: built from a version-2
-  // save as the layout in docs/file_formats.md says (magic, version, body length, body, checksum).
+TEST(SessionFile, VersionsOneAndTwoStillLoadTheirRefusalsReadFromTheReasons) {
+  // Version 2 is version 3 without the two refusal codes per loop record, version 1 also without
+  // the consensus flag per record: built from a version-3 save as the layout in
+  // docs/file_formats.md says (magic, version, body length, body, checksum).
   llc_test::TempDir dir;
-  const llc::SlamSession saved = handSession();
-  llc::saveSession(saved, dir.file("v2.llcsession"));
-  const std::string v2 = llc_test::readText(dir.file("v2.llcsession"));
-  ASSERT_EQ(v2.substr(0, 12), "LLC-SESSION\n");
-  ASSERT_EQ(v2.compare(12, 4, rawBytes(std::uint32_t(2))), 0);
+  llc::SlamSession saved = handSession();
+  // One more refused loop, by the aligner: its reason's first words say which stage, as the
+  // stages of versions 1 and 2 wrote them.
+  llc::LoopRecord validation = saved.loops[1];
+  validation.loop.accepted = false, validation.loop.refusal = llc::LoopRefusal::kValidation;
+  validation.loop.reject_reason = validation.reject_reason = "validation: inlier share 0.41 below 0.9";
+  validation.refusal = llc::LoopRefusal::kValidation, validation.innovation_chi2 = 0.0;
+  saved.loops.push_back(validation);
+  llc::saveSession(saved, dir.file("v3.llcsession"));
+  const std::string v3 = llc_test::readText(dir.file("v3.llcsession"));
+  ASSERT_EQ(v3.substr(0, 12), "LLC-SESSION\n");
+  ASSERT_EQ(v3.compare(12, 4, rawBytes(std::uint32_t(3))), 0);
   std::uint64_t length = 0;
-  std::memcpy(&length, v2.data() + 16, sizeof length);
-  ASSERT_EQ(v2.size(), 24 + length + 8);
-  const std::string body = v2.substr(24, length - saved.loops.size());
-  const std::string v1 = v2.substr(0, 12) + rawBytes(std::uint32_t(1)) + rawBytes(std::uint64_t(body.size())) + body +
-                         rawBytes(fnv1aOf(body));
-  std::ofstream(dir.file("v1.llcsession"), std::ios::binary) << v1;
-  const llc::SlamSession loaded = llc::loadSession(dir.file("v1.llcsession"));
-  ASSERT_EQ(loaded.loops.size(), 2u);
-  EXPECT_TRUE(loaded.loops[0].applied);
-  EXPECT_FALSE(loaded.loops[0].by_consensus) << "version 1 does not say: not by consensus";
-  EXPECT_EQ(loaded.loops[1].reject_reason, saved.loops[1].reject_reason);
-  EXPECT_EQ(loaded.keyframes.size(), 3u);
-  // The flags in a version-1 file would be bytes left over.
-  const std::string v1_with_flags = v2.substr(0, 12) + rawBytes(std::uint32_t(1)) + v2.substr(16);
-  std::ofstream(dir.file("v1x.llcsession"), std::ios::binary) << v1_with_flags;
-  EXPECT_THROW(llc::loadSession(dir.file("v1x.llcsession")), llc::SessionError);
+  std::memcpy(&length, v3.data() + 16, sizeof length);
+  ASSERT_EQ(v3.size(), 24 + length + 8);
+  const std::size_t loops = saved.loops.size();
+  for (std::uint32_t version : {1u, 2u}) {
+    const std::string body = v3.substr(24, length - loops * (version == 2 ? 2 : 3));
+    const std::string old = v3.substr(0, 12) + rawBytes(version) + rawBytes(std::uint64_t(body.size())) + body + rawBytes(fnv1aOf(body));
+    const std::string path = dir.file("v" + std::to_string(version) + ".llcsession");
+    std::ofstream(path, std::ios::binary) << old;
+    const llc::SlamSession loaded = llc::loadSession(path);
+    ASSERT_EQ(loaded.loops.size(), 3u);
+    EXPECT_TRUE(loaded.loops[0].applied);
+    EXPECT_EQ(loaded.loops[0].by_consensus, version == 2) << "version 1 does not say: not by consensus";
+    EXPECT_EQ(loaded.loops[1].reject_reason, saved.loops[1].reject_reason);
+    EXPECT_EQ(loaded.loops[0].refusal, llc::LoopRefusal::kNone);
+    EXPECT_EQ(loaded.loops[1].refusal, llc::LoopRefusal::kBackEndGate);
+    EXPECT_EQ(loaded.loops[2].refusal, llc::LoopRefusal::kValidation);
+    EXPECT_EQ(loaded.loops[2].loop.refusal, llc::LoopRefusal::kValidation);
+    EXPECT_EQ(loaded.keyframes.size(), 3u);
+    // Version 3's codes in an older file would be bytes left over.
+    const std::string with_codes = v3.substr(0, 12) + rawBytes(version) + v3.substr(16);
+    std::ofstream(path, std::ios::binary) << with_codes;
+    EXPECT_THROW(llc::loadSession(path), llc::SessionError);
+  }
+  // A refusal code this build does not know is refused, with the byte it is at.
+  std::string body = v3.substr(24, length);
+  body[body.size() - 1] = char(llc::kLoopRefusalKinds);
+  std::ofstream(dir.file("code.llcsession"), std::ios::binary) << v3.substr(0, 24) + body + rawBytes(fnv1aOf(body));
+  try {
+    llc::loadSession(dir.file("code.llcsession"));
+    ADD_FAILURE() << "an unknown refusal code loaded";
+  } catch (const llc::SessionError& e) {
+    EXPECT_NE(std::string(e.what()).find("a refusal code of 10"), std::string::npos) << e.what();
+  }
 }
 
 TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {

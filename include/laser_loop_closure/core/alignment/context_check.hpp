@@ -37,7 +37,7 @@ struct ContextCheckOptions {
   std::size_t max_points = 2000;  ///< points of the new context whose fit is counted (evenly strided)
   double cell = 0.05;  ///< m; each context's points thinned to one per square cell of this side (scans overlap)
   bool parallel = true;  ///< half the restarts on a second thread (the same verdict, less wall time)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// One keyframe of a context: its points and its pose in the frame of the loop's keyframe it

@@ -27,7 +27,7 @@ struct CorrelativeSearchOptions {
   double max_rotation = 0.35;      ///< rad; rotations searched within this of the centre's
   double rotation_step = 0.02;     ///< rad; between searched rotations
   std::size_t max_points = 180;    ///< source points scored, evenly strided (0: all)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct CorrelativeSearchResult {

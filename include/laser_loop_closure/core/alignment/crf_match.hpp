@@ -50,7 +50,7 @@ struct CrfMatchOptions {
   std::size_t min_associations = 4;  ///< fewer confident associations: no transform
   RobustFitOptions fit{};         ///< the robust rigid fit on the associations
   CrfWeights weights{};
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// A scan as CRF-match sees it: nodes spaced along its contours, with their descriptions.

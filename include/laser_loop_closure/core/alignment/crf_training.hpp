@@ -24,7 +24,7 @@ struct CrfTrainingOptions {
   double learning_rate = 0.05;    ///< perceptron step
   double truth_distance = 0.3;    ///< m; a source node's true partner is the target node within this
   std::uint64_t seed = 1;         ///< seeds the order of the pairs in each pass
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct CrfTrainingResult {

@@ -22,7 +22,7 @@ struct GlobalSearchOptions {
   double max_normal_angle = 0.35;  ///< rad; point pairs whose surfaces (after rotation) differ more do not vote
   int hypotheses = 6;              ///< poses returned, most votes first
   double distinct_distance = 0.5;  ///< m; a returned pose is this far from better ones (same rotation) ...
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// What the search needs of one scan, computed once: its thinned points and the direction of

@@ -33,7 +33,7 @@ struct IcpOptions {
   /// states for ever (a limit cycle 2 mm to 2 cm wide), while with fixed pairs Gauss-Newton
   /// settles. At or beyond max_iterations: the pairs are found afresh at every step.
   int fixed_pairs_after = 30;
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// The target scan with what ICP needs of it, built once and reusable for many sources.

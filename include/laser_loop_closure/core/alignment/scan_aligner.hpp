@@ -37,7 +37,7 @@ struct ScanAlignerOptions {
   GlobalSearchOptions global{};
   IcpOptions icp{};
   ShapeValidationOptions validation{};
-  std::string validate() const;  ///< names the stage whose option is wrong
+  [[nodiscard]] std::string validate() const;  ///< names the stage whose option is wrong
 };
 
 /// What ICP from a guess and shape validation need of a scan (scan-matching odometry's target,
@@ -58,8 +58,17 @@ struct PreparedScan : MatchTarget {
   FreeSpace free_space;  ///< where its beams ended (prepare() fills it when the seen-through test is on)
 };
 
+/// The stage of align() that refused a pair.
+enum class AlignmentRefusal {
+  kNone,        ///< accepted
+  kNoStart,     ///< neither CRF-match nor the global search gave ICP a start
+  kIcp,         ///< ICP converged from no start
+  kValidation,  ///< aligned, but shape validation (or a test beyond the paper's) refused it
+};
+
 struct ScanAlignmentResult {
   bool accepted = false;     ///< aligned and shape-validated
+  AlignmentRefusal refusal = AlignmentRefusal::kNone;  ///< which stage refused it (what decisions read)
   Pose2 pose;                ///< scan b in the frame of scan a (valid when icp.converged)
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose, from ICP
   CrfMatchResult crf;
@@ -72,7 +81,7 @@ struct ScanAlignmentResult {
   std::vector<double> icp_shares;
   std::size_t chosen = 0;  ///< index in icp_poses / icp_shares of the result that went on to validation
   double seconds = 0.0;      ///< all stages
-  std::string reject_reason;  ///< "crf: ...", "icp: ..." or "validation: ..."; empty when accepted
+  std::string reject_reason;  ///< the same for people: "crf: ...", "icp: ..." or "validation: ..."; empty when accepted
 };
 
 class ScanAligner {

@@ -27,7 +27,7 @@ struct ShapeValidationOptions {
   /// corridor fits anywhere along it, and two stretches of one look alike (0 = the check is off).
   /// The covariance scales with the residuals and the pairs ICP uses (icp.max_source_points).
   double max_position_std = 0.015;
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// What a scan's scanner could see, in the scan's own frame: bearings [min, max] from its

@@ -44,15 +44,24 @@ struct EsdfOptions {
   /// counts in full (the least-squares optimum is unchanged where every loop fits). Odometry
   /// (augmentation) is never scaled. 0: off.
   double robust_loop_chi2 = 0.0;
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
+};
+
+/// Why an update was not applied.
+enum class EsdfRefusal {
+  kNone,        ///< applied
+  kMalformed,   ///< not two poses of the filter, or an information it cannot use (not finite, beyond max_information)
+  kGate,        ///< the innovation's chi2 above loop_chi2_threshold
+  kUnsolvable,  ///< the system could not be solved with it: taken back
 };
 
 /// What one update did.
-struct EsdfUpdateResult {
+struct [[nodiscard]] EsdfUpdateResult {
   bool applied = false;
   double innovation_chi2 = 0.0;  ///< r^T S^-1 r of the loop closure before it was applied (gated updates)
   int relinearizations = 0;
-  std::string reject_reason;     ///< empty when applied
+  EsdfRefusal refusal = EsdfRefusal::kNone;  ///< what decisions read
+  std::string reject_reason;     ///< the same for people; empty when applied
 };
 
 /// An upper bound, with no trigonometry, of how far the first-order model of a relative-pose

@@ -68,7 +68,7 @@ struct AdaBoostOptions {
   /// alpha = log((1 - e) / e) instead of infinity.
   double min_error = 1e-10;
 
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// What one training round did (Table I test 1 reads these).

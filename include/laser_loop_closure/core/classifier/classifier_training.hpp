@@ -20,7 +20,7 @@ struct ClassifierTrainingOptions {
   int repeats = 1;                   ///< cross-validation repeats, each with a new shuffle
   std::uint64_t seed = 1;            ///< seeds the shuffles
   double target_false_alarm = 0.01;  ///< K is the lowest threshold keeping false alarms at or below this
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct ClassifierTrainingResult {

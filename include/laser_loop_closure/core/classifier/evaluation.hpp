@@ -38,7 +38,7 @@ struct CrossValidationOptions {
   std::uint64_t seed = 1;  ///< seeds the shuffles
   AdaBoostOptions adaboost;
 
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// Scores of one repeat, pooled over its folds: scores[i] is row i's score from the classifier

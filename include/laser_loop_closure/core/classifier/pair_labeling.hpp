@@ -25,7 +25,7 @@ struct PairLabelingOptions {
   std::size_t max_pairs_per_class = 200;  ///< at most this many of each class
   std::uint64_t seed = 1;                 ///< seeds the sampling
 
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct PairLabelingResult {

@@ -35,7 +35,7 @@ struct ThresholdCalibrationOptions {
   std::size_t max_pairs = 100000;      ///< scores kept (a uniform reservoir of all seen); bounds memory
   std::size_t pairs_per_keyframe = 20; ///< surely-different older keyframes scored per new keyframe
   /// "" or what is wrong (a rate outside (0, 1), a negative or non-finite distance, ...).
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// Whether two poses of one odometry chain, `path` metres of driving apart, are surely two

@@ -32,7 +32,7 @@ class AtomicTextFile : public std::ostringstream {
 /// Why `path` cannot be written as a file (its folder missing or not writable, the path a
 /// folder), or "" when it can. Checks only; creates nothing. For checking outputs before a
 /// long run starts.
-std::string whyNotWritable(const std::string& path);
+[[nodiscard]] std::string whyNotWritable(const std::string& path);
 
 /// Wall-clock seconds since `start`.
 inline double secondsSince(std::chrono::steady_clock::time_point start) {

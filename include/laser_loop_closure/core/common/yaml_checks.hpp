@@ -11,6 +11,6 @@ namespace llc {
 
 /// Empty when no map in `node`, at any depth, holds a key twice; else "line N: key 'K' is
 /// repeated (first on line M)" (lines from 1).
-std::string repeatedYamlKey(const YAML::Node& node);
+[[nodiscard]] std::string repeatedYamlKey(const YAML::Node& node);
 
 }  // namespace llc

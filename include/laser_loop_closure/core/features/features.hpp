@@ -32,7 +32,7 @@ struct FeatureOptions {
   FeatureSet feature_set = FeatureSet::kExtended;  ///< which features to compute
 
   /// Empty when the options are usable, else a sentence saying what is wrong.
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
   bool operator==(const FeatureOptions& other) const;
   bool operator!=(const FeatureOptions& other) const { return !(*this == other); }
 };

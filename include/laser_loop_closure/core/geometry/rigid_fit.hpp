@@ -29,7 +29,7 @@ struct RobustFitOptions {
   int alternatives = 3;           ///< also return up to this many other distinct transforms ...
   double distinct_distance = 0.5;  ///< m; ... differing from better ones by more than this ...
   double distinct_angle = 0.17;    ///< rad; ... or this (about 10 degrees)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct RobustFitResult {

@@ -24,7 +24,7 @@ struct OccupancyGridOptions {
   double free_threshold = 0.196;     ///< below which it is free (map_server's free_thresh)
   double margin = 2.0;           ///< m of unknown border around everything observed
   std::size_t max_cells = 200000000;  ///< refuse a grid larger than this (memory), instead of swapping
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// Row-major, row 0 at origin_y (the bottom, as in nav_msgs/OccupancyGrid): -1 unknown, else

@@ -22,7 +22,7 @@ struct OdometryDrift {
   double noise_fraction = 0.02;     ///< added to those: this share of the step's length (m) and turn (rad)
   std::uint64_t seed = 1;           ///< the same seed gives the same drift
   /// "" or what is wrong (a non-finite value, a negative noise, a scale bias of -1 or below).
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// The drifted odometry poses: the first pose kept, every step degraded as above. Throws

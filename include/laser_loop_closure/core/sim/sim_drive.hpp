@@ -36,7 +36,7 @@ struct SimDriveOptions {
   double odometry_turn_bias = 0.0005;     ///< rad/m, a constant pull
 
   /// Empty when usable, else a sentence saying what is wrong.
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct SimFrame {

@@ -24,7 +24,7 @@ struct LoopConsensusOptions {
   double max_translation = 0.3;          ///< m; two loops agree when the cycle through both and the map between their ends closes within this ...
   double max_rotation = 0.05;            ///< rad; ... and this
   std::size_t max_kept = 1000;           ///< refused loops kept at most (the oldest forgotten first)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// One refused loop offered to the consensus.

@@ -52,7 +52,7 @@ struct LoopDetectorOptions {
   /// A shape-validated loop is refused when the keyframes around its two keyframes fit
   /// clearly better at a look-alike pose (detect() with a KeyframeContext source).
   ContextCheckOptions context{};
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 struct LoopDetectionResult {
@@ -64,14 +64,14 @@ struct LoopDetectionResult {
   std::size_t context_unchecked = 0;  ///< shape-validated loops whose context was too small to check
   double context_seconds = 0.0;       ///< of seconds, in the context check
   std::vector<LoopClosure> aligned;  ///< in the order tried (best score first)
-  /// Candidates a CandidateCheck refused before alignment (reject_reason says why; no pose).
+  /// Candidates a CandidateCheck refused before alignment (refusal and reject_reason say why; no pose).
   std::vector<LoopClosure> not_aligned;
   double classify_seconds = 0.0, check_seconds = 0.0, seconds = 0.0;  ///< check: inside CandidateCheck
 };
 
-/// Asked before a candidate pair (from, to) is aligned: "" to align it, else why not (e.g. the
-/// back end says the two keyframes cannot be at one place). Detection itself needs none.
-using CandidateCheck = std::function<std::string(std::size_t from, std::size_t to)>;
+/// Asked before a candidate pair (from, to) is aligned: not refused to align it, else why not
+/// (e.g. the back end says the two keyframes cannot be at one place). Detection itself needs none.
+using CandidateCheck = std::function<LoopVerdict(std::size_t from, std::size_t to)>;
 
 /// Asked for keyframes older than `before` that the map puts within `max_distance` of keyframe
 /// `index`, their relative position known to `max_std`, nearest first, at most `count` (e.g.

@@ -20,7 +20,7 @@ struct OdometryOffsetOptions {
   int max_offset = 3;            ///< scans; offsets -max_offset..max_offset are tried
   std::size_t max_pairs = 300;   ///< consecutive scan pairs used at most (evenly spread)
   double min_motion = 0.05;      ///< m or rad the odometry moved between the two scans; stiller pairs tell nothing
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// How well the odometry shifted by `offset` predicts the scans' own motion.

@@ -29,7 +29,7 @@ struct OdometryTimeOffsetProbeOptions {
   /// turn rate they agree and tell nothing; less than this is the wheels' own noise)
   double min_parting = 0.01;
   double max_seconds = 1.0;         ///< candidates further back than this are not tried (the nodelets read at most 1 s back)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// The wheel odometry at one scan's stamp plus an offset (s); false where there is none

@@ -20,7 +20,7 @@ struct ScanBacklogOptions {
   /// s of scan time the consumer may fall behind the newest scan before the oldest waiting
   /// scans are skipped (the newest waiting one is always kept); <= 0: never skip for lag.
   double max_lag = 5.0;
-  std::string validate() const {
+  [[nodiscard]] std::string validate() const {
     if (capacity < 1) return "capacity must be at least 1";
     return "";
   }

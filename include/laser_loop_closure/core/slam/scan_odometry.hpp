@@ -157,7 +157,7 @@ struct ScanOdometryOptions {
   /// 0.65 overlap). Farther off, a look-alike room turned 90 degrees fits as well. 0: off.
   double realign_below_overlap = 0.8;
   double realign_min_fit_gain = 0.1;  ///< of ScanAligner::fit (0..1)
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 /// How much noisier than modelled the robot's wheels are: the median disagreement of recent

@@ -23,7 +23,7 @@ struct SeqReorderOptions {
   /// Scans held at most while one numbered lower is missing (half a second of a 40 Hz
   /// scanner); 0: off (every scan handed out as it comes).
   int scans = 20;
-  std::string validate() const { return scans >= 0 ? "" : "seq_reorder_scans must be 0 (off) or more"; }
+  [[nodiscard]] std::string validate() const { return scans >= 0 ? "" : "seq_reorder_scans must be 0 (off) or more"; }
 };
 
 struct SeqReorderCounters {

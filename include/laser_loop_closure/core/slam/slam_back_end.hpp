@@ -82,7 +82,7 @@ class SlamBackEnd {
   /// their order (augmentations, then loop updates without the gate: they passed it once) and
   /// solved from the saved poses. Returns "" or why not; then nothing changed. The loops the
   /// gate refused wait for a consensus again; those a consensus applied are counted so.
-  std::string restore(const SlamSession& session);
+  [[nodiscard]] std::string restore(const SlamSession& session);
 
  private:
   /// Offers the refused loop loops_[index] to the consensus; applies the group it completes.

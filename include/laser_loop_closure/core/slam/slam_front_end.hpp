@@ -99,7 +99,7 @@ class SlamFrontEnd {
   /// steps (with continue_odometry): per keyframe, the odometry step from the one before
   /// (non-finite where none was measured), which places the restored local map as the run
   /// that saved it had it (local_map_keyframes).
-  std::string restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
+  [[nodiscard]] std::string restore(const std::vector<Keyframe>& keyframes, const std::vector<std::vector<double>>& features,
                       bool continue_odometry, bool* features_recomputed = nullptr,
                       const std::vector<Pose2>* steps = nullptr);
   /// Covariance of the link between a restored session and a new chain (m^2, rad^2).

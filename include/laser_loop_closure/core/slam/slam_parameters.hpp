@@ -21,7 +21,7 @@ namespace llc {
 struct SystemOptions {
   SlamOptions slam{};
   OccupancyGridOptions map{};
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 template <class Visit>

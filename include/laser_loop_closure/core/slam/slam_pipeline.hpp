@@ -23,12 +23,12 @@ struct PlaceGateOptions {
   bool enabled = true;            ///< false: align every candidate, as the paper does
   double radius = 3.0;            ///< m: how far apart two keyframes of one place lie (1 sigma per axis)
   double chi2_threshold = 13.82;  ///< 2 DoF (99.9%); a larger statistic: not aligned
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
-/// The place gate's verdict on a statistic: "" (align it) or why it is kept from alignment.
-/// One rule for `llc slam` and the nodelets.
-std::string placeGateVerdict(const PlaceGateOptions& options, double chi2);
+/// The place gate's verdict on a statistic: not refused (align it), or kPlaceGate and why it is
+/// kept from alignment. One rule for `llc slam` and the nodelets.
+LoopVerdict placeGateVerdict(const PlaceGateOptions& options, double chi2);
 
 struct SlamOptions {
   ScanOdometryOptions odometry{};
@@ -38,7 +38,7 @@ struct SlamOptions {
   bool gate_loops = true;  ///< chi-square test of each loop's innovation in the back end before it is applied
   LoopConsensusOptions consensus{};  ///< loops the gate refused, applied together once enough agree
   PlaceGateOptions place_gate{};
-  std::string validate() const;  ///< names the stage whose option is wrong
+  [[nodiscard]] std::string validate() const;  ///< names the stage whose option is wrong
 };
 
 /// Counts of every decision since the start.
@@ -124,7 +124,7 @@ class SlamPipeline {
   SlamSession session() const;
   /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
   /// Returns "" or why not; then nothing changed.
-  std::string restore(const SlamSession& session, bool continue_odometry);
+  [[nodiscard]] std::string restore(const SlamSession& session, bool continue_odometry);
   LoopDetector& detector() { return front_.detector(); }
   const LoopDetector& detector() const { return front_.detector(); }
 

@@ -96,20 +96,8 @@ struct NearbyKeyframe {
   Pose2 pose;             ///< the new keyframe in this one's frame, where the map puts it
 };
 
-/// One aligned candidate pair and its verdict.
-struct LoopClosure {
-  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
-  double score = 0.0;            ///< classifier, normalised
-  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
-  double inlier_share = 0.0;     ///< shape validation
-  bool accepted = false;         ///< aligned and shape-validated
-  std::string reject_reason;     ///< "crf: ...", "icp: ..." or "validation: ..." (empty when accepted)
-  double seconds = 0.0;
-};
-
 /// Why a candidate loop was not applied, by the stage that refused it: a name that reports,
-/// diagnostics and scripts count by (the reject_reason text beside it gives the details).
+/// diagnostics and scripts count by (the reject_reason text beside it gives the details; no decision reads that text).
 enum class LoopRefusal {
   kNone,               ///< applied (or not refused)
   kPlaceGate,          ///< the back end's state puts the two keyframes too far apart ("place gate: ...")
@@ -120,14 +108,34 @@ enum class LoopRefusal {
   kBackEndGate,        ///< the back end's chi-square gate ("backend: innovation chi2 ...")
   kBackEndUnsolvable,  ///< the filter could not be solved with it, taken back ("backend: the system could not be solved ...")
   kBackEndMalformed,   ///< unknown keyframes, a non-finite pose or an unusable covariance ("backend: ...")
-  kOther,              ///< a reason none of the stages above writes
+  kOther,              ///< none of the above (a code a message carries that this build does not know)
 };
 constexpr std::size_t kLoopRefusalKinds = 10;
 /// "none", "place_gate", "crf_match", "icp", "validation", "context", "back_end_gate",
 /// "back_end_unsolvable", "back_end_malformed", "other".
 const char* loopRefusalName(LoopRefusal refusal);
-/// The stage that wrote a reject_reason, by the prefix each stage gives its reasons; empty: kNone.
-LoopRefusal loopRefusalOf(const std::string& reject_reason);
+
+/// A stage's verdict on a loop candidate: decisions read `refusal`, people read `reason`
+/// (rewording a reason changes nothing but the text).
+struct [[nodiscard]] LoopVerdict {
+  LoopRefusal refusal = LoopRefusal::kNone;
+  std::string reason;  ///< empty when not refused
+  bool refused() const { return refusal != LoopRefusal::kNone; }
+};
+
+/// One aligned candidate pair and its verdict.
+struct LoopClosure {
+  std::size_t from = 0, to = 0;  ///< keyframes: the stored one and the new one
+  double score = 0.0;            ///< classifier, normalised
+  Pose2 pose;                    ///< keyframe `to` in the frame of keyframe `from`
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< of pose's x, y, theta
+  double inlier_share = 0.0;     ///< shape validation
+  bool accepted = false;         ///< aligned and shape-validated
+  LoopRefusal refusal = LoopRefusal::kNone;  ///< the stage that refused it: what decisions and counters read
+  std::string reject_reason;     ///< the same for people, with the measured values (empty when accepted)
+  double seconds = 0.0;
+};
+
 
 /// One loop as the back end met it.
 struct LoopRecord {
@@ -135,7 +143,8 @@ struct LoopRecord {
   bool applied = false;          ///< accepted by alignment and by the back end's gate
   double innovation_chi2 = 0.0;  ///< when it reached the back end
   bool by_consensus = false;     ///< refused by the gate, applied later with loops that agree (LoopConsensus; kept in session files from version 2)
-  std::string reject_reason;     ///< the aligner's or the back end's; empty when applied
+  LoopRefusal refusal = LoopRefusal::kNone;  ///< the aligner's or the back end's; kNone when applied
+  std::string reject_reason;     ///< the same for people; empty when applied
 };
 
 /// Everything a mapping run holds, as a session file keeps it (session_io.hpp reads and writes it).
@@ -146,7 +155,7 @@ struct SlamSession {
   std::vector<PoseEdge> constraints;          ///< the ESDF's, in the order applied
   std::vector<LoopRecord> loops;              ///< every loop that reached the back end
   /// Empty, or why the pieces do not fit together (counts, indices, non-finite values).
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 }  // namespace llc

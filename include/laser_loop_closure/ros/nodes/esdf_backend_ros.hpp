@@ -48,7 +48,7 @@ struct EsdfBackendNodeOptions {
   int session_part_keyframes = 100;    ///< keyframes per message of a restored session on topic session
   int max_pending_loops = 1000;        ///< loops held until their keyframes arrive
   int queue_size = 1000;               ///< keyframes and loops kept while the back end is busy
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 template <class Visit>

@@ -84,7 +84,7 @@ struct LoopClosureNodeOptions {
   /// The back end's nearby keyframes (NearbyKeyframes.srv), asked when loops/nearby_candidates
   /// and the classifier's candidates gave no loop (as `llc slam` asks its back end); unanswered: none.
   std::string nearby_service = "esdf_backend/nearby_keyframes";
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 template <class Visit>
@@ -146,7 +146,7 @@ class LoopClosureRos {
   void processScan(const PendingScan& pending);
   /// The place gate for keyframe `keyframe`'s candidates: the back end's verdict through
   /// place_check_service, or none (align) when it does not answer. Worker thread, under mutex_.
-  std::string placeCheck(std::size_t from, std::size_t to, std::size_t keyframe);
+  llc::LoopVerdict placeCheck(std::size_t from, std::size_t to, std::size_t keyframe);
   /// The nearby candidates of keyframe `keyframe`: the back end's through nearby_service, or
   /// none when it does not answer. Worker thread, under mutex_.
   std::vector<llc::NearbyKeyframe> nearbyKeyframes(std::size_t keyframe, std::size_t before, double max_distance, double max_std,
@@ -155,7 +155,7 @@ class LoopClosureRos {
   /// every 5 s, at `retry`): "" when it answered, else why not (then `client` is shut down
   /// when the connection is at fault).
   template <class Service>
-  std::string callBackEnd(ros::ServiceClient& client, ros::WallTime& retry, const std::string& name, Service& service);
+  [[nodiscard]] std::string callBackEnd(ros::ServiceClient& client, ros::WallTime& retry, const std::string& name, Service& service);
   /// publish_odometry_tf: broadcasts odom_frame -> the scan's frame for this scan and, for a
   /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
   void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);

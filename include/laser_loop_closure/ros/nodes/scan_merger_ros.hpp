@@ -40,7 +40,7 @@ struct ScanMergerOptions {
   double mount_x = 0.0;         ///< m
   double mount_y = 0.0;         ///< m
   double mount_yaw = 0.0;       ///< rad
-  std::string validate() const;
+  [[nodiscard]] std::string validate() const;
 };
 
 template <class Visit>
