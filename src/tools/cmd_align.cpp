@@ -142,7 +142,7 @@ int runAlign(const Args& args) {
       const bool aligned = r.icp.converged;
       ours.add(p.label == 1, r.pose, truth, aligned, 1e3 * r.seconds, tolerance);
       const bool within = aligned && tolerance.near(truth, r.pose);
-      if (!r.accepted) ++reasons[r.reject_reason.substr(0, r.reject_reason.find(':'))];
+      if (!r.accepted) ++reasons[llc::alignmentRefusalName(r.refusal)];
       if (p.label == 1) ++positives, positives_accepted += r.accepted;
       if (p.label == 1 && r.accepted) accepted_within += within;
       if (p.label == 0) ++negatives_classified, negatives_refused += !r.accepted;

@@ -271,6 +271,27 @@ check "graph: both modes" 2 "exclude each other" -- "$LLC" graph --g2o "$TMP/squ
 # within 250 MB of address space (llc starts within 125 MB; 4e8 once took 12.5 GB for 36 s).
 printf 'EDGE_SE2 0 400000000 1 0 0 1 0 0 1 0 1\n' > "$TMP/huge_id.g2o"
 check "graph: a huge edge id, refused within a memory bound" 1 "cannot be whole" -- bash -c "ulimit -v 250000; '$LLC' graph --g2o '$TMP/huge_id.g2o' --out '$TMP/x.g2o'"
+# Damaged bags within the same bound: three bytes inserted mid-file (rosbag reserved what the
+# shifted lengths claimed: 0.7-1.7 GB, and under a memory bound died on an assertion), and one
+# scan's ranges length set to 4.3e8 (roscpp's deserializer took 1.7 GB): the first refused with
+# the byte named, the second left out with a warning and the rest read.
+/usr/bin/python3 - "$TMP/sim/sim.bag" "$TMP" <<'PY'
+import struct, sys
+bag, tmp = sys.argv[1], sys.argv[2]
+b = open(bag, "rb").read()
+open(tmp + "/inserted.bag", "wb").write(b[:len(b) // 2] + b"\x01\x02\x03" + b[len(b) // 2:])
+m = bytearray(b)
+start = found = 0
+while found < 6:  # the sixth front scan: frame_id, seven float32, then the ranges' length
+    at = m.index(b"laser_front", start) + 11 + 28
+    start = at - 28
+    if struct.unpack("<I", m[at:at + 4])[0] == 361:
+        found += 1
+m[at:at + 4] = struct.pack("<I", 430000000)
+open(tmp + "/long_ranges.bag", "wb").write(bytes(m))
+PY
+check "a bag with bytes inserted: refused within a memory bound, the byte named" 1 "inserted.bag: not a readable bag \(.* at byte [0-9]+\)" -- bash -c "ulimit -v 250000; '$LLC' pairs --log '$TMP/inserted.bag' --out '$TMP/x.csv'"
+check "a bag scan whose ranges length claims 1.7 GB: left out within the bound, the rest read" 0 "left out 1 damaged messages; the first: a sensor_msgs/LaserScan on /scan_front" -- bash -c "ulimit -v 250000; '$LLC' pairs --log '$TMP/long_ranges.bag' --out '$TMP/x.csv'"
 printf 'EDGE_SE2 0 1 1 0 0 1 0 0 1 0 15xyz\n' > "$TMP/junk.g2o"
 check "graph: a number with trailing text, the line named" 1 "junk.g2o:1: EDGE_SE2: unexpected text 'xyz'" -- "$LLC" graph --g2o "$TMP/junk.g2o" --out "$TMP/x.g2o"
 check "graph: negative relinearize-chi2" 2 "relinearize_chi2 must be finite and >= 0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --esdf/relinearize_chi2 -1

@@ -139,6 +139,16 @@ double ScanAligner::fit(const PreparedScan& a, const PreparedScan& b, const Pose
   return twoWayFit(a, b, pose, options_).share;
 }
 
+const char* alignmentRefusalName(AlignmentRefusal refusal) {
+  switch (refusal) {
+    case AlignmentRefusal::kNone: return "none";
+    case AlignmentRefusal::kNoStart: return "no_start";
+    case AlignmentRefusal::kIcp: return "icp";
+    case AlignmentRefusal::kValidation: return "validation";
+  }
+  return "none";
+}
+
 IcpResult ScanAligner::refine(const PreparedScan& a, const PreparedScan& b, const Pose2& start) const {
   return refineFrom(a, b, start, options_);
 }

@@ -13,6 +13,8 @@
 namespace llc {
 namespace {
 
+constexpr double kMaxStumpAlpha = 745.0;  // see the check in the reader
+
 const char* kFormat = "laser_loop_closure/classifier";
 
 [[noreturn]] void refuse(const std::string& path, const std::string& why) {
@@ -158,6 +160,11 @@ ClassifierModel loadClassifierModel(const std::string& path, const FeatureOption
     if (!std::isfinite(s.threshold)) refuse(path, where + ": threshold is not finite");
     if (!(std::isfinite(s.alpha) && s.alpha >= 0.0))
       refuse(path, where + ": alpha must be finite and not negative");
+    // AdaBoost's alpha is log((1 - e) / e) for a weighted error e a double can hold: at most
+    // log(1 / 4.9e-324) = 744.4. More was not trained; it would outvote every other stump.
+    if (s.alpha > kMaxStumpAlpha)
+      refuse(path, where + ": alpha " + stumps[i]["alpha"].as<std::string>("") + " above " + std::to_string(int(kMaxStumpAlpha)) +
+                       ", more than any training gives");
     parsed.push_back(s);
   }
   double total_alpha = 0.0;

@@ -103,6 +103,7 @@ CarmenLaser parseRobotLaser(const Fields& f, std::size_t line) {
   if (!(fov > 0.0 && fov <= 2.0 * M_PI + 1e-6)) f.fail("field of view must lie in (0, 2 pi]");
   if (!(laser.geometry.angle_increment > 0.0)) f.fail("angular resolution must be positive");
   const std::size_t n = f.count(8, "beam count");
+  if (f.size() < 10 + n) f.fail("expected " + std::to_string(n) + " ranges and a remission count");  // before sizing by n
   laser.ranges.resize(n);
   for (std::size_t i = 0; i < n; ++i) laser.ranges[i] = f.number(9 + i, "range");
   const std::size_t m = f.count(9 + n, "remission count");

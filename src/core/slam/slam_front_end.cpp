@@ -20,6 +20,13 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
                                   bool continue_odometry, bool* features_recomputed, const std::vector<Pose2>* steps) {
   if (keyframes.size() != features.size())
     return std::to_string(keyframes.size()) + " keyframes but " + std::to_string(features.size()) + " feature vectors";
+  for (std::size_t k = 1; k < features.size(); ++k)
+    if (features[k].size() != features[0].size())
+      return "keyframe " + std::to_string(k) + " has " + std::to_string(features[k].size()) + " features, keyframe 0 " +
+             std::to_string(features[0].size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k)
+    if (keyframes[k].scan.ranges.size() != keyframes[k].scan.bearings.size())
+      return "keyframe " + std::to_string(k) + ": ranges and bearings differ in count";
   LoopDetector detector(detector_.model(), aligner_options_, loop_options_);
   bool recompute = false;
   if (!keyframes.empty()) {

@@ -158,7 +158,10 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
     if (edge.information(0, 0) > 2.0 * loose_information) steps[edge.to] = edge.measurement;
   }
   error = front_.restore(session.keyframes, session.features, continue_odometry, nullptr, &steps);
-  if (!error.empty()) return error;
+  if (!error.empty()) {  // after the back end took it: the map is left empty, not half restored
+    (void)back_.restore(SlamSession{});
+    return error;
+  }
   loops_ = session.loops;
   pipeline_index_of_.resize(loops_.size());
   for (std::size_t i = 0; i < loops_.size(); ++i) pipeline_index_of_[i] = i;  // a session holds the back end's loops only

@@ -21,6 +21,7 @@
 #include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include "laser_loop_closure/ros/io/bag_structure.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 #include "laser_loop_closure/ros/io/serialized_bounds.hpp"
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
@@ -129,6 +130,9 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
   BagReadReport& r = report ? *report : local;
   r = BagReadReport{};
   rosbag::Bag bag;
+  // rosbag reserves what a damaged length claims before reading it: walk the records first.
+  if (const std::string problem = bagStructureProblem(path); !problem.empty())
+    throw BagError(path + ": not a readable bag (" + problem + ")");
   try {
     bag.open(path, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& e) {
@@ -255,8 +259,13 @@ llc::ScanSequence readBagSequence(const std::string& path, const BagReadOptions&
     if (options.without_wheels || odometry.samples.empty()) putInSeqOrder(options.seq_reorder, seqs, &sequence, &r);
     return sequence;
   } catch (const rosbag::BagException& e) {
-    throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");  } catch (const ros::Exception& e) {  // the serializer's overruns: a record's bytes end early
     throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");
+  } catch (const ros::Exception& e) {  // the serializer's overruns: a record's bytes end early
+    throw BagError(path + ": the bag is damaged or truncated (" + e.what() + ")");
+  } catch (const BagError&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // rostime's: stamps so far apart a duration cannot hold them
+    throw BagError(path + ": the bag is damaged (" + e.what() + ")");
   }
 }
 

@@ -79,6 +79,7 @@ TEST(ClassifierModel, RefusesBadFiles) {
   expectRefused(variant("rounds.yaml", "rounds: 3", "rounds: 4"), "truncated");
   expectRefused(variant("polarity.yaml", "polarity: -1", "polarity: 0"), "polarity");
   expectRefused(variant("alpha.yaml", "alpha: 1.5", "alpha: .nan"), "alpha");
+  expectRefused(variant("huge_alpha.yaml", "alpha: 1.5", "alpha: 4294967295"), "alpha 4294967295 above 745");
   expectRefused(variant("index.yaml", "feature: 19", "feature: 25"), "out of range");
   expectRefused(variant("names.yaml", "area", "areal"), "feature names differ");
   expectRefused(variant("k.yaml", "threshold_k: 0.5", "threshold_k: 1.5"), "threshold_k");

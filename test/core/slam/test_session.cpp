@@ -303,3 +303,36 @@ TEST(SlamSession, ARestoredMapPlacesANewChainAtItsFirstLoopClosure) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(SlamSession, FeaturesOfAnotherLengthAreRefusedNotThrown) {
+  // The loop_closure nodelet assembles keyframes and features from session parts and gives them
+  // to the front end directly: vectors of different lengths are a reason, never a throw.
+  const Drive d;
+  llc::SlamPipeline mapped(llc_test::defaultModel());
+  d.run(&mapped, 0, d.drive.frames.size() / 4);
+  llc::SlamSession session = mapped.session();
+  ASSERT_GT(session.keyframes.size(), 3u);
+  llc::SlamFrontEnd front(llc_test::defaultModel(), {}, {}, {});
+  std::vector<std::vector<double>> features = session.features;
+  features[2].push_back(1.0);
+  std::string why;
+  ASSERT_NO_THROW(why = front.restore(session.keyframes, features, false));
+  EXPECT_NE(why.find("keyframe 2 has"), std::string::npos) << why;
+  EXPECT_EQ(front.keyframeCount(), 0u) << "nothing changed";
+  // All of another length (a model with other features): recomputed, restored.
+  for (std::vector<double>& f : features) f.assign(7, 0.5);
+  bool recomputed = false;
+  EXPECT_EQ(front.restore(session.keyframes, features, false, &recomputed), "");
+  EXPECT_TRUE(recomputed);
+  EXPECT_EQ(front.keyframeCount(), session.keyframes.size());
+  // The pipeline refuses a session whose keyframe lost a bearing, and says which.
+  session.keyframes[1].scan.bearings.pop_back();
+  llc::SlamPipeline second(llc_test::defaultModel());
+  why = second.restore(session, false);
+  EXPECT_NE(why.find("keyframe 1"), std::string::npos) << why;
+  EXPECT_TRUE(second.keyframes().empty());
+}
+
+}  // namespace

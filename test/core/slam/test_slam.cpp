@@ -316,6 +316,7 @@ TEST(LoopRefusal, EveryStageThatRefusesWritesItsOwnCode) {
   const llc::ScanAlignmentResult none = aligner.align(*aligner.prepare(tiny), *aligner.prepare(tiny));
   EXPECT_EQ(none.refusal, llc::AlignmentRefusal::kNoStart) << none.reject_reason;
   EXPECT_FALSE(none.reject_reason.empty());
+  EXPECT_STREQ(llc::alignmentRefusalName(none.refusal), "no_start");
   // Shape validation's and a clean alignment's codes: test_alignment's seen-through and
   // position-std tests.
   // The back end: an unknown keyframe, then a loop that contradicts a certain odometry chain.

@@ -65,6 +65,8 @@ enum class AlignmentRefusal {
   kIcp,         ///< ICP converged from no start
   kValidation,  ///< aligned, but shape validation (or a test beyond the paper's) refused it
 };
+/// "none", "no_start", "icp", "validation".
+const char* alignmentRefusalName(AlignmentRefusal refusal);
 
 struct ScanAlignmentResult {
   bool accepted = false;     ///< aligned and shape-validated

@@ -95,7 +95,8 @@ class SlamFrontEnd {
   /// seeded by wheel odometry (the robot and its odom frame went on); else it starts a new
   /// chain whose first keyframe is linked to the newest restored one by a motion of almost no
   /// information (restartCovariance), so that its first loop closure places it. Returns ""
-  /// or why not (keyframes and features of different counts); then nothing changed.
+  /// or why not (keyframes and features of different counts, feature vectors of different
+  /// lengths, a scan whose ranges and bearings differ in count); then nothing changed. Never throws.
   /// steps (with continue_odometry): per keyframe, the odometry step from the one before
   /// (non-finite where none was measured), which places the restored local map as the run
   /// that saved it had it (local_map_keyframes).

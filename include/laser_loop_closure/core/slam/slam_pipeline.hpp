@@ -123,7 +123,8 @@ class SlamPipeline {
   /// The state to save: keyframes, their features, the graph and the loops.
   SlamSession session() const;
   /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
-  /// Returns "" or why not; then nothing changed.
+  /// Returns "" or why not, never throws: refused by the session's own checks or the back end,
+  /// nothing changed; by the front end (a keyframe it cannot take), the map is left empty.
   [[nodiscard]] std::string restore(const SlamSession& session, bool continue_odometry);
   LoopDetector& detector() { return front_.detector(); }
   const LoopDetector& detector() const { return front_.detector(); }
