@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <future>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -138,6 +140,32 @@ TEST(ScanBacklog, AConsumerThreadGetsEveryScanAProducerPushes) {
   for (int k = 0; k < 500; ++k) backlog.push(k, 0.01 * k);
   consumer.join();
   EXPECT_EQ(sum, 499L * 500L / 2L);
+}
+
+TEST(ScanBacklog, PostedTasksRunOnTheConsumerBeforeTheScansWaitingAndAreNeverDropped) {
+  llc::ScanBacklog<int> backlog(options(2, 0.0));
+  std::vector<std::string> log;
+  backlog.push(1, 1.0);
+  for (int k = 0; k < 5; ++k) backlog.post([&log, k] { log.push_back("task " + std::to_string(k)); });
+  backlog.push(2, 2.0);
+  backlog.push(3, 3.0);  // the queue of 2 drops a scan, never a task
+  int item = 0;
+  ASSERT_TRUE(backlog.pop(&item));
+  log.push_back("scan " + std::to_string(item));
+  EXPECT_EQ(log, (std::vector<std::string>{"task 0", "task 1", "task 2", "task 3", "task 4", "scan 2"}));
+  // A consumer waiting with no scan runs a task posted from another thread at once, on its own
+  // thread, and goes on waiting for a scan.
+  ASSERT_TRUE(backlog.pop(&item));  // scan 3: the queue is empty now
+  std::promise<std::thread::id> ran_on;
+  std::thread consumer([&] {
+    int next = 0;
+    if (backlog.pop(&next)) log.push_back("scan " + std::to_string(next));
+  });
+  backlog.post([&] { ran_on.set_value(std::this_thread::get_id()); });
+  EXPECT_EQ(ran_on.get_future().get(), consumer.get_id());
+  backlog.push(4, 4.0);
+  consumer.join();
+  EXPECT_EQ(log.back(), "scan 4");
 }
 
 TEST(ScanBacklog, ZeroCapacityIsRefused) { EXPECT_NE(options(0, 1.0).validate(), ""); }

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <functional>
 #include <cstddef>
 #include <deque>
 #include <mutex>
@@ -70,12 +71,33 @@ class ScanBacklog {
     return dropped;
   }
 
-  /// Waits for a scan (or stop()). When the oldest waiting scan is more than max_lag behind
-  /// the newest, it is skipped while newer ones wait. False once stopped.
+  /// Work for the consumer between two scans, in the order posted, before any scan waiting and
+  /// never dropped: what another thread wants done to what only the consumer touches (a
+  /// session to restore, a model to swap in), so that no one else needs a lock on it.
+  void post(std::function<void()> task) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      tasks_.push_back(std::move(task));
+    }
+    ready_.notify_one();
+  }
+
+  /// Waits for a scan (or stop()), running the tasks posted meanwhile first (on this thread,
+  /// outside the queue's lock). When the oldest waiting scan is more than max_lag behind the
+  /// newest, it is skipped while newer ones wait. False once stopped (tasks still waiting are
+  /// dropped: whoever waits on one must not outlive the consumer).
   bool pop(Item* item) {
     std::unique_lock<std::mutex> lock(mutex_);
-    ready_.wait(lock, [this] { return stopped_ || !queue_.empty(); });
-    if (stopped_) return false;
+    for (;;) {
+      ready_.wait(lock, [this] { return stopped_ || !queue_.empty() || !tasks_.empty(); });
+      if (stopped_) return false;
+      if (tasks_.empty()) break;
+      std::function<void()> task = std::move(tasks_.front());
+      tasks_.pop_front();
+      lock.unlock();
+      task();
+      lock.lock();
+    }
     while (options_.max_lag > 0.0 && queue_.size() > 1 && newest_stamp_ - queue_.front().second > options_.max_lag) {
       queue_.pop_front();
       ++counters_.dropped_behind;
@@ -109,6 +131,7 @@ class ScanBacklog {
   mutable std::mutex mutex_;
   std::condition_variable ready_;
   std::deque<std::pair<Item, double>> queue_;
+  std::deque<std::function<void()>> tasks_;
   double newest_stamp_ = 0.0;
   bool stopped_ = false;
   ScanBacklogCounters counters_;
