@@ -80,15 +80,36 @@ struct Esdf::Impl {
     blocks += added;
     return it->second;
   }
+  /// CHOLMOD's objects, freed when they go out of scope (on every path, throws included).
+  struct FreeSparse {
+    cholmod_common* common;
+    void operator()(cholmod_sparse* a) const { cholmod_free_sparse(&a, common); }
+  };
+  struct FreeDense {
+    cholmod_common* common;
+    void operator()(cholmod_dense* a) const { cholmod_free_dense(&a, common); }
+  };
+  using Sparse = std::unique_ptr<cholmod_sparse, FreeSparse>;
+  using Dense = std::unique_ptr<cholmod_dense, FreeDense>;
+  /// A CHOLMOD result checked: null, or an error status (not a warning such as not positive
+  /// definite, which the callers judge), is a std::runtime_error naming the call.
+  template <class T>
+  T* checked(T* result, const char* call) {
+    if (!result || common.status < CHOLMOD_OK)
+      throw std::runtime_error(std::string("esdf: ") + call + " failed (CHOLMOD status " + std::to_string(common.status) + ")");
+    return result;
+  }
+  Sparse sparse(std::size_t rows, std::size_t cols, std::size_t entries, int stype) {
+    return Sparse(checked(cholmod_allocate_sparse(rows, cols, entries, 1, 1, stype, CHOLMOD_REAL, &common), "cholmod_allocate_sparse"),
+                  FreeSparse{&common});
+  }
   /// Solves Lambda X = B for a dense right-hand side.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) {
-    cholmod_dense* b = cholmod_allocate_dense(rhs.rows(), rhs.cols(), rhs.rows(), CHOLMOD_REAL, &common);
+    Dense b(checked(cholmod_allocate_dense(rhs.rows(), rhs.cols(), rhs.rows(), CHOLMOD_REAL, &common), "cholmod_allocate_dense"),
+            FreeDense{&common});
     Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(b->x), rhs.rows(), rhs.cols()) = rhs;
-    cholmod_dense* x = cholmod_solve(CHOLMOD_A, factor, b, &common);
-    Eigen::MatrixXd out = Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(x->x), rhs.rows(), rhs.cols());
-    cholmod_free_dense(&b, &common);
-    cholmod_free_dense(&x, &common);
-    return out;
+    Dense x(checked(cholmod_solve(CHOLMOD_A, factor, b.get(), &common), "cholmod_solve"), FreeDense{&common});
+    return Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(x->x), rhs.rows(), rhs.cols());
   }
 };
 
@@ -226,7 +247,7 @@ void Esdf::factorize() {
   std::size_t entries = 0;
   for (std::size_t i = 0; i < m.upper.size(); ++i)
     for (const auto& [j, b] : m.upper[i]) by_column[j].push_back({i, &b}), entries += 9;
-  cholmod_sparse* a = cholmod_allocate_sparse(n, n, entries, 1, 1, 1, CHOLMOD_REAL, &m.common);
+  const Impl::Sparse a = m.sparse(n, n, entries, 1);
   auto* cp = static_cast<int*>(a->p);
   auto* ri = static_cast<int*>(a->i);
   auto* rx = static_cast<double*>(a->x);
@@ -243,16 +264,17 @@ void Esdf::factorize() {
   cp[n] = int(k);
   if (!m.factor || m.analysed_blocks != m.blocks || m.factor->n != n) {
     if (m.factor) cholmod_free_factor(&m.factor, &m.common);
-    m.factor = cholmod_analyze(a, &m.common);
+    m.factor = m.checked(cholmod_analyze(a.get(), &m.common), "cholmod_analyze");
     m.analysed_blocks = m.blocks;
     const int* perm = static_cast<const int*>(m.factor->Perm);
     m.inverse_permutation.assign(n, 0);
     for (std::size_t k = 0; k < n; ++k) m.inverse_permutation[std::size_t(perm[k])] = int(k);
   }
-  cholmod_factorize(a, m.factor, &m.common);
-  cholmod_free_sparse(&a, &m.common);
+  const int factorized = cholmod_factorize(a.get(), m.factor, &m.common);
   ++factorizations_;
   if (m.common.status == CHOLMOD_NOT_POSDEF) throw std::runtime_error("esdf: information matrix not positive definite");
+  if (!factorized || m.common.status < CHOLMOD_OK)
+    throw std::runtime_error("esdf: cholmod_factorize failed (CHOLMOD status " + std::to_string(m.common.status) + ")");
   m.factored_nonzeros = m.factorNonzeros();
   m.factor_valid = true;
 }
@@ -273,7 +295,7 @@ bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
   // A constraint adds J^T Omega J = C C^T with C = J^T W, Omega = W W^T (Cholesky): a rank-3
   // update (or, to take it out, downdate) of the factor, its rows in the factor's order. All
   // edges go in one call: CHOLMOD walks their merged paths up to eight columns at a time.
-  cholmod_sparse* c = cholmod_allocate_sparse(n, 3 * edges.size(), 18 * edges.size(), 1, 1, 0, CHOLMOD_REAL, &m.common);
+  const Impl::Sparse c = m.sparse(n, 3 * edges.size(), 18 * edges.size(), 0);
   auto* cp = static_cast<int*>(c->p);
   auto* ci = static_cast<int*>(c->i);
   auto* cx = static_cast<double*>(c->x);
@@ -284,10 +306,7 @@ bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
     Eigen::Matrix3d ja, jb;
     edgeTerms(k, &ja, &jb);
     const Eigen::LLT<Eigen::Matrix3d> llt(weights_[k] * e.information);
-    if (llt.info() != Eigen::Success) {
-      cholmod_free_sparse(&c, &m.common);
-      return false;
-    }
+    if (llt.info() != Eigen::Success) return false;
     const Eigen::Matrix3d w = llt.matrixL();
     const Eigen::Matrix3d ca = ja.transpose() * w, cb = jb.transpose() * w;
     for (int j = 0; j < 3; ++j, ++col) {
@@ -304,9 +323,8 @@ bool Esdf::rankUpdate(const std::vector<std::size_t>& edges, bool update) {
   int ok = 0;
   {
     const StopWatch watch(&timings_.rank_updates);
-    ok = cholmod_updown(update ? 1 : 0, c, m.factor, &m.common);
+    ok = cholmod_updown(update ? 1 : 0, c.get(), m.factor, &m.common);
   }
-  cholmod_free_sparse(&c, &m.common);
   if (!ok || m.common.status != CHOLMOD_OK) {
     m.factor_valid = false;
     return false;
