@@ -135,7 +135,7 @@ OdometryOffsetResult estimateOdometryOffset(const ScanSequence& sequence, const 
     for (const long i : pairs) {
       const Pose2 guess = between(sequence.scans[std::size_t(i + offset)].odometry,
                                   sequence.scans[std::size_t(i + 1 + offset)].odometry);
-      addOffsetPair(odometry.match(scan(i), scan(i + 1), guess, true), guess, &score);
+      addOffsetPair(odometry.match(scan(i), scan(i + 1), {guess, true}), guess, &score);
     }
     result.scores.push_back(score);
   }

@@ -89,7 +89,7 @@ double OdometryTimeOffsetProbe::observe(double stamp, const Scan& scan, const Od
 void OdometryTimeOffsetProbe::scorePair(const Previous& current) {
   for (std::size_t k = 0; k < result_.estimate.scores.size(); ++k) {
     const Pose2 guess = between(previous_->odometry[k], current.odometry[k]);
-    addOffsetPair(odometry_.match(*previous_->scan, *current.scan, guess, true), guess, &result_.estimate.scores[k]);
+    addOffsetPair(odometry_.match(*previous_->scan, *current.scan, {guess, true}), guess, &result_.estimate.scores[k]);
   }
   ++result_.moving_pairs;
 }

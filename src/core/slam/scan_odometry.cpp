@@ -149,8 +149,11 @@ double WheelNoiseScale::scale() const {
   return std::max(1.0, sorted[sorted.size() / 2] / 2.366);
 }
 
-OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                                 bool guess_from_wheels, double wheel_noise_scale, const Pose2* tracked) const {
+OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget& current, const StepSeeds& seeds) const {
+  const Pose2& guess = seeds.guess;
+  const bool guess_from_wheels = seeds.from_wheels;
+  const double wheel_noise_scale = seeds.wheel_noise_scale;
+  const Pose2* tracked = seeds.tracked ? &*seeds.tracked : nullptr;
   const auto start = std::chrono::steady_clock::now();
   OdometryStep step;
   step.motion = guess;

@@ -11,8 +11,8 @@ namespace llc {
 
 SlamFrontEnd::SlamFrontEnd(const ClassifierModel& model, const ScanOdometryOptions& odometry,
                            const ScanAlignerOptions& aligner, const LoopDetectorOptions& loops)
-    : odometry_(odometry), wheel_noise_(odometry.wheel_noise_window), detector_(model, aligner, loops), model_(model), aligner_options_(aligner), loop_options_(loops),
-      motion_clock_(odometry.max_stamp_jitter) {}
+    : odometry_(odometry), detector_(model, aligner, loops), motion_clock_(odometry.max_stamp_jitter),
+      wheel_noise_(odometry.wheel_noise_window) {}
 
 Eigen::Matrix3d SlamFrontEnd::restartCovariance() { return looseLinkCovariance(); }
 
@@ -27,7 +27,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   for (std::size_t k = 0; k < keyframes.size(); ++k)
     if (keyframes[k].scan.ranges.size() != keyframes[k].scan.bearings.size())
       return "keyframe " + std::to_string(k) + ": ranges and bearings differ in count";
-  LoopDetector detector(detector_.model(), aligner_options_, loop_options_);
+  LoopDetector detector(detector_.model(), detector_.aligner().options(), detector_.options());
   bool recompute = false;
   if (!keyframes.empty()) {
     // Stored single-precision values, so compare with float rounding.
@@ -43,43 +43,41 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
-  keyframes_full_circle_ = allFullCircle(keyframes);
-  chain_.assign(keyframes.size(), Pose2{});
-  path_.assign(keyframes.size(), 0.0);
-  chain_first_.resize(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k) chain_first_[k] = k;  // their chains: from `steps`, below
-  chain_start_ = keyframes.size();
-  local_map_.reset();
-  local_map_of_ = std::size_t(-1);
-  ambiguity_field_.reset();  // another run's keyframe of the same index is another scan
-  ambiguity_field_of_ = std::size_t(-1);
-  counters_ = FrontEndCounters{};
-  counters_.keyframes = keyframes.size();
-  tracked_motion_ = Pose2{};
-  has_wheel_track_ = false;
-  velocity_ = Pose2{};
-  has_keyframe_ = continue_odometry && !keyframes.empty();
-  restart_pending_ = !continue_odometry && !keyframes.empty();
-  restart_reason_ = "a new chain after a restored session";
-  if (has_keyframe_) {
-    last_keyframe_stamp_ = last_motion_time_ = keyframes.back().stamp;
-    motion_clock_.reset(last_motion_time_);
-    last_keyframe_has_wheels_ = keyframes.back().has_wheel_odometry;
-    last_keyframe_wheels_ = keyframes.back().wheel_odometry;
-  }
-  has_last_wheels_ = has_jump_ = false;  // a jump is judged between scans of this run only
-  wheels_moved_ = wheels_stalled_ = false;
-  if (has_keyframe_ && steps && steps->size() == keyframes.size()) {
-    // The run goes on: its chains are those the measured steps made (as the run that saved
-    // them had them), so the local map, the context and the calibration go on across the restore.
-    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+  // Every restored keyframe its own chain, unless the run goes on (continue_odometry with the
+  // measured steps): then its chains are those the steps made, as the run that saved them had
+  // them, so the local map, the context and the calibration go on across the restore.
+  const std::size_t n = keyframes.size();
+  KeyframeChains chains;
+  chains.full_circle = allFullCircle(keyframes);
+  chains.pose.assign(n, Pose2{});
+  chains.path.assign(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) chains.first.push_back(k);
+  chains.start = n;
+  if (continue_odometry && n > 0 && steps && steps->size() == n) {
+    for (std::size_t k = 1; k < n; ++k) {
       const bool chained = isFinite((*steps)[k]);
-      chain_[k] = chained ? compose(chain_[k - 1], (*steps)[k]) : Pose2{};
-      path_[k] = chained ? path_[k - 1] + std::hypot((*steps)[k].x, (*steps)[k].y) : 0.0;
-      chain_first_[k] = chained ? chain_first_[k - 1] : k;
+      chains.pose[k] = chained ? compose(chains.pose[k - 1], (*steps)[k]) : Pose2{};
+      chains.path[k] = chained ? chains.path[k - 1] + std::hypot((*steps)[k].x, (*steps)[k].y) : 0.0;
+      chains.first[k] = chained ? chains.first[k - 1] : k;
     }
-    chain_start_ = chain_first_.back();
+    chains.start = chains.first.back();
   }
+  chains_ = std::move(chains);
+  caches_ = KeyframeCaches{};
+  counters_ = FrontEndCounters{};
+  counters_.keyframes = n;
+  motion_.newChain();
+  keyframe_ = KeyframeReference{};
+  if (continue_odometry && n > 0) {  // the odometry goes on from the newest restored keyframe
+    const Keyframe& newest = keyframes.back();
+    keyframe_ = KeyframeReference{true, newest.stamp, newest.has_wheel_odometry, newest.wheel_odometry};
+    motion_.last_time = newest.stamp;
+    motion_clock_.reset(newest.stamp);
+  } else if (n > 0) {
+    keyframe_.restart_pending = true;
+    keyframe_.restart_reason = "a new chain after a restored session";
+  }
+  wheels_ = ScanWheels{};  // a jump is judged between scans of this run only
   return "";
 }
 
@@ -98,39 +96,39 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     return skip(ScanRefusal::kRangesAndBearingsDiffer, "ranges and bearings differ in count");
   if (wheel_odometry && !isFinite(*wheel_odometry))
     return skip(ScanRefusal::kWheelOdometryNotFinite, "wheel odometry is not finite");
-  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_) {
+  if (keyframe_.exists && scan.stamp < keyframe_.stamp) {
     // (Stamps that jitter say nothing of the order: the scans are taken as they come.)
-    const bool small_jump = last_keyframe_stamp_ - scan.stamp <= odometry_.options().restart_after_jump_back;
+    const bool small_jump = keyframe_.stamp - scan.stamp <= odometry_.options().restart_after_jump_back;
     if (small_jump && !motion_clock_.countingScans()) return skip(ScanRefusal::kTimeWentBackwards, "time went backwards");
   }
-  if (has_keyframe_ && scan.stamp < last_keyframe_stamp_ - odometry_.options().restart_after_jump_back) {
+  if (keyframe_.exists && scan.stamp < keyframe_.stamp - odometry_.options().restart_after_jump_back) {
     // A looped bag or a reset clock: a new chain from this scan on, as after a restored session.
-    step.time_jump = "time jumped back " + std::to_string(last_keyframe_stamp_ - scan.stamp) +
+    step.time_jump = "time jumped back " + std::to_string(keyframe_.stamp - scan.stamp) +
                      " s: a new odometry chain, placed by its first loop closure";
     ++counters_.time_jumps;
-    has_keyframe_ = false;
-    restart_pending_ = true;
-    restart_reason_ = "a new chain after time jumped back";
-    tracked_motion_ = velocity_ = Pose2{};
+    keyframe_ = KeyframeReference{};
+    keyframe_.restart_pending = true;
+    keyframe_.restart_reason = "a new chain after time jumped back";
+    motion_.newChain();
     motion_clock_.reset(scan.stamp);
-    has_last_wheels_ = has_jump_ = has_wheel_track_ = wheels_moved_ = wheels_stalled_ = false;
+    wheels_ = ScanWheels{};
   }
 
   const auto start = std::chrono::steady_clock::now();
-  motion_time_ = motion_clock_.tick(scan.stamp);
+  motion_.time = motion_clock_.tick(scan.stamp);
   counters_.scans_counted += motion_clock_.countingScans();
   std::shared_ptr<const PreparedScan> prepared;
   // The wheels say the robot hardly moved since the scan before (5 mm, 5 mrad: a stalled
   // reading looked up through tf between two messages moves by a little): the robot stood or
   // crept, or the wheels' source stalled (the laser tells which). A moving reading ends a stall.
-  const bool repeated = wheel_odometry && has_last_wheels_ && [&] {
-    const Pose2 moved = between(last_wheels_, *wheel_odometry);
+  const bool repeated = wheel_odometry && wheels_.has_last && [&] {
+    const Pose2 moved = between(wheels_.last, *wheel_odometry);
     return std::hypot(moved.x, moved.y) <= 0.005 && std::abs(moved.theta) <= 0.005;
   }();
-  if (!repeated) wheels_stalled_ = false;
-  if (has_keyframe_) {
+  if (!repeated) wheels_.stalled = false;
+  if (keyframe_.exists) {
     bool placed = false;
-    if (wheel_odometry && last_keyframe_has_wheels_) {
+    if (wheel_odometry && keyframe_.has_wheels) {
       const WheelPlacement placement = placeWithWheels(scan, *wheel_odometry, repeated, step, prepared);
       if (placement == WheelPlacement::kNotKeyframe) {
         counters_.seconds_odometry += secondsSince(start);
@@ -146,7 +144,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
       if (wheel_odometry) rememberWheels(*wheel_odometry, scan.stamp, repeated);
       if (!prepared) prepared = detector_.aligner().prepare(scan);
       placeByLaser(*prepared, wheel_odometry == nullptr, step);
-      if (!odometry_.movedEnough(tracked_motion_)) {
+      if (!odometry_.movedEnough(motion_.track.motion)) {
         counters_.seconds_odometry += secondsSince(start);
         setOdometryPose(step);
         return step;
@@ -157,38 +155,35 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
     counters_.recovered_steps += step.odometry.recovered;
     counters_.realigned_steps += step.odometry.realigned;
     counters_.tracked_steps += step.odometry.tracked;
-  } else if (restart_pending_) {
+  } else if (keyframe_.restart_pending) {
     step.odometry.covariance = restartCovariance();
-    step.odometry.reject_reason = restart_reason_;
+    step.odometry.reject_reason = keyframe_.restart_reason;
     step.odometry.refusal = OdometryRefusal::kNewChain;
-    chain_start_ = detector_.size();  // this keyframe starts the chain the calibration walks
-    restart_pending_ = false;
+    chains_.start = detector_.size();  // this keyframe starts the chain the calibration walks
+    keyframe_.restart_pending = false;
   }
   counters_.seconds_odometry += secondsSince(start);
 
-  has_keyframe_ = true;
-  last_keyframe_stamp_ = scan.stamp;
-  last_motion_time_ = motion_time_;
   // A stalled reading is no reference: the scans after it go on by the laser to the next keyframe.
-  last_keyframe_has_wheels_ = wheel_odometry != nullptr && !wheels_stalled_;
-  if (last_keyframe_has_wheels_) last_keyframe_wheels_ = *wheel_odometry;
-  has_jump_ = false;  // a new reference: a jump before it is history
-  tracked_motion_ = Pose2{};
-  has_wheel_track_ = false;
+  const bool has_wheels = wheel_odometry != nullptr && !wheels_.stalled;
+  keyframe_ = KeyframeReference{true, scan.stamp, has_wheels, has_wheels ? *wheel_odometry : Pose2{}};
+  wheels_.has_jump = false;  // a new reference: a jump before it is history
+  motion_.last_time = motion_.time;
+  motion_.track = {};
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
   ++counters_.steps_not_matched[std::size_t(step.odometry.refusal)];
-  keyframes_full_circle_ = keyframes_full_circle_ && scan.full_circle;
-  const bool chained = step.keyframe_index > chain_start_ && isFinite(step.odometry.motion);
-  if (!chained) chain_start_ = step.keyframe_index;  // the first keyframe of a new chain
-  chain_.push_back(chained ? compose(chain_.back(), step.odometry.motion) : Pose2{});
-  path_.push_back(chained ? path_.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
-  chain_first_.push_back(chain_start_);
+  chains_.full_circle = chains_.full_circle && scan.full_circle;
+  const bool chained = step.keyframe_index > chains_.start && isFinite(step.odometry.motion);
+  if (!chained) chains_.start = step.keyframe_index;  // the first keyframe of a new chain
+  chains_.pose.push_back(chained ? compose(chains_.pose.back(), step.odometry.motion) : Pose2{});
+  chains_.path.push_back(chained ? chains_.path.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
+  chains_.first.push_back(chains_.start);
   // The own odometry frame goes on through a new chain (whose motion is the identity).
   const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
-  keyframe_in_odometry_ = has_keyframe_in_odometry_ ? compose(keyframe_in_odometry_, motion) : Pose2{};
-  has_keyframe_in_odometry_ = true;
-  step.odometry_pose = keyframe_in_odometry_;
+  own_odometry_.keyframe = own_odometry_.has_keyframe ? compose(own_odometry_.keyframe, motion) : Pose2{};
+  own_odometry_.has_keyframe = true;
+  step.odometry_pose = own_odometry_.keyframe;
   step.has_odometry_pose = true;
   ++counters_.keyframes;
   return step;
@@ -197,29 +192,29 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
 SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, const Pose2& wheels, bool repeated,
                                                           FrontEndStep& step, std::shared_ptr<const PreparedScan>& prepared) {
   const ScanOdometryOptions& o = odometry_.options();
-  if (has_last_wheels_) {
-    const Pose2 moved = between(last_wheels_, wheels);
+  if (wheels_.has_last) {
+    const Pose2 moved = between(wheels_.last, wheels);
     // At least 1 s: logs hold scans whose stamps stand still while the robot moves (the
     // corrected csail log turns 1.15 rad in 0 s). A heading is never judged: any turn
     // fits in a second at max_turn_rate, and a log's stamps say too little to do better.
-    const double dt = std::max(scan.stamp - last_wheels_stamp_, 1.0);
+    const double dt = std::max(scan.stamp - wheels_.last_stamp, 1.0);
     if (std::hypot(moved.x, moved.y) > o.max_speed * dt) {
-      const Pose2 since = between(before_jump_wheels_, wheels);
-      if (has_jump_ && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - before_jump_stamp_, 1.0)) {
+      const Pose2 since = between(wheels_.before_jump_wheels, wheels);
+      if (wheels_.has_jump && std::hypot(since.x, since.y) <= o.max_speed * std::max(scan.stamp - wheels_.before_jump_stamp, 1.0)) {
         // Back where they were going: the jump was a spike, and the old reference holds.
-        last_keyframe_wheels_ = before_jump_reference_;
-        has_jump_ = false;
+        keyframe_.wheels = wheels_.before_jump_reference;
+        wheels_.has_jump = false;
       } else {
         // No robot moves so: measure from a reference that leaves the jump out (as if the
         // robot stood still meanwhile); ICP at the next keyframe finds what it really did.
-        before_jump_reference_ = last_keyframe_wheels_, before_jump_wheels_ = last_wheels_;
-        before_jump_stamp_ = last_wheels_stamp_, has_jump_ = true;
-        last_keyframe_wheels_ = compose(wheels, inverse(between(last_keyframe_wheels_, last_wheels_)));
+        wheels_.before_jump_reference = keyframe_.wheels, wheels_.before_jump_wheels = wheels_.last;
+        wheels_.before_jump_stamp = wheels_.last_stamp, wheels_.has_jump = true;
+        keyframe_.wheels = compose(wheels, inverse(between(keyframe_.wheels, wheels_.last)));
       }
-      has_wheel_track_ = false;  // its wheel reference holds the jump
+      motion_.track.has_wheels = false;  // its wheel reference holds the jump
       ++counters_.wheel_jumps;
       step.wheel_jump = "wheel odometry jumped " + std::to_string(std::hypot(moved.x, moved.y)) + " m and " +
-                        std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - last_wheels_stamp_) +
+                        std::to_string(moved.theta) + " rad in " + std::to_string(scan.stamp - wheels_.last_stamp) +
                         " s (beyond max_speed): left out";
     }
   }
@@ -227,14 +222,14 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   // stalled the wheels' source? MIT CSAIL's report nothing for 1 s mid-turn, then jump 0.87 rad.
   // (Only where every scan is matched: the laser's last pose is then the scan before's.)
   const bool maybe_stalled =
-      repeated && o.stalled_wheels_as_missing && o.match_every_scan && (wheels_moved_ || wheels_stalled_);
+      repeated && o.stalled_wheels_as_missing && o.match_every_scan && (wheels_.moved || wheels_.stalled);
   rememberWheels(wheels, scan.stamp, repeated);
   // The wheels' guess, and (track_scans) the tracked one: from the last scan ICP placed, on
   // by the wheels' motion since. FR079 turned left while its wheels, slipping for 4 s, said
   // it turned 0.3 rad right: too far off for one ICP from the wheels' guess at the keyframe.
   // A reading that may be stalled says nothing of the motion since: the last velocity does.
-  const Pose2 guess = between(last_keyframe_wheels_, wheels);
-  const Pose2 tracked = maybe_stalled ? predictedMotion() : compose(tracked_motion_, between(tracked_wheels_, wheels));
+  const Pose2 guess = between(keyframe_.wheels, wheels);
+  const Pose2 tracked = maybe_stalled ? predictedMotion() : compose(motion_.track.motion, between(motion_.track.wheels, wheels));
   const bool keyframe = odometry_.movedEnough(guess);
   if (!keyframe && !o.match_every_scan) {  // not a keyframe: nothing more to do
     step.odometry.motion = guess;  // where the wheels put this scan from the newest keyframe
@@ -243,19 +238,20 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
   prepared = detector_.aligner().prepare(scan);
   // A keyframe's step is matched to the local map; the scans between keep to the newest
   // keyframe (their poses only place them: the map's scans.csv, odom).
-  step.odometry = odometry_.match(keyframe ? keyframeStepTarget() : detector_.prepared(detector_.size() - 1), *prepared, guess, true,
-                                  wheel_noise_.scale(), has_wheel_track_ || maybe_stalled ? &tracked : nullptr);
+  StepSeeds seeds{guess, true, wheel_noise_.scale(), std::nullopt};
+  if (motion_.track.has_wheels || maybe_stalled) seeds.tracked = tracked;
+  step.odometry = odometry_.match(keyframe ? keyframeStepTarget() : detector_.prepared(detector_.size() - 1), *prepared, seeds);
   // The laser, predicted on, fits clearly better than where the repeated reading says the
   // robot stood, and it moved since the scan before: the wheels stalled. Their reading is no guess and no reference until it
   // changes; the laser's motion is a matched step (not disputed with a stale reading).
-  if (maybe_stalled && step.odometry.tracked && !ScanOdometry::samePose(step.odometry.motion, tracked_motion_)) {
-    wheels_stalled_ = true;
+  if (maybe_stalled && step.odometry.tracked && !ScanOdometry::samePose(step.odometry.motion, motion_.track.motion)) {
+    wheels_.stalled = true;
     ++counters_.stalled_wheel_scans;
     step.odometry.disputed = false;
     step.odometry.covariance = odometry_.stepCovariance(step.odometry.motion, true);
     updateVelocity(step.odometry.motion);
-    tracked_motion_ = step.odometry.motion, last_motion_time_ = motion_time_;
-    has_wheel_track_ = false;  // tracked_wheels_ would be the stale reading
+    motion_.track.motion = step.odometry.motion, motion_.last_time = motion_.time;
+    motion_.track.has_wheels = false;  // motion_.track.wheels would be the stale reading
     return odometry_.movedEnough(step.odometry.motion) ? WheelPlacement::kKeyframe : WheelPlacement::kNotKeyframe;
   }
   if (!keyframe) {  // matched only to be placed: ICP's pose, or the wheels' when it failed
@@ -263,8 +259,8 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
     // A motion the laser is sure of (not one disputed with the wheels) is tracked on from.
     if (o.track_scans && step.odometry.matched && !step.odometry.disputed) {
       updateVelocity(step.odometry.motion);
-      tracked_motion_ = step.odometry.motion, tracked_wheels_ = wheels, last_motion_time_ = motion_time_;
-      has_wheel_track_ = true;
+      motion_.track.motion = step.odometry.motion, motion_.track.wheels = wheels, motion_.last_time = motion_.time;
+      motion_.track.has_wheels = true;
     }
     return WheelPlacement::kNotKeyframe;
   }
@@ -274,8 +270,8 @@ SlamFrontEnd::WheelPlacement SlamFrontEnd::placeWithWheels(const Scan& scan, con
 }
 
 void SlamFrontEnd::rememberWheels(const Pose2& wheels, double stamp, bool repeated) {
-  last_wheels_ = wheels, last_wheels_stamp_ = stamp, has_last_wheels_ = true;
-  wheels_moved_ = !repeated;
+  wheels_.last = wheels, wheels_.last_stamp = stamp, wheels_.has_last = true;
+  wheels_.moved = !repeated;
 }
 
 void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step) {
@@ -283,11 +279,11 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   const Pose2 predicted = predictedMotion();
   // The prediction is as good as the stamps: unless they were judged steady, or where no
   // velocity predicts (a gap: the last pose stands in), it pulls nothing.
-  step.odometry = odometry_.match(keyframe, scan, predicted, false);
+  step.odometry = odometry_.match(keyframe, scan, {predicted, false});
   // A velocity from one bad step predicts far off, and ICP from there fails (the Intel log's
   // turns in place): where the last scan stood may still be near enough.
-  if (!step.odometry.matched && !ScanOdometry::samePose(predicted, tracked_motion_)) {
-    OdometryStep from_last = odometry_.match(keyframe, scan, tracked_motion_, false);
+  if (!step.odometry.matched && !ScanOdometry::samePose(predicted, motion_.track.motion)) {
+    OdometryStep from_last = odometry_.match(keyframe, scan, {motion_.track.motion, false});
     if (from_last.matched) {
       ++counters_.laser_fallback_steps;
       step.odometry = std::move(from_last);
@@ -301,15 +297,15 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   if (no_wheels && step.odometry.matched && odometry_.options().ambiguity_score_drop > 0.0 &&
       odometry_.movedEnough(step.odometry.motion)) {
     const std::size_t newest = detector_.size() - 1;
-    if (!ambiguity_field_ || ambiguity_field_of_ != newest) {
-      ambiguity_field_ = std::make_shared<const LikelihoodField>(keyframe.points, odometry_.options().correlative);
-      ambiguity_field_of_ = newest;
+    if (!caches_.ambiguity_field || caches_.ambiguity_field_of != newest) {
+      caches_.ambiguity_field = std::make_shared<const LikelihoodField>(keyframe.points, odometry_.options().correlative);
+      caches_.ambiguity_field_of = newest;
     }
-    counters_.ambiguous_steps += odometry_.widenAlongAmbiguity(*ambiguity_field_, scan.points, step.odometry);
+    counters_.ambiguous_steps += odometry_.widenAlongAmbiguity(*caches_.ambiguity_field, scan.points, step.odometry);
   }
   if (step.odometry.matched) updateVelocity(step.odometry.motion);
-  last_motion_time_ = motion_time_;
-  tracked_motion_ = step.odometry.motion;
+  motion_.last_time = motion_.time;
+  motion_.track.motion = step.odometry.motion;
 }
 
 void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step) {
@@ -320,7 +316,7 @@ void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const
   if (!predictsMotion()) return;
   const Pose2 predicted = predictedMotion();
   if (ScanOdometry::samePose(predicted, wheel_guess) || ScanOdometry::samePose(predicted, step.odometry.motion)) return;
-  OdometryStep from_prediction = odometry_.match(detector_.prepared(detector_.size() - 1), scan, predicted, false);
+  OdometryStep from_prediction = odometry_.match(detector_.prepared(detector_.size() - 1), scan, {predicted, false});
   if (!from_prediction.matched ||
       !(from_prediction.overlap_share >= step.odometry.overlap_share + odometry_.options().track_min_fit_gain))
     return;
@@ -356,52 +352,52 @@ void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& whe
 const MatchTarget& SlamFrontEnd::keyframeStepTarget() {
   const std::size_t newest = detector_.size() - 1;
   const std::size_t wanted = odometry_.options().local_map_keyframes;
-  if (wanted > 1 && local_map_of_ != newest) {
-    local_map_of_ = newest;
-    local_map_.reset();
+  if (wanted > 1 && caches_.local_map_of != newest) {
+    caches_.local_map_of = newest;
+    caches_.local_map.reset();
     std::vector<ContextScan> scans;  // the newest keyframe's points first (the 5 cm grid keeps the first)
-    for (std::size_t k = newest + 1; k-- > 0 && newest - k < wanted && chain_first_[k] == chain_first_[newest];)
-      scans.push_back({&detector_.prepared(k).points, between(chain_[newest], chain_[k]), nullptr});
+    for (std::size_t k = newest + 1; k-- > 0 && newest - k < wanted && chains_.first[k] == chains_.first[newest];)
+      scans.push_back({&detector_.prepared(k).points, between(chains_.pose[newest], chains_.pose[k]), nullptr});
     if (scans.size() >= 2)
-      local_map_ = std::make_shared<const MatchTarget>(contextCloud(scans, 0.05), detector_.aligner().options().icp,
+      caches_.local_map = std::make_shared<const MatchTarget>(contextCloud(scans, 0.05), detector_.aligner().options().icp,
                                                        detector_.prepared(newest).view);
   }
-  return wanted > 1 && local_map_ ? *local_map_ : detector_.prepared(newest);
+  return wanted > 1 && caches_.local_map ? *caches_.local_map : detector_.prepared(newest);
 }
 
 bool SlamFrontEnd::predictsMotion() const {
-  const double dt = motion_time_ - last_motion_time_;
+  const double dt = motion_.time - motion_.last_time;
   return odometry_.options().predict_motion && dt > 0.0 && dt <= odometry_.options().max_prediction_gap;
 }
 
 Pose2 SlamFrontEnd::predictedMotion() const {
-  const double dt = motion_time_ - last_motion_time_;
-  return predictsMotion() ? compose(tracked_motion_, Pose2{velocity_.x * dt, velocity_.y * dt, velocity_.theta * dt}) : tracked_motion_;
+  const double dt = motion_.time - motion_.last_time;
+  return predictsMotion() ? compose(motion_.track.motion, Pose2{motion_.velocity.x * dt, motion_.velocity.y * dt, motion_.velocity.theta * dt}) : motion_.track.motion;
 }
 
 void SlamFrontEnd::updateVelocity(const Pose2& motion) {
-  const double dt = motion_time_ - last_motion_time_;
+  const double dt = motion_.time - motion_.last_time;
   if (!(dt >= odometry_.options().min_velocity_interval && dt <= odometry_.options().max_prediction_gap)) return;
-  const Pose2 moved = between(tracked_motion_, motion);
+  const Pose2 moved = between(motion_.track.motion, motion);
   const Pose2 velocity{moved.x / dt, moved.y / dt, moved.theta / dt};
   // A velocity no robot has says the stamps are out of step with the scans: not kept.
   if (std::hypot(velocity.x, velocity.y) <= odometry_.options().max_speed &&
       std::abs(velocity.theta) <= odometry_.options().max_turn_rate)
-    velocity_ = velocity;
+    motion_.velocity = velocity;
 }
 
 void SlamFrontEnd::setOdometryPose(FrontEndStep& step) const {
-  if (!has_keyframe_in_odometry_ || !isFinite(step.odometry.motion)) return;
-  step.odometry_pose = compose(keyframe_in_odometry_, step.odometry.motion);
+  if (!own_odometry_.has_keyframe || !isFinite(step.odometry.motion)) return;
+  step.odometry_pose = compose(own_odometry_.keyframe, step.odometry.motion);
   step.has_odometry_pose = true;
 }
 
 std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
-  const ThresholdCalibrationOptions& options = loop_options_.calibration;
+  const ThresholdCalibrationOptions& options = detector_.options().calibration;
   std::vector<std::size_t> found;
-  if (!options.enabled || index >= chain_.size() || index < chain_start_) return found;
-  for (std::size_t j = index; j-- > chain_start_ && path_[index] - path_[j] <= options.max_path;)
-    if (surelyDifferentPlaces(chain_[j], chain_[index], path_[index] - path_[j], options)) found.push_back(j);
+  if (!options.enabled || index >= chains_.pose.size() || index < chains_.start) return found;
+  for (std::size_t j = index; j-- > chains_.start && chains_.path[index] - chains_.path[j] <= options.max_path;)
+    if (surelyDifferentPlaces(chains_.pose[j], chains_.pose[index], chains_.path[index] - chains_.path[j], options)) found.push_back(j);
   if (found.size() > options.pairs_per_keyframe) {
     calibration_random_.shuffle(found);
     found.resize(options.pairs_per_keyframe);
@@ -412,17 +408,17 @@ std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
 std::vector<ContextKeyframe> SlamFrontEnd::context(std::size_t index, std::size_t before, double distance,
                                                   double spacing) const {
   std::vector<ContextKeyframe> found;
-  if (index >= chain_.size()) return found;
-  const std::size_t first = chain_first_[index];
-  auto take = [&](std::size_t k) { found.push_back({k, between(chain_[index], chain_[k])}); };
+  if (index >= chains_.pose.size()) return found;
+  const std::size_t first = chains_.first[index];
+  auto take = [&](std::size_t k) { found.push_back({k, between(chains_.pose[index], chains_.pose[k])}); };
   take(index);
-  double last = path_[index];
-  for (std::size_t k = index; k-- > first && path_[index] - path_[k] <= distance;)
-    if (last - path_[k] >= spacing) take(k), last = path_[k];
-  last = path_[index];
-  for (std::size_t k = index + 1; k < std::min(before, chain_.size()) && chain_first_[k] == first; ++k) {
-    if (path_[k] - path_[index] > distance) break;
-    if (path_[k] - last >= spacing) take(k), last = path_[k];
+  double last = chains_.path[index];
+  for (std::size_t k = index; k-- > first && chains_.path[index] - chains_.path[k] <= distance;)
+    if (last - chains_.path[k] >= spacing) take(k), last = chains_.path[k];
+  last = chains_.path[index];
+  for (std::size_t k = index + 1; k < std::min(before, chains_.pose.size()) && chains_.first[k] == first; ++k) {
+    if (chains_.path[k] - chains_.path[index] > distance) break;
+    if (chains_.path[k] - last >= spacing) take(k), last = chains_.path[k];
   }
   return found;
 }
@@ -464,8 +460,8 @@ SelfTrainingSet SlamFrontEnd::selfTrainingSet(const std::vector<Pose2>& optimise
   features.reserve(placed);
   for (std::size_t k = 0; k < placed; ++k) features.push_back(detector_.features(k));
   const std::vector<Pose2> poses(optimised_poses.begin(), optimised_poses.begin() + long(placed));
-  return llc::selfTrainingSet(features, poses, detector_.model().features.feature_set, keyframes_full_circle_,
-                              loop_options_.min_keyframe_gap);
+  return llc::selfTrainingSet(features, poses, detector_.model().features.feature_set, chains_.full_circle,
+                              detector_.options().min_keyframe_gap);
 }
 
 }  // namespace llc

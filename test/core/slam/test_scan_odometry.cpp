@@ -401,7 +401,7 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
     return d.dot(odometry.stepCovariance(guess, false).inverse() * d);
   };
   const llc::Pose2 near_guess = llc::compose(truth, {0.3, 0.0, 0.0});
-  const llc::OdometryStep near = odometry.match(*first, *second, near_guess, true);
+  const llc::OdometryStep near = odometry.match(*first, *second, {near_guess, true});
   ASSERT_TRUE(near.matched) << near.reject_reason;
   EXPECT_FALSE(near.disputed);
   EXPECT_NEAR(near.wheel_disagreement, chi2(near_guess), 0.1 * chi2(near_guess));
@@ -409,7 +409,7 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
 
   const llc::Pose2 far_guess = llc::compose(truth, {0.6, 0.0, 0.0});
   ASSERT_GT(chi2(far_guess), 10.0);
-  const llc::OdometryStep far = odometry.match(*first, *second, far_guess, true);
+  const llc::OdometryStep far = odometry.match(*first, *second, {far_guess, true});
   ASSERT_TRUE(far.matched) << far.reject_reason;
   EXPECT_TRUE(far.disputed);
   EXPECT_NEAR(far.wheel_disagreement, chi2(far_guess), 0.1 * chi2(far_guess));
@@ -419,19 +419,19 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
   EXPECT_LE(d.dot(far.covariance.inverse() * d), 1.0 + 1e-9);  // ... and the wheels' lies within one sigma
 
   // Wheels known to be four times noisier than modelled: 0.6 m is no dispute.
-  EXPECT_FALSE(odometry.match(*first, *second, far_guess, true, 4.0).disputed);
+  EXPECT_FALSE(odometry.match(*first, *second, {far_guess, true, 4.0}).disputed);
   llc::ScanOdometryOptions off = hold_both;
   off.max_wheel_disagreement = 0.0;
-  const llc::OdometryStep unchecked = llc::ScanOdometry(off).match(*first, *second, far_guess, true);
+  const llc::OdometryStep unchecked = llc::ScanOdometry(off).match(*first, *second, {far_guess, true});
   EXPECT_FALSE(unchecked.disputed);
   EXPECT_TRUE(unchecked.covariance.isApprox(odometry.stepCovariance(unchecked.motion, true)));
   // Without wheels there is nothing to disagree with.
-  EXPECT_LT(odometry.match(*first, *second, far_guess, false).wheel_disagreement, 0.0);
+  EXPECT_LT(odometry.match(*first, *second, {far_guess, false}).wheel_disagreement, 0.0);
 
   // With correlative_recovery (the default) the laser fits far better than the wheels' guess
   // 0.6 m off: ICP's motion is a matched step with a wheel step's covariance, not disputed.
   const llc::ScanOdometry recovering;
-  const llc::OdometryStep recovered = recovering.match(*first, *second, far_guess, true);
+  const llc::OdometryStep recovered = recovering.match(*first, *second, {far_guess, true});
   ASSERT_TRUE(recovered.matched) << recovered.reject_reason;
   EXPECT_TRUE(recovered.recovered);
   EXPECT_FALSE(recovered.disputed);
@@ -439,7 +439,7 @@ TEST(ScanOdometry, AStepWhereIcpAndWheelsDisagreeGetsACovarianceHoldingBoth) {
   EXPECT_NEAR(recovered.motion.y, truth.y, 0.01);
   EXPECT_TRUE(recovered.covariance.isApprox(recovering.stepCovariance(recovered.motion, false)));
   // Near the truth the wheels are not doubted: nothing to recover.
-  EXPECT_FALSE(recovering.match(*first, *second, near_guess, true).recovered);
+  EXPECT_FALSE(recovering.match(*first, *second, {near_guess, true}).recovered);
 }
 
 /// FR079's wheels count a reverse as forward: the guess is 0.6 m ahead, the robot 0.6 m back.
@@ -454,12 +454,12 @@ TEST(ScanOdometry, WheelsThatCountAReverseAsForwardAreOverruledByTheLaser) {
   const auto second = aligner.prepare(roomScan(truth));
   llc::ScanOdometryOptions off;
   off.correlative_recovery = false;
-  const llc::OdometryStep wheels = llc::ScanOdometry(off).match(*first, *second, guess, true);
+  const llc::OdometryStep wheels = llc::ScanOdometry(off).match(*first, *second, {guess, true});
   EXPECT_FALSE(wheels.matched);
   EXPECT_EQ(wheels.refusal, llc::OdometryRefusal::kTooFarFromWheels);
   EXPECT_NEAR(wheels.motion.x, guess.x, 1e-12);
 
-  const llc::OdometryStep laser = llc::ScanOdometry().match(*first, *second, guess, true);
+  const llc::OdometryStep laser = llc::ScanOdometry().match(*first, *second, {guess, true});
   ASSERT_TRUE(laser.matched) << laser.reject_reason;
   EXPECT_TRUE(laser.recovered);
   EXPECT_EQ(laser.refusal, llc::OdometryRefusal::kNone);
@@ -477,7 +477,7 @@ TEST(ScanOdometry, WhereTheLaserCannotTellTheWheelsStay) {
   const auto first = aligner.prepare(corridorScan(walls, 150));  // x = 105 m: the niches out of range
   const auto second = aligner.prepare(corridorScan(walls, 151));  // 0.7 m on
   const llc::Pose2 guess{1.5, 0.1 * (std::sin(0.05 * 151) - std::sin(0.05 * 150)), 0.0};
-  const llc::OdometryStep step = llc::ScanOdometry().match(*first, *second, guess, true);
+  const llc::OdometryStep step = llc::ScanOdometry().match(*first, *second, {guess, true});
   EXPECT_FALSE(step.recovered);
   EXPECT_GT(step.motion.x, 1.1) << "the laser cannot know how far the robot went";
 }
@@ -512,16 +512,16 @@ TEST(ScanOdometry, ASeedFromTheLaserKeepsThePairsThatSeeAMotionAlongACorridor) {
   llc::ScanOdometryOptions trimmed;
   trimmed.laser_seeded_trim_fraction = trimmed.icp.trim_fraction;
   ASSERT_EQ(trimmed.icp.trim_fraction, 0.9);
-  const llc::OdometryStep stuck = llc::ScanOdometry(trimmed).match(*first, *second, stood, false);
+  const llc::OdometryStep stuck = llc::ScanOdometry(trimmed).match(*first, *second, {stood, false});
   EXPECT_TRUE(!stuck.matched || stuck.motion.x < 0.15) << "with a tenth trimmed, the jambs were expected to be dropped";
   EXPECT_LT(stuck.motion.x, 0.15);
   const llc::ScanOdometryOptions defaults;
-  const llc::OdometryStep step = llc::ScanOdometry(defaults).match(*first, *second, stood, false);
+  const llc::OdometryStep step = llc::ScanOdometry(defaults).match(*first, *second, {stood, false});
   ASSERT_TRUE(step.matched) << step.reject_reason;
   EXPECT_NEAR(step.motion.x, 0.3, 0.02);
   EXPECT_NEAR(step.motion.y, 0.0, 0.02);
   // The wheels' seed keeps icp/trim_fraction (and remapping): where the wheels say 0.3 m, it stands.
-  const llc::OdometryStep wheels = llc::ScanOdometry(defaults).match(*first, *second, {0.3, 0.0, 0.0}, true);
+  const llc::OdometryStep wheels = llc::ScanOdometry(defaults).match(*first, *second, {{0.3, 0.0, 0.0}, true});
   EXPECT_NEAR(wheels.motion.x, 0.3, 0.02);
 }
 
@@ -545,12 +545,12 @@ TEST(ScanOdometry, AStepFromTheLaserSeedIsPolishedWithoutThePointsNewlyInView) {
   const llc::Pose2 predicted{0.45, 0.03, 0.01};
   llc::ScanOdometryOptions unpolished;
   unpolished.laser_seeded_polish_translation = 0.0;
-  const llc::OdometryStep pulled = llc::ScanOdometry(unpolished).match(*first, *second, predicted, false);
+  const llc::OdometryStep pulled = llc::ScanOdometry(unpolished).match(*first, *second, {predicted, false});
   ASSERT_TRUE(pulled.matched) << pulled.reject_reason;
   const double pulled_error = std::hypot(pulled.motion.x - 0.5, pulled.motion.y);
   const llc::ScanOdometryOptions defaults;
   ASSERT_GT(defaults.laser_seeded_polish_translation, 0.0);
-  const llc::OdometryStep step = llc::ScanOdometry(defaults).match(*first, *second, predicted, false);
+  const llc::OdometryStep step = llc::ScanOdometry(defaults).match(*first, *second, {predicted, false});
   ASSERT_TRUE(step.matched) << step.reject_reason;
   const double error = std::hypot(step.motion.x - 0.5, step.motion.y);
   EXPECT_GT(pulled_error, 0.0015) << "the visitor was expected to pull the unpolished step";
@@ -559,12 +559,12 @@ TEST(ScanOdometry, AStepFromTheLaserSeedIsPolishedWithoutThePointsNewlyInView) {
   // Bounded: a polish that would move farther than laser_seeded_polish_translation is not taken.
   llc::ScanOdometryOptions tight = defaults;
   tight.laser_seeded_polish_translation = 0.25 * pulled_error;
-  const llc::OdometryStep kept = llc::ScanOdometry(tight).match(*first, *second, predicted, false);
+  const llc::OdometryStep kept = llc::ScanOdometry(tight).match(*first, *second, {predicted, false});
   EXPECT_NEAR(kept.motion.x, pulled.motion.x, 1e-9);
   EXPECT_NEAR(kept.motion.y, pulled.motion.y, 1e-9);
   // The wheels' seed is matched with a tenth trimmed already: nothing to polish, same step.
-  const llc::OdometryStep wheels = llc::ScanOdometry(defaults).match(*first, *second, predicted, true);
-  const llc::OdometryStep wheels_unpolished = llc::ScanOdometry(unpolished).match(*first, *second, predicted, true);
+  const llc::OdometryStep wheels = llc::ScanOdometry(defaults).match(*first, *second, {predicted, true});
+  const llc::OdometryStep wheels_unpolished = llc::ScanOdometry(unpolished).match(*first, *second, {predicted, true});
   EXPECT_EQ(wheels.motion.x, wheels_unpolished.motion.x);
   EXPECT_EQ(wheels.motion.y, wheels_unpolished.motion.y);
 }

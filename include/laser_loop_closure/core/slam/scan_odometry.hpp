@@ -177,6 +177,18 @@ class WheelNoiseScale {
   std::size_t next_ = 0;
 };
 
+/// Where ScanOdometry::match starts from.
+struct StepSeeds {
+  Pose2 guess;               ///< wheel odometry's motion (from_wheels), else the best the caller knows
+  bool from_wheels = false;  ///< guess is the wheels': checked against ICP (max_correction_*, disputes, recovery)
+  /// WheelNoiseScale::scale: widens the wheel covariance for max_wheel_disagreement and for a
+  /// disputed step.
+  double wheel_noise_scale = 1.0;
+  /// With from_wheels: the tracked scan's motion carried on by the wheels (track_scans), taken
+  /// when ICP from it fits clearly better (track_min_fit_gain) or reaches the wheels' pose.
+  std::optional<Pose2> tracked;
+};
+
 class ScanOdometry {
  public:
   /// Throws std::invalid_argument when options.validate() finds a problem.
@@ -185,12 +197,9 @@ class ScanOdometry {
 
   /// Has a motion this large (from the last keyframe) earned a new keyframe?
   bool movedEnough(const Pose2& motion) const;
-  /// The motion of `current` in the frame of `previous`, from `guess` (wheel odometry when
-  /// guess_from_wheels, else the best the caller knows); ICP refines it when allowed and sane.
-  /// wheel_noise_scale (WheelNoiseScale::scale) widens the wheel covariance for
-  /// max_wheel_disagreement and for a disputed step.
-  OdometryStep match(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
-                     bool guess_from_wheels, double wheel_noise_scale = 1.0, const Pose2* tracked = nullptr) const;
+  /// The motion of `current` in the frame of `previous`, from `seeds` (see StepSeeds); ICP
+  /// refines it when allowed and sane.
+  OdometryStep match(const MatchTarget& previous, const MatchTarget& current, const StepSeeds& seeds) const;
   /// Two poses this close (0.05 m, 0.02 rad) are one: a second ICP from one would find what
   /// the first did.
   static bool samePose(const Pose2& a, const Pose2& b);

@@ -117,34 +117,98 @@ class SlamFrontEnd {
   const LoopDetector& detector() const { return detector_; }
 
  private:
+  // What the front end is made of (its options are theirs: odometry_.options(),
+  // detector_.options(), detector_.aligner().options()).
   ScanOdometry odometry_;
-  WheelNoiseScale wheel_noise_;
   LoopDetector detector_;
-  ClassifierModel model_;
-  ScanAlignerOptions aligner_options_;
-  LoopDetectorOptions loop_options_;
-  MotionClock motion_clock_;
-  double motion_time_ = 0.0;  ///< the scan being added, on motion_clock_
+  MotionClock motion_clock_;  ///< the scans' time as the motion model reads it
+  WheelNoiseScale wheel_noise_;
   FrontEndCounters counters_;
-  bool has_keyframe_ = false;
-  bool keyframes_full_circle_ = true;  ///< every keyframe's scan covers 360 degrees
-  bool restart_pending_ = false;  ///< the next keyframe starts a new chain after a restore
-  std::string restart_reason_;    ///< why it does (the step's reject_reason)
-  double last_keyframe_stamp_ = 0.0;
-  bool last_keyframe_has_wheels_ = false;
-  Pose2 last_keyframe_wheels_;   ///< the wheel reading the newest keyframe's motion is measured from
-  Pose2 last_wheels_;            ///< the scan before's wheel reading, to see jumps
-  double last_wheels_stamp_ = 0.0;
-  bool has_last_wheels_ = false;
-  bool wheels_moved_ = false;    ///< the last wheel reading differed from the one before
-  bool wheels_stalled_ = false;  ///< the last wheel reading was found stalled (stalled_wheels_as_missing)
-  /// The last jump, to tell a spike (the wheels come back) from a step: the reference and the
-  /// reading before it (cleared when a keyframe takes a new reference).
-  Pose2 before_jump_reference_, before_jump_wheels_;
-  double before_jump_stamp_ = 0.0;
-  bool has_jump_ = false;
-  Pose2 keyframe_in_odometry_;  ///< the newest keyframe in the front end's own odometry frame
-  bool has_keyframe_in_odometry_ = false;
+
+  /// The newest keyframe as the odometry goes on from it. Reset as one where a chain ends (a
+  /// restored session, time jumping back); set as one when a keyframe is made.
+  struct KeyframeReference {
+    bool exists = false;        ///< there is a newest keyframe to go on from
+    double stamp = 0.0;         ///< its stamp
+    bool has_wheels = false;    ///< it has a wheel reading to measure the next motion from
+    Pose2 wheels;               ///< that reading (moved to leave a wheel jump out)
+    bool restart_pending = false;  ///< the next keyframe starts a new chain (after a restore or a jump back)
+    std::string restart_reason;    ///< why it does (the step's reject_reason)
+  };
+  KeyframeReference keyframe_;
+
+  /// The wheel readings of the scans since (to see jumps and stalls). Reset as one where a chain
+  /// ends: a jump is judged between scans of one run only.
+  struct ScanWheels {
+    bool has_last = false;
+    Pose2 last;               ///< the scan before's reading
+    double last_stamp = 0.0;
+    bool moved = false;       ///< the last reading differed from the one before
+    bool stalled = false;     ///< the last reading was found stalled (stalled_wheels_as_missing)
+    /// The last jump, to tell a spike (the wheels come back) from a step: the reference and the
+    /// reading before it (forgotten when a keyframe takes a new reference).
+    bool has_jump = false;
+    Pose2 before_jump_reference, before_jump_wheels;
+    double before_jump_stamp = 0.0;
+  };
+  ScanWheels wheels_;
+
+  /// The laser's own view of the motion: the last matched scan's motion from the newest
+  /// keyframe and the velocity that predicts the next.
+  struct MotionModel {
+    double time = 0.0;       ///< the scan being added, on motion_clock_
+    double last_time = 0.0;  ///< of track.motion, on motion_clock_
+    /// The last matched velocity (per second, in the robot's frame), which predicts scans
+    /// without (or with stalled) wheel odometry. Forgotten where a chain ends.
+    Pose2 velocity;
+    /// The last matched scan's motion from the newest keyframe: without wheel odometry every
+    /// scan's; with wheels and match_every_scan the last scan ICP placed (has_wheels), with its
+    /// wheel reading (the next guess goes on from there by the wheels). Reset as one at every keyframe.
+    struct Track {
+      Pose2 motion;
+      Pose2 wheels;
+      bool has_wheels = false;
+    } track;
+    /// Where a chain ends: nothing tracked, no velocity.
+    void newChain() { track = {}, velocity = Pose2{}; }
+  };
+  MotionModel motion_;
+
+  /// The threshold calibration's and the context check's view of the drive: each keyframe's
+  /// pose by this front end's own odometry and the length driven to it. Keyframes before
+  /// `start` (a restored session started anew) have no place in this chain; a session
+  /// continued (restore with its steps) goes on in the chain it saved. Made as one by restore.
+  struct KeyframeChains {
+    std::vector<Pose2> pose;
+    std::vector<double> path;
+    std::vector<std::size_t> first;  ///< per keyframe, the first keyframe of its chain (restored ones: itself)
+    std::size_t start = 0;
+    bool full_circle = true;         ///< every keyframe's scan covers 360 degrees
+  };
+  KeyframeChains chains_;
+
+  /// Made from the newest keyframes when first needed, forgotten as one by restore (another
+  /// run's keyframe of the same index is another scan).
+  struct KeyframeCaches {
+    /// local_map_keyframes > 1: the newest keyframes of keyframe local_map_of's chain merged in
+    /// its frame (null: fewer than two in its chain).
+    std::shared_ptr<const MatchTarget> local_map;
+    std::size_t local_map_of = std::size_t(-1);
+    /// The newest keyframe's likelihood field, for ScanOdometry::widenAlongAmbiguity.
+    std::shared_ptr<const LikelihoodField> ambiguity_field;
+    std::size_t ambiguity_field_of = std::size_t(-1);
+  };
+  KeyframeCaches caches_;
+
+  /// The newest keyframe in the front end's own odometry frame, which goes on through new
+  /// chains (what publish_odometry_tf broadcasts): never reset.
+  struct OwnOdometry {
+    Pose2 keyframe;
+    bool has_keyframe = false;
+  };
+  OwnOdometry own_odometry_;
+  Random calibration_random_{1};
+
   enum class WheelPlacement { kNotKeyframe, kKeyframe };
   /// The wheel odometry branch of addScan (the newest keyframe has a wheel reading): jumps
   /// left out, ICP from the wheels' guess and the tracked one, stalled readings found; fills
@@ -172,38 +236,11 @@ class SlamFrontEnd {
   void realignDoubtedStep(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
   void setOdometryPose(FrontEndStep& step) const;
-  /// The last matched scan's motion from the newest keyframe: without wheel odometry every
-  /// scan's; with wheels and match_every_scan the last scan ICP placed (has_wheel_track_),
-  /// with its wheel reading (the next guess goes on from there by the wheels).
-  Pose2 tracked_motion_;
-  Pose2 tracked_wheels_;
-  bool has_wheel_track_ = false;
-  // The last matched velocity (per second, in the robot's frame; zero after a restore), which
-  // predicts scans without (or with stalled) wheel odometry, and tracked_motion_'s time on
-  // motion_clock_.
-  Pose2 velocity_;
-  double last_motion_time_ = 0.0;
-  // The threshold calibration's view of the drive: each keyframe's pose by this front end's
-  // own odometry and the length driven to it. Keyframes before chain_start_ (a restored
-  // session started anew) have no place in this chain; a session continued (restore with its
-  // steps) goes on in the chain it saved.
-  std::vector<Pose2> chain_;
-  std::vector<double> path_;
-  std::vector<std::size_t> chain_first_;  ///< per keyframe, the first keyframe of its chain (restored ones: itself)
-  std::size_t chain_start_ = 0;
-  /// local_map_keyframes > 1: the newest keyframes of keyframe local_map_of_'s chain merged in
-  /// its frame (null: fewer than two in its chain), made when a keyframe step first needs it.
-  std::shared_ptr<const MatchTarget> local_map_;
-  /// The newest keyframe's likelihood field, for ScanOdometry::widenAlongAmbiguity (made once per keyframe).
-  std::shared_ptr<const LikelihoodField> ambiguity_field_;
-  std::size_t ambiguity_field_of_ = std::size_t(-1);
-  std::size_t local_map_of_ = std::size_t(-1);
   /// What a keyframe step with wheels is matched to: the newest keyframe's local map, or the
   /// newest keyframe alone.
   const MatchTarget& keyframeStepTarget();
   /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
   std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
-  Random calibration_random_{1};
   /// Older keyframes of this chain that the odometry puts surely elsewhere than `index` (at
   /// most calibration.pairs_per_keyframe, drawn at random when there are more).
   std::vector<std::size_t> surelyElsewhere(std::size_t index);
