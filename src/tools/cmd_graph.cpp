@@ -1,15 +1,28 @@
 // llc graph: a 2D g2o pose graph through the ESDF, incrementally (in file order: the mean kept
 // current after every loop edge) or in batch (all edges, then Gauss-Newton from the file's
 // initial poses, or the odometry chain when it has none).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <vector>
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/backend/esdf.hpp"
 #include "laser_loop_closure/core/io/g2o_io.hpp"
 
 namespace llc_tool {
+namespace {
+
+/// Adds the milliseconds since `start` to `out` when it goes out of scope (every path of a step).
+struct StepTimer {
+  std::chrono::steady_clock::time_point start;
+  std::vector<double>* out;
+  ~StepTimer() { out->push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()); }
+};
+
+}  // namespace
 
 const std::vector<std::string> kEsdfFlags = parameterNamesUnder("esdf/", {"esdf/gate_loops"});
 
@@ -45,7 +58,13 @@ int runGraph(const Args& args) {
       std::cerr << "refused edge " << e.from << " -> " << e.to << ": " << r.reject_reason << "\n";
     }
   };
+  // Per step (one edge of the file: a pose augmented with the edges it released, or one edge
+  // applied, or one set waiting): what a caller adding them one by one waits each time.
+  std::vector<double> step_ms;
+  step_ms.reserve(graph.edges.size());
   for (const llc::PoseEdge& e : graph.edges) {
+    const auto step_start = std::chrono::steady_clock::now();
+    const StepTimer timer{step_start, &step_ms};
     if (e.from < filter.size() && e.to == filter.size()) {
       filter.augmentWithInformation(e);
       // Edges that waited for this pose.
@@ -100,6 +119,19 @@ int runGraph(const Args& args) {
               << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
   std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";
+  if (!batch && !step_ms.empty()) {
+    // Nearest-rank percentiles of the steps' latency, and the step (edge index in file order) of the worst.
+    std::vector<double> sorted = step_ms;
+    std::sort(sorted.begin(), sorted.end());
+    auto rank = [&](double p) {  // the smallest value with at least p of the steps at or below it
+      const std::size_t k = std::size_t(std::max(1.0, std::ceil(p * double(sorted.size()))));
+      return sorted[std::min(sorted.size(), k) - 1];
+    };
+    const std::size_t worst = std::size_t(std::max_element(step_ms.begin(), step_ms.end()) - step_ms.begin());
+    std::cout << std::setprecision(4) << "step_latency_median_ms=" << rank(0.5) << "\nstep_latency_p90_ms=" << rank(0.9)
+              << "\nstep_latency_p99_ms=" << rank(0.99) << "\nstep_latency_max_ms=" << sorted.back()
+              << "\nstep_latency_max_at=" << worst << "\ntotal_seconds=" << seconds << "\n";
+  }
   return 0;
 }
 

@@ -264,6 +264,9 @@ check "evaluate --calibration-pairs must not be negative" 2 "calibration-pairs m
 # Pose graphs through the ESDF: a small g2o file written here (a square with one loop edge).
 printf 'EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 2 3 1 0 1.5707963 100 0 0 100 0 400\nEDGE_SE2 3 0 1.05 0 1.5707963 100 0 0 100 0 400\n' > "$TMP/square.g2o"
 check "graph incremental" 0 "^seconds=" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_out.g2o"
+# Per-step latency: one step per edge (4 on the square), ordered percentiles, the worst step named.
+check "graph incremental: step latencies, ordered, the worst step named" 0 "^ok$" -- bash -c "'$LLC' graph --g2o '$TMP/square.g2o' --out '$TMP/square_out.g2o' | awk -F= '{v[\$1] = \$2} END {print (v[\"step_latency_median_ms\"] != \"\" && v[\"step_latency_median_ms\"] <= v[\"step_latency_p90_ms\"] && v[\"step_latency_p90_ms\"] <= v[\"step_latency_p99_ms\"] && v[\"step_latency_p99_ms\"] <= v[\"step_latency_max_ms\"] && v[\"step_latency_max_at\"] >= 0 && v[\"step_latency_max_at\"] < 4 && v[\"total_seconds\"] > 0 ? \"ok\" : \"not ok\")}'"
+check "graph batch: no step latencies" 1 "" -- bash -c "'$LLC' graph --g2o '$TMP/square.g2o' --out '$TMP/square_b2.g2o' --batch | grep -q step_latency"
 check "graph: output has every vertex and edge" 0 "^8$" -- bash -c "grep -c _SE2 '$TMP/square_out.g2o'"
 check "graph batch" 0 "^chi2=0\\.0" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/square_b.g2o" --batch
 check "graph: both modes" 2 "exclude each other" -- "$LLC" graph --g2o "$TMP/square.g2o" --out "$TMP/x.g2o" --batch --incremental
