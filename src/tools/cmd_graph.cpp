@@ -63,8 +63,7 @@ int runGraph(const Args& args) {
   std::vector<double> step_ms;
   step_ms.reserve(graph.edges.size());
   for (const llc::PoseEdge& e : graph.edges) {
-    const auto step_start = std::chrono::steady_clock::now();
-    const StepTimer timer{step_start, &step_ms};
+    const StepTimer timer{std::chrono::steady_clock::now(), &step_ms};
     if (e.from < filter.size() && e.to == filter.size()) {
       filter.augmentWithInformation(e);
       // Edges that waited for this pose.

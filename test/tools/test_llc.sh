@@ -236,6 +236,19 @@ check "train --from-session: self-labelled keyframe pairs of a mapped drive" 0 "
 check "train --from-session beside --data" 0 "^pairs=(1[3-9][0-9]|[2-9][0-9]{2}|[0-9]{4,}) " -- "$LLC" train --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --from-session "$TMP/sim.llcsession" --model "$TMP/sim/self2.yaml" --rounds 20 --repeats 1
 printf 'not a session' > "$TMP/corrupt.llcsession"
 check "train --from-session refuses a corrupt session" 1 "corrupt.llcsession" -- "$LLC" train --from-session "$TMP/corrupt.llcsession" --model "$TMP/sim/self3.yaml"
+# A crafted session (as anyone could write one, FNV-1a being no protection): 200 kB whose
+# keyframe count says 3e7, its length and checksum made to fit. Refused before anything is
+# sized by the count, within 250 MB of address space (3.3 GB before).
+/usr/bin/python3 - "$TMP/sim.llcsession" "$TMP/crafted.llcsession" <<'PY'
+import struct, sys
+b = open(sys.argv[1], "rb").read()
+body = struct.pack("<Q", 30000000) + b[32:24 + 200000]  # magic 12, version 4, length 8, then the count
+h = 14695981039346656037
+for c in body:
+    h = ((h ^ c) * 1099511628211) & 0xffffffffffffffff
+open(sys.argv[2], "wb").write(b[:16] + struct.pack("<Q", len(body)) + body + struct.pack("<Q", h))
+PY
+check "train --from-session: a crafted count of 3e7 keyframes, refused within a memory bound" 1 "crafted.llcsession: corrupt session \(a count of 30000000 that the [0-9]+ bytes left cannot hold" -- bash -c "ulimit -v 250000; '$LLC' train --from-session '$TMP/crafted.llcsession' --model '$TMP/sim/self4.yaml'"
 check "score prints detection at 1% FA" 0 "^detection_at_1pct_fa=[0-9.]+ auc=[0-9.]+" -- "$LLC" score --model "$TMP/sim/self.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/self_scores.csv"
 check "train-crf on sim.bag" 0 "positive_pairs=60" -- "$LLC" train-crf --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/crf.yaml" --epochs 2
 check "align with learnt CRF weights" 0 "crf_icp: within_tolerance=" -- "$LLC" align --crf-weights "$TMP/sim/crf.yaml" --data "$TMP/sim/sim.bag:$TMP/sim/bag_pairs.csv" --out "$TMP/sim/a4.csv"
