@@ -2,6 +2,7 @@
 // current after every loop edge) or in batch (all edges, then Gauss-Newton from the file's
 // initial poses, or the odometry chain when it has none).
 #include <algorithm>
+#include <map>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -47,8 +48,10 @@ int runGraph(const Args& args) {
   llc::Esdf filter(graph.poses.front(), options);
   std::size_t loops = 0, refused = 0;
   // Edges in file order: a new pose is augmented by the first edge that reaches it from an
-  // existing one; any other edge is applied as soon as both of its poses exist.
-  std::vector<const llc::PoseEdge*> waiting;
+  // existing one; any other edge is applied as soon as both of its poses exist. An edge that
+  // comes before its poses waits, filed under the newer of them (a graph of two sessions
+  // joined later, as ais2klinik: the second's chain arrives before the edge that reaches it).
+  std::map<std::size_t, std::vector<const llc::PoseEdge*>> waiting;
   auto apply = [&](const llc::PoseEdge& e) {
     ++loops;
     // Batch: every edge in first, one solve at the end from the file's initial poses.
@@ -62,20 +65,32 @@ int runGraph(const Args& args) {
   // applied, or one set waiting): what a caller adding them one by one waits each time.
   std::vector<double> step_ms;
   step_ms.reserve(graph.edges.size());
+  // Augments the next pose by `e`, then takes in what waited for it, and for the poses after
+  // it that a waiting edge now reaches.
+  auto augment = [&](const llc::PoseEdge& first) {
+    for (const llc::PoseEdge* e = &first; e;) {
+      filter.augmentWithInformation(*e);
+      e = nullptr;
+      const auto due = waiting.find(filter.size() - 1);  // both of their poses exist now
+      if (due != waiting.end()) {
+        for (const llc::PoseEdge* d : due->second) apply(*d);
+        waiting.erase(due);
+      }
+      const auto next = waiting.find(filter.size());
+      if (next == waiting.end()) continue;
+      std::vector<const llc::PoseEdge*>& edges = next->second;
+      const auto reaching = std::find_if(edges.begin(), edges.end(), [&](const llc::PoseEdge* w) {
+        return w->from < filter.size() && w->to == filter.size();
+      });
+      if (reaching != edges.end()) e = *reaching, edges.erase(reaching);
+      if (edges.empty()) waiting.erase(next);
+    }
+  };
   for (const llc::PoseEdge& e : graph.edges) {
     const StepTimer timer{std::chrono::steady_clock::now(), &step_ms};
-    if (e.from < filter.size() && e.to == filter.size()) {
-      filter.augmentWithInformation(e);
-      // Edges that waited for this pose.
-      for (auto it = waiting.begin(); it != waiting.end();) {
-        if ((*it)->from < filter.size() && (*it)->to < filter.size()) apply(**it), it = waiting.erase(it);
-        else ++it;
-      }
-    } else if (e.from < filter.size() && e.to < filter.size()) {
-      apply(e);
-    } else {
-      waiting.push_back(&e);
-    }
+    if (e.from < filter.size() && e.to == filter.size()) augment(e);
+    else if (e.from < filter.size() && e.to < filter.size()) apply(e);
+    else waiting[std::max(e.from, e.to)].push_back(&e);
   }
   if (!waiting.empty() || filter.size() != graph.poses.size())
     throw ToolError(in_path + ": " + std::to_string(graph.poses.size() - filter.size()) +
