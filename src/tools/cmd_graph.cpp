@@ -9,6 +9,8 @@
 #include <iostream>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include "commands.hpp"
 #include "laser_loop_closure/core/backend/esdf.hpp"
 #include "laser_loop_closure/core/io/g2o_io.hpp"
@@ -133,6 +135,13 @@ int runGraph(const Args& args) {
               << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
   std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";
+  // The process's peak resident memory (the file read, the filter, its factor): an upper bound
+  // on the back end's memory per pose.
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) == 0 && !out.poses.empty())
+    std::cout << std::setprecision(4) << "peak_rss_mb=" << double(usage.ru_maxrss) / 1024.0
+              << "\npeak_rss_bytes_per_pose=" << std::setprecision(6) << 1024.0 * double(usage.ru_maxrss) / double(out.poses.size())
+              << "\n";
   if (!batch && !step_ms.empty()) {
     // Nearest-rank percentiles of the steps' latency, and the step (edge index in file order) of the worst.
     std::vector<double> sorted = step_ms;
