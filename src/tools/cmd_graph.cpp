@@ -2,11 +2,11 @@
 // current after every loop edge) or in batch (all edges, then Gauss-Newton from the file's
 // initial poses, or the odometry chain when it has none).
 #include <algorithm>
-#include <map>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <vector>
 
 #include <sys/resource.h>

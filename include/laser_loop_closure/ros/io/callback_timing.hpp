@@ -34,6 +34,7 @@ class CallbackTiming {
   Scope measure() { return Scope(*this); }
 
   void record(double seconds) {
+    if (!std::isfinite(seconds)) return;  // (a clock gives none; one would spoil the mean for good)
     std::lock_guard<std::mutex> lock(mutex_);
     ++count_;
     total_ += seconds;
@@ -73,7 +74,7 @@ class CallbackTiming {
   static constexpr double kRatio = 1.1;       ///< each bin's upper edge over the one before
   static constexpr std::size_t kBins = 195;   ///< 1e-6 x 1.1^194 > 100 s: the last bin holds the rest
   static std::size_t binOf(double seconds) {
-    if (!(seconds > kFirstEdge)) return 0;  // (NaN too)
+    if (!(seconds > kFirstEdge)) return 0;
     const double bin = std::ceil(std::log(seconds / kFirstEdge) / std::log(kRatio));
     return std::size_t(std::min(bin, double(kBins - 1)));
   }
