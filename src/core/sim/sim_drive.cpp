@@ -75,7 +75,7 @@ SimDrive simulateDrive(const SimWorld& world, const SimDriveOptions& options) {
   drive.options = options;
   drive.front = simFrontScanner();
   drive.back = simBackScanner();
-  Random random(options.seed * 0xD1B54A32D192ED03ULL + 5);
+  Random random((options.route_seed != 0 ? options.route_seed : options.seed) * 0xD1B54A32D192ED03ULL + 5);
 
   // Route: a walk on the street grid without U-turns, preferring to turn towards places
   // already visited now and then so that loops of every size appear.

@@ -116,7 +116,11 @@ std::size_t LoopDetector::addWithFeatures(const std::vector<double>& features,
 }
 
 LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score) const {
-  const ScanAlignmentResult alignment = aligner_.align(*prepared_.at(from), *prepared_.at(to));
+  return verifyScan(from, *prepared_.at(to), to, score);
+}
+
+LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const {
+  const ScanAlignmentResult alignment = aligner_.align(*prepared_.at(from), scan);
   LoopClosure loop;
   loop.from = from;
   loop.to = to;
@@ -129,6 +133,25 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   loop.seconds = alignment.seconds;
   loop.covariance = loopCovariance(alignment.pose, alignment.covariance, options_);
   return loop;
+}
+
+LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
+                                             std::size_t max_candidates, double threshold) const {
+  const auto start = std::chrono::steady_clock::now();
+  if (features.size() != store_.featureCount())
+    throw std::invalid_argument("detectScan: expected " + std::to_string(store_.featureCount()) + " features, got " +
+                                std::to_string(features.size()));
+  LoopDetectionResult result;
+  result.keyframe = to;
+  result.compared = store_.size();
+  if (result.compared == 0 || max_candidates == 0) return result;
+  const std::vector<LoopCandidate> candidates = store_.query(threshold > 0.0 ? withThreshold(classifier_, threshold) : classifier_,
+                                                            features.data(), result.compared, max_candidates, options_.threads);
+  result.candidates = candidates.size();
+  result.classify_seconds = secondsSince(start);
+  for (const LoopCandidate& candidate : candidates) result.aligned.push_back(verifyScan(candidate.keyframe, scan, to, candidate.score));
+  result.seconds = secondsSince(start);
+  return result;
 }
 
 LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const {

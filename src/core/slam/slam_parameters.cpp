@@ -28,7 +28,9 @@ std::string SystemOptions::validate() const {
   std::string error = slam.validate();
   if (!error.empty()) return error;
   error = map.validate();
-  return error.empty() ? "" : "map: " + error;
+  if (!error.empty()) return "map: " + error;
+  error = localization.validate();
+  return error.empty() ? "" : "localization: " + error;
 }
 
 std::vector<std::string> systemParameterNames() {

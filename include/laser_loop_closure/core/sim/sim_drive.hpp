@@ -24,6 +24,8 @@ struct SimScannerOptions {
 
 struct SimDriveOptions {
   std::uint64_t seed = 1;        ///< the world and everything random in the drive
+  /// The route and the noise alone (0: seed): another route through the same city.
+  std::uint64_t route_seed = 0;
   double length_m = 2000.0;      ///< m of route
   double rate_hz = 10.0;         ///< scans per second
   double speed = 7.0;            ///< m/s on straights (half of it in turns)

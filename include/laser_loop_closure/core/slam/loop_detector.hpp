@@ -118,6 +118,16 @@ class LoopDetector {
                              const KeyframeContext& context = {}) const;
   /// Aligns one pair (from, to) and validates it, as detect() does for a candidate.
   LoopClosure verify(std::size_t from, std::size_t to, double score) const;
+  /// A scan that is not stored (a robot finding itself on a saved map): classified against
+  /// every stored keyframe with no pose prior, and the best `max_candidates` at or above the
+  /// threshold aligned with no guess and shape-validated, each of them (no nearby keyframes,
+  /// no context check). The loops read from = the stored keyframe, to = `to` (the caller's
+  /// name for the scan). Throws std::invalid_argument for features of another length.
+  /// `threshold` > 0 takes the place of the K candidates must reach.
+  LoopDetectionResult detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
+                                 std::size_t max_candidates, double threshold = 0.0) const;
+  /// verify() of stored keyframe `from` and a scan that is not stored, named `to`.
+  LoopClosure verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const;
   /// A nearby keyframe: ICP from where the map puts `to` in `from`'s frame; below
   /// nearby_min_predicted_fit refused (validation), else verify()'s search with no guess.
   LoopClosure verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const;

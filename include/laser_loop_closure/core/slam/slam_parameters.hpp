@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
+#include "laser_loop_closure/core/slam/localizer.hpp"
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 
 namespace llc {
@@ -21,6 +22,7 @@ namespace llc {
 struct SystemOptions {
   SlamOptions slam{};
   OccupancyGridOptions map{};
+  LocalizerOptions localization{};  ///< llc localize and mode localization only
   [[nodiscard]] std::string validate() const;
 };
 
@@ -174,6 +176,26 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("place_gate/enabled", place_gate.enabled);
   visit("place_gate/radius", place_gate.radius);
   visit("place_gate/chi2_threshold", place_gate.chi2_threshold);
+
+  LocalizerOptions& localization = options.localization;
+  visit("localization/global_candidates", localization.global_candidates);
+  visit("localization/score_threshold", localization.score_threshold);
+  visit("localization/join/min_keyframes", localization.join.min_keyframes);
+  visit("localization/join/min_spread", localization.join.min_spread);
+  visit("localization/join/max_translation", localization.join.max_translation);
+  visit("localization/join/max_rotation", localization.join.max_rotation);
+  visit("localization/join/drift_per_metre", localization.join.drift_per_metre);
+  visit("localization/join/drift_rad_per_metre", localization.join.drift_rad_per_metre);
+  visit("localization/join/window", localization.join.window);
+  visit("localization/join/min_lead", localization.join.min_lead);
+  visit("localization/fix_min_fitting_share", localization.fix_min_fitting_share);
+  visit("localization/confirm_keyframes", localization.confirm_keyframes);
+  visit("localization/track_radius", localization.track_radius);
+  visit("localization/track_keyframes", localization.track_keyframes);
+  visit("localization/min_track_fit", localization.min_track_fit);
+  visit("localization/max_correction", localization.max_correction);
+  visit("localization/lost_after_misfits", localization.lost_after_misfits);
+  visit("localization/max_unmatched_travel", localization.max_unmatched_travel);
 
   OccupancyGridOptions& map = options.map;
   visit("map/resolution", map.resolution);

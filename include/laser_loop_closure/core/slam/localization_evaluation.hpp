@@ -1,0 +1,53 @@
+// Localisation against ground truth: the map's frame laid onto the truth's by its keyframes,
+// then each localized pose compared with its scan's true pose.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "laser_loop_closure/core/geometry/se2.hpp"
+
+namespace llc {
+
+/// One scan as the localiser placed it, with its true pose (truth frame).
+struct LocalizedScan {
+  bool localized = false;  ///< has a pose in the map
+  bool fixed = false;      ///< the scan whose keyframe fixed the robot (first fix or relocalisation)
+  Pose2 pose;              ///< map frame, when localized
+  Pose2 truth;
+};
+
+/// The map's keyframes with their true poses, and the map's frame laid onto the truth's.
+struct MapWithTruth {
+  std::vector<Pose2> poses;  ///< the map's keyframes, map frame
+  std::vector<Pose2> truth;  ///< the same keyframes' true poses
+  Pose2 truth_from_map;      ///< e.g. alignedRmsError(poses, truth)
+};
+
+struct LocalizationScore {
+  std::size_t localized = 0;    ///< scans with a pose
+  std::size_t fixes = 0;        ///< fixed scans
+  /// Against the map: each localized pose against where the map puts its truth, i.e. its
+  /// truth relative to the map keyframe truly nearest, carried by that keyframe's map pose. A
+  /// map that bends (no loop closed it) moves its places; a robot should be placed where its map
+  /// has the place, and is judged so.
+  std::size_t wrong_fixes = 0;  ///< fixed scans off by more than wrong_translation or wrong_rotation
+  std::size_t wrong_poses = 0;  ///< localized scans off by as much
+  double rms_m = 0.0;           ///< position RMS of the localized scans
+  double max_m = 0.0;           ///< largest position error of a localized scan
+  /// Against the truth itself, through truth_from_map (the map's own bending included).
+  std::size_t wrong_fixes_global = 0, wrong_poses_global = 0;
+  double rms_global_m = 0.0;
+};
+
+/// Scores `scans` against the map (and against the truth: the *_global figures).
+LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
+                                    double wrong_translation = 1.0, double wrong_rotation = 0.1);
+
+/// Scans from which a localiser can be asked to find itself: those whose true path, over its
+/// first `travel` m, passes within `radius` of a mapped pose (`mapped`, truth frame). A start
+/// elsewhere drives where nothing was mapped.
+std::vector<bool> startsNearMap(const std::vector<Pose2>& truth, const std::vector<Pose2>& mapped, double travel = 10.0,
+                                double radius = 1.0);
+
+}  // namespace llc

@@ -1,0 +1,81 @@
+// Joining a trajectory to a map (../shared/ARCHITECTURE.md, "trajectories"): a robot that does
+// not know where it is keeps its own odometry frame; each loop from one of its keyframes to a
+// keyframe of the map says where that frame lies in the map. One such loop may be a look-alike
+// place (a corridor, a row of doors), so the frame is joined only when the loops of several
+// keyframes, placed by the trajectory's own odometry, say the same, and no other story is
+// nearly as well supported. Localisation joins a robot to a saved map this way; several robots
+// join each other the same way.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/geometry/se2.hpp"
+
+namespace llc {
+
+struct TrajectoryJoinOptions {
+  std::size_t min_keyframes = 3;  ///< keyframes whose loops agree before the trajectory is joined
+  double min_spread = 1.0;        ///< m of the trajectory's own path between the first and last of them (not one view seen thrice)
+  double max_translation = 0.5;   ///< m; two loops agree when one's map frame puts the other's keyframe within this ...
+  double max_rotation = 0.1;      ///< rad; ... and this of where its own loop puts it
+  double drift_per_metre = 0.02;  ///< m/m; the trajectory's odometry drift allowed on top of max_translation, per m of path between the two keyframes
+  double drift_rad_per_metre = 0.003;  ///< rad/m; the same on top of max_rotation
+  double window = 30.0;           ///< m of path; older loops are forgotten (odometry over longer stretches drifts too far)
+  std::size_t min_lead = 2;       ///< the winning story must have this many more keyframes than any that contradicts it
+  [[nodiscard]] std::string validate() const;
+};
+
+/// One loop from a keyframe of the trajectory to a keyframe of the map.
+struct JoinHypothesis {
+  std::size_t keyframe = 0;      ///< of the trajectory
+  double path = 0.0;             ///< m; the trajectory's odometry path length at that keyframe
+  Pose2 trajectory_pose;         ///< the keyframe in the trajectory's own frame
+  Pose2 map_pose;                ///< the keyframe in the map frame, by the loop
+  std::size_t map_keyframe = 0;  ///< the map keyframe the loop reached
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< the loop's (its pose's x, y, theta)
+  /// The trajectory frame in the map frame this loop implies.
+  Pose2 mapFromTrajectory() const { return compose(map_pose, inverse(trajectory_pose)); }
+};
+
+struct TrajectoryJoinResult {
+  bool joined = false;
+  Pose2 map_from_trajectory;          ///< when joined: from the newest loop of the winning story
+  JoinHypothesis newest;              ///< when joined: that loop
+  std::vector<std::size_t> support;   ///< indices into hypotheses() of the winning story (one per keyframe)
+  std::size_t keyframes = 0;          ///< keyframes that support the best story so far
+  std::size_t rival_keyframes = 0;    ///< keyframes that support the best story contradicting it
+  /// When joined: the trajectory frame in the map by each story that contradicts the winner
+  /// (its newest loop), best supported first, at most 3: places a caller may check too.
+  std::vector<Pose2> rival_frames;
+  std::string why_not;                ///< when not joined: what is missing
+};
+
+class TrajectoryJoin {
+ public:
+  /// Throws std::invalid_argument on bad options.
+  explicit TrajectoryJoin(const TrajectoryJoinOptions& options = {});
+
+  /// Adds the loops of one keyframe (any number, look-alikes included), forgets those out of
+  /// the window, and says whether the trajectory can be joined now. Loops with a non-finite
+  /// pose or path are left out.
+  TrajectoryJoinResult offer(const std::vector<JoinHypothesis>& loops);
+  /// Whether two loops tell the same story: a's map frame puts b's keyframe where b's loop
+  /// does, within the tolerances grown by the drift over the path between them.
+  bool agree(const JoinHypothesis& a, const JoinHypothesis& b) const;
+  const std::vector<JoinHypothesis>& hypotheses() const { return kept_; }
+  void clear() { kept_.clear(); }
+  const TrajectoryJoinOptions& options() const { return options_; }
+
+ private:
+  /// The keyframes (distinct) of the loops that agree with loop `index`, one loop each, the
+  /// nearest in path to it first; indices into kept_.
+  std::vector<std::size_t> storyOf(std::size_t index) const;
+
+  TrajectoryJoinOptions options_;
+  std::vector<JoinHypothesis> kept_;
+};
+
+}  // namespace llc

@@ -1,0 +1,289 @@
+#include "laser_loop_closure/core/slam/localizer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "laser_loop_closure/core/common/file_util.hpp"
+
+namespace llc {
+
+std::string LocalizerOptions::validate() const {
+  if (global_candidates == 0) return "global_candidates must be >= 1";
+  if (!(score_threshold >= 0.0 && score_threshold < 1.0)) return "score_threshold must be in [0, 1) (0: the model's K)";
+  const std::string join_error = join.validate();
+  if (!join_error.empty()) return "join: " + join_error;
+  if (!(fix_min_fitting_share >= 0.0 && fix_min_fitting_share <= 1.0)) return "fix_min_fitting_share must be in [0, 1]";
+  if (!(track_radius > 0.0) || !std::isfinite(track_radius)) return "track_radius must be > 0 m";
+  if (track_keyframes == 0) return "track_keyframes must be >= 1";
+  if (!(min_track_fit > 0.0 && min_track_fit <= 1.0)) return "min_track_fit must be in (0, 1]";
+  if (!(max_correction > 0.0) || !std::isfinite(max_correction)) return "max_correction must be > 0 m";
+  if (confirm_keyframes > 20) return "confirm_keyframes must be at most 20";
+  if (lost_after_misfits == 0) return "lost_after_misfits must be >= 1";
+  if (!(max_unmatched_travel > 0.0) || !std::isfinite(max_unmatched_travel)) return "max_unmatched_travel must be > 0 m";
+  return "";
+}
+
+const char* localizationStateName(LocalizationState state) {
+  return state == LocalizationState::kLocalized ? "localized" : "lost";
+}
+
+namespace {
+
+const SlamSession& checkedMap(const SlamSession& map) {
+  const std::string error = map.validate();
+  if (!error.empty()) throw std::invalid_argument("map session: " + error);
+  if (map.keyframes.empty()) throw std::invalid_argument("map session: no keyframes");
+  return map;
+}
+
+}  // namespace
+
+Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, const SlamSession& map, const LocalizerOptions& options)
+    : options_(options),
+      front_(model, slam.odometry, slam.aligner, slam.loops),
+      map_(model, slam.aligner, slam.loops),
+      map_poses_(checkedMap(map).poses),
+      join_(options.join) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("localizer options: " + error);
+  // The session's features when they are what this model's extractor makes (checked on the
+  // first keyframe, as SlamFrontEnd::restore does), else recomputed.
+  const bool stored_features_fit = map.features.size() == map.keyframes.size() && !map.features.empty() &&
+                                   map_.describe(map.keyframes.front().scan) == map.features.front();
+  for (std::size_t k = 0; k < map.keyframes.size(); ++k) {
+    const Scan& scan = map.keyframes[k].scan;
+    if (stored_features_fit) map_.addWithFeatures(map.features[k], map_.aligner().prepare(scan));
+    else map_.add(scan);
+  }
+}
+
+void Localizer::relocalize(const std::string& why) {
+  LocalizationStep ignored;
+  loseTrack(why, ignored);
+  had_fix_ = true;
+}
+
+void Localizer::loseTrack(const std::string& why, LocalizationStep& step) {
+  if (state_.confirmed) ++counters_.lost_events;
+  state_ = TrackState{};
+  join_.clear();  // loops of the time before may be the ones that misled it
+  recent_.clear();  // and its keyframes, placed by odometry across a kidnapping, would refuse the right fix
+  step.lost = true;
+  step.why_lost = why;
+}
+
+LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometry) {
+  const auto start = std::chrono::steady_clock::now();
+  LocalizationStep step;
+  ++counters_.scans;
+  const FrontEndStep front = front_.addScan(scan, wheel_odometry);
+  counters_.seconds_front_end += secondsSince(start);
+  step.skip_reason = front.skip_reason;
+  if (front.has_odometry_pose && isFinite(front.odometry_pose)) {
+    if (path_.has_last) path_.length += std::hypot(front.odometry_pose.x - path_.last.x, front.odometry_pose.y - path_.last.y);
+    path_.last = front.odometry_pose;
+    path_.has_last = true;
+    if (front.keyframe) {
+      step.keyframe = true;
+      ++counters_.keyframes;
+      recent_.push_back({front.keyframe_index, front.odometry_pose, path_.length});
+      while (!recent_.empty() && recent_.front().path < path_.length - options_.join.window) recent_.erase(recent_.begin());
+      if (state_.tracking) track(front.keyframe_index, front.odometry_pose, step);
+      else search(front.keyframe_index, front.odometry_pose, step);
+    }
+    if (state_.confirmed) {
+      step.has_pose = true;
+      step.pose = compose(state_.map_from_trajectory, front.odometry_pose);
+    }
+  }
+  step.state = state();
+  step.seconds = secondsSince(start);
+  return step;
+}
+
+void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step) {
+  const auto start = std::chrono::steady_clock::now();
+  ++counters_.searched_keyframes;
+  const LoopDetectionResult found = map_.detectScan(front_.detector().features(keyframe), front_.detector().prepared(keyframe),
+                                                    keyframe, options_.global_candidates, options_.score_threshold);
+  step.searched = true;
+  step.candidates = found.aligned.size();
+  std::vector<JoinHypothesis> loops;
+  for (const LoopClosure& loop : found.aligned) {
+    if (!loop.accepted) continue;
+    JoinHypothesis hypothesis;
+    hypothesis.keyframe = keyframe;
+    hypothesis.path = path_.length;
+    hypothesis.trajectory_pose = trajectory_pose;
+    hypothesis.map_pose = compose(map_poses_[loop.from], loop.pose);
+    hypothesis.map_keyframe = loop.from;
+    hypothesis.covariance = loop.covariance;
+    loops.push_back(hypothesis);
+  }
+  step.loops_to_map = loops.size();
+  counters_.loops_to_map += loops.size();
+  step.join = join_.offer(loops);
+  if (step.join.joined) {
+    std::string refused = verifyFix(step.join.map_from_trajectory, &step.fit);
+    if (refused.empty()) refused = checkFixContext(step.join.newest);
+    for (const Pose2& rival : step.join.rival_frames) {  // a place with fewer loops that fits as well: not yet
+      double rival_fit = 0.0;
+      if (!refused.empty() || !verifyFix(rival, &rival_fit).empty()) continue;
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "the loops agree, but another place they point to fits the recent keyframes as well (mean fit %.2f "
+                    "there, %.2f here)",
+                    rival_fit, step.fit);
+      refused = why;
+    }
+    if (!refused.empty()) {
+      step.join.joined = false;
+      step.join.why_not = refused;
+      ++counters_.fixes_refused;
+    }
+  }
+  if (step.join.joined) {
+    state_ = TrackState{};
+    state_.tracking = true;
+    state_.map_from_trajectory = step.join.map_from_trajectory;
+    state_.last_fit_path = path_.length;
+    join_.clear();
+    if (options_.confirm_keyframes == 0) declareFix(step);
+  }
+  counters_.seconds_search += secondsSince(start);
+}
+
+void Localizer::declareFix(LocalizationStep& step) {
+  state_.confirmed = true;
+  step.fixed = true;
+  ++counters_.fixes;
+  if (had_fix_) ++counters_.relocalizations;
+  had_fix_ = true;
+}
+
+double Localizer::fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* placed) const {
+  // The nearest map keyframes within track_radius (a scan of the poses: cheap next to ICP).
+  std::vector<std::pair<double, std::size_t>> near;
+  for (std::size_t m = 0; m < map_poses_.size(); ++m) {
+    const double d = std::hypot(map_poses_[m].x - predicted.x, map_poses_[m].y - predicted.y);
+    if (d <= options_.track_radius) near.emplace_back(d, m);
+  }
+  const std::size_t count = std::min(near.size(), options_.track_keyframes);
+  std::partial_sort(near.begin(), near.begin() + std::ptrdiff_t(count), near.end());
+  const PreparedScan& scan = front_.detector().prepared(keyframe);
+  double best_fit = count == 0 ? -1.0 : 0.0;
+  *placed = predicted;
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t m = near[i].second;
+    const IcpResult icp = map_.aligner().refine(map_.prepared(m), scan, between(map_poses_[m], predicted));
+    if (!icp.converged) continue;
+    const Pose2 moved = compose(map_poses_[m], icp.pose);
+    if (std::hypot(moved.x - predicted.x, moved.y - predicted.y) > options_.max_correction) continue;
+    const double fit = map_.aligner().fit(map_.prepared(m), scan, icp.pose);
+    if (fit > best_fit) best_fit = fit, *placed = moved;
+  }
+  return best_fit;
+}
+
+std::string Localizer::verifyFix(const Pose2& map_from_trajectory, double* mean_fit) const {
+  std::size_t near = 0, fitting = 0;
+  double sum = 0.0;
+  for (const RecentKeyframe& k : recent_) {
+    Pose2 placed;
+    const double fit = fitToMap(k.keyframe, compose(map_from_trajectory, k.trajectory_pose), &placed);
+    if (fit < 0.0) continue;
+    ++near;
+    sum += fit;
+    fitting += fit >= options_.min_track_fit;
+  }
+  *mean_fit = near > 0 ? sum / double(near) : -1.0;
+  if (near > 0 && double(fitting) >= options_.fix_min_fitting_share * double(near)) return "";
+  char why[200];
+  std::snprintf(why, sizeof why,
+                "the loops agree, but placed there %zu of the %zu recent keyframes near map keyframes fit the map, "
+                "mean fit %.2f (fix_min_fitting_share %.2f)",
+                fitting, near, *mean_fit, options_.fix_min_fitting_share);
+  return why;
+}
+
+std::string Localizer::checkFixContext(const JoinHypothesis& loop) const {
+  const ContextCheckOptions& options = map_.options().context;
+  if (!options.enabled) return "";
+  // The map's keyframes around the loop's map keyframe, in its frame (placed by the map).
+  const Pose2& anchor = map_poses_[loop.map_keyframe];
+  std::vector<ContextScan> old_context, new_context;
+  std::vector<Pose2> taken;
+  auto spaced = [&](const Pose2& p, std::vector<Pose2>& list) {
+    for (const Pose2& q : list)
+      if (std::hypot(p.x - q.x, p.y - q.y) < options.spacing) return false;
+    list.push_back(p);
+    return true;
+  };
+  old_context.push_back({&map_.prepared(loop.map_keyframe).points, Pose2{}, &map_.prepared(loop.map_keyframe).icp_target.normals});
+  taken.push_back(anchor);
+  for (std::size_t m = 0; m < map_poses_.size(); ++m) {
+    if (m == loop.map_keyframe || std::hypot(map_poses_[m].x - anchor.x, map_poses_[m].y - anchor.y) > options.distance) continue;
+    if (!spaced(map_poses_[m], taken)) continue;
+    old_context.push_back({&map_.prepared(m).points, between(anchor, map_poses_[m]), &map_.prepared(m).icp_target.normals});
+  }
+  // The robot's keyframes around its loop's keyframe, in its frame (placed by its odometry).
+  std::vector<Pose2> own;
+  for (auto it = recent_.rbegin(); it != recent_.rend(); ++it) {
+    if (std::abs(it->path - loop.path) > options.distance) continue;
+    if (it->keyframe != loop.keyframe && !spaced(it->trajectory_pose, own)) continue;
+    const PreparedScan& scan = front_.detector().prepared(it->keyframe);
+    const ContextScan c{&scan.points, between(loop.trajectory_pose, it->trajectory_pose), &scan.icp_target.normals};
+    if (it->keyframe == loop.keyframe) new_context.insert(new_context.begin(), c);
+    else new_context.push_back(c);
+  }
+  const ContextCheckResult checked = checkLoopContext(old_context, new_context, between(anchor, loop.map_pose), loop.covariance,
+                                                      options, map_.aligner().options().icp);
+  return checked.accepted ? "" : "the loops agree, but " + checked.reject_reason;
+}
+
+void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step) {
+  const auto start = std::chrono::steady_clock::now();
+  const Pose2 predicted = compose(state_.map_from_trajectory, trajectory_pose);
+  Pose2 best_pose;
+  const double best_fit = fitToMap(keyframe, predicted, &best_pose);
+  counters_.seconds_track += secondsSince(start);
+  step.fit = best_fit;
+  if (best_fit < 0.0) {  // off the map: carried by odometry for a while
+    ++counters_.off_map_keyframes;
+    if (path_.length - state_.last_fit_path > options_.max_unmatched_travel) {
+      char why[128];
+      std::snprintf(why, sizeof why, "no map keyframe fitted over %.1f m of path (max_unmatched_travel)",
+                    path_.length - state_.last_fit_path);
+      loseTrack(why, step);
+    }
+    return;
+  }
+  if (best_fit >= options_.min_track_fit) {
+    ++counters_.tracked_keyframes;
+    state_.map_from_trajectory = compose(best_pose, inverse(trajectory_pose));
+    state_.misfits = 0;
+    state_.last_fit_path = path_.length;
+    state_.last_fit = best_fit;
+    if (!state_.confirmed && ++state_.confirmations >= options_.confirm_keyframes) declareFix(step);
+    return;
+  }
+  ++counters_.misfit_keyframes;
+  state_.last_fit = best_fit;
+  if (!state_.confirmed) {  // on probation: the fix was a look-alike, search on
+    ++counters_.fixes_dropped;
+    state_ = TrackState{};
+    join_.clear();
+    return;
+  }
+  if (++state_.misfits >= options_.lost_after_misfits) {
+    char why[160];
+    std::snprintf(why, sizeof why, "%zu keyframes in a row did not fit the map (best fit %.2f, min_track_fit %.2f)",
+                  state_.misfits, best_fit, options_.min_track_fit);
+    loseTrack(why, step);
+  }
+}
+
+}  // namespace llc

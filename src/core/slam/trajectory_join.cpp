@@ -1,0 +1,109 @@
+#include "laser_loop_closure/core/slam/trajectory_join.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace llc {
+
+std::string TrajectoryJoinOptions::validate() const {
+  if (min_keyframes < 2) return "min_keyframes must be >= 2 (one loop alone is a guess)";
+  if (!(min_spread >= 0.0) || !std::isfinite(min_spread)) return "min_spread must be >= 0 m";
+  if (!(max_translation > 0.0) || !std::isfinite(max_translation)) return "max_translation must be > 0 m";
+  if (!(max_rotation > 0.0) || !std::isfinite(max_rotation)) return "max_rotation must be > 0 rad";
+  if (!(drift_per_metre >= 0.0) || !std::isfinite(drift_per_metre)) return "drift_per_metre must be >= 0";
+  if (!(drift_rad_per_metre >= 0.0) || !std::isfinite(drift_rad_per_metre)) return "drift_rad_per_metre must be >= 0";
+  if (!(window > min_spread) || !std::isfinite(window)) return "window must be finite and > min_spread";
+  return "";
+}
+
+TrajectoryJoin::TrajectoryJoin(const TrajectoryJoinOptions& options) : options_(options) {
+  const std::string error = options_.validate();
+  if (!error.empty()) throw std::invalid_argument("trajectory join options: " + error);
+}
+
+bool TrajectoryJoin::agree(const JoinHypothesis& a, const JoinHypothesis& b) const {
+  const double path = std::abs(a.path - b.path);
+  const Pose2 placed = compose(a.mapFromTrajectory(), b.trajectory_pose);
+  const Pose2 miss = between(b.map_pose, placed);
+  return std::hypot(miss.x, miss.y) <= options_.max_translation + options_.drift_per_metre * path &&
+         std::abs(normalizeAngle(miss.theta)) <= options_.max_rotation + options_.drift_rad_per_metre * path;
+}
+
+std::vector<std::size_t> TrajectoryJoin::storyOf(std::size_t index) const {
+  std::vector<std::size_t> agreeing;
+  for (std::size_t j = 0; j < kept_.size(); ++j)
+    if (j == index || agree(kept_[index], kept_[j])) agreeing.push_back(j);
+  const double path = kept_[index].path;
+  std::stable_sort(agreeing.begin(), agreeing.end(), [&](std::size_t a, std::size_t b) {
+    return std::abs(kept_[a].path - path) < std::abs(kept_[b].path - path);
+  });
+  std::vector<std::size_t> story;  // one loop per keyframe, the anchor's own keyframe by the anchor
+  for (std::size_t j : agreeing) {
+    const bool seen = std::any_of(story.begin(), story.end(), [&](std::size_t s) { return kept_[s].keyframe == kept_[j].keyframe; });
+    if (!seen) story.push_back(j);
+  }
+  return story;
+}
+
+TrajectoryJoinResult TrajectoryJoin::offer(const std::vector<JoinHypothesis>& loops) {
+  for (const JoinHypothesis& loop : loops)
+    if (isFinite(loop.trajectory_pose) && isFinite(loop.map_pose) && std::isfinite(loop.path)) kept_.push_back(loop);
+  TrajectoryJoinResult result;
+  if (kept_.empty()) {
+    result.why_not = "no loop to the map yet";
+    return result;
+  }
+  double newest = kept_.front().path;
+  for (const JoinHypothesis& loop : kept_) newest = std::max(newest, loop.path);
+  kept_.erase(std::remove_if(kept_.begin(), kept_.end(), [&](const JoinHypothesis& loop) { return loop.path < newest - options_.window; }),
+              kept_.end());
+  // The story with the most keyframes (the newer anchor on ties: less drift to the robot now).
+  std::size_t best = 0;
+  std::vector<std::size_t> best_story;
+  for (std::size_t i = 0; i < kept_.size(); ++i) {
+    std::vector<std::size_t> story = storyOf(i);
+    if (story.size() > best_story.size() || (story.size() == best_story.size() && kept_[i].path >= kept_[best].path))
+      best = i, best_story = std::move(story);
+  }
+  // Stories that contradict the winner, each told once (an anchor agreeing with none told yet).
+  std::vector<std::pair<std::size_t, std::size_t>> rivals;  // (keyframes, anchor)
+  for (std::size_t i = 0; i < kept_.size(); ++i)
+    if (!agree(kept_[best], kept_[i])) rivals.emplace_back(storyOf(i).size(), i);
+  std::stable_sort(rivals.begin(), rivals.end(), [&](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : kept_[a.second].path > kept_[b.second].path;
+  });
+  const std::size_t rival = rivals.empty() ? 0 : rivals.front().first;
+  std::vector<std::size_t> told;
+  for (const auto& [size, anchor] : rivals) {
+    if (told.size() == 3) break;
+    const bool same = std::any_of(told.begin(), told.end(), [&](std::size_t t) { return agree(kept_[t], kept_[anchor]); });
+    if (!same) told.push_back(anchor);
+  }
+  double first = kept_[best].path, last = first;
+  std::size_t newest_loop = best;
+  for (std::size_t j : best_story) {
+    first = std::min(first, kept_[j].path), last = std::max(last, kept_[j].path);
+    if (kept_[j].path > kept_[newest_loop].path) newest_loop = j;
+  }
+  result.keyframes = best_story.size();
+  result.rival_keyframes = rival;
+  if (best_story.size() < options_.min_keyframes) {
+    result.why_not = std::to_string(best_story.size()) + " keyframes agree, " + std::to_string(options_.min_keyframes) + " needed";
+  } else if (last - first < options_.min_spread) {
+    result.why_not = "the keyframes that agree span " + std::to_string(last - first) + " m of path, " +
+                     std::to_string(options_.min_spread) + " needed";
+  } else if (best_story.size() < rival + options_.min_lead) {
+    result.why_not = std::to_string(best_story.size()) + " keyframes agree, but " + std::to_string(rival) +
+                     " agree on another place";
+  } else {
+    result.joined = true;
+    result.map_from_trajectory = kept_[newest_loop].mapFromTrajectory();
+    result.newest = kept_[newest_loop];
+    for (std::size_t t : told) result.rival_frames.push_back(kept_[t].mapFromTrajectory());
+    result.support = std::move(best_story);
+  }
+  return result;
+}
+
+}  // namespace llc

@@ -1,0 +1,155 @@
+// The Localizer on a simulated city mapped by the pipeline: it finds itself with no pose
+// prior wherever the odometry's frame is, places every localized scan near its truth, notices
+// being carried away and finds itself again; bad maps and scans are refused, not fatal.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "../test_util.hpp"
+#include "laser_loop_closure/core/geometry/trajectory_error.hpp"
+#include "laser_loop_closure/core/slam/localizer.hpp"
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
+
+namespace {
+
+/// A 600 m drive mapped once for all tests; the map frame laid onto the truth by its keyframes.
+struct MappedCity {
+  llc::SimDrive drive = llc_test::simulatedDrive(600.0);
+  llc::SlamSession session;
+  llc::Pose2 truth_from_map;
+  MappedCity() {
+    llc::SlamPipeline slam(llc_test::defaultModel());
+    for (std::size_t i = 0; i < drive.frames.size(); ++i)
+      slam.addScan(llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+    session = slam.session();
+    std::vector<llc::Pose2> truth;
+    for (const llc::Keyframe& k : session.keyframes) truth.push_back(drive.frames[k.scan_index].truth);
+    llc::alignedRmsError(session.poses, truth, &truth_from_map);
+  }
+};
+
+const MappedCity& city() {
+  static const MappedCity mapped;
+  return mapped;
+}
+
+/// Position error of a map-frame pose against a truth pose.
+double offBy(const llc::Pose2& map_pose, const llc::Pose2& truth) {
+  const llc::Pose2 e = llc::between(truth, llc::compose(city().truth_from_map, map_pose));
+  return std::hypot(e.x, e.y);
+}
+
+struct Fed {
+  std::vector<llc::LocalizationStep> steps;
+  std::vector<std::size_t> frames;  ///< the frame each step was
+};
+
+/// Feeds frames [begin, end) with their odometry carried by `odometry_frame` (any frame).
+void feed(llc::Localizer& localizer, std::size_t begin, std::size_t end, const llc::Pose2& odometry_frame, Fed* fed,
+          const llc::Pose2* continue_from = nullptr) {
+  const auto& frames = city().drive.frames;
+  for (std::size_t i = begin; i < end && i < frames.size(); ++i) {
+    llc::Pose2 odometry = llc::compose(odometry_frame, frames[i].odometry);
+    if (continue_from)  // carried away: the odometry goes on from where it was, as if not moved
+      odometry = llc::compose(*continue_from, llc::between(frames[begin].odometry, frames[i].odometry));
+    fed->steps.push_back(localizer.addScan(llc_test::frameScan(city().drive, frames[i]), &odometry));
+    fed->frames.push_back(i);
+  }
+}
+
+TEST(Localizer, FindsItselfWithNoPriorAndTracksNearTheTruth) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 400, 650, llc::Pose2{1000.0, -500.0, 2.0}, &fed);  // an odometry frame far from the map's
+  std::size_t localized = 0, fixes = 0;
+  double worst = 0.0;
+  for (std::size_t k = 0; k < fed.steps.size(); ++k) {
+    const llc::LocalizationStep& step = fed.steps[k];
+    fixes += step.fixed;
+    if (!step.has_pose) continue;
+    ++localized;
+    worst = std::max(worst, offBy(step.pose, city().drive.frames[fed.frames[k]].truth));
+  }
+  EXPECT_GE(fixes, 1u);
+  EXPECT_GT(localized, fed.steps.size() / 2) << "fixed late or lost often";
+  EXPECT_LT(worst, 0.3) << "a localized pose far from its truth";
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+}
+
+TEST(Localizer, TheOdometryFrameChangesNothing) {
+  llc::Localizer a(llc_test::defaultModel(), {}, city().session), b(llc_test::defaultModel(), {}, city().session);
+  Fed fa, fb;
+  feed(a, 400, 520, llc::Pose2{}, &fa);
+  feed(b, 400, 520, llc::Pose2{-300.0, 250.0, -1.0}, &fb);
+  ASSERT_EQ(fa.steps.size(), fb.steps.size());
+  for (std::size_t k = 0; k < fa.steps.size(); ++k) {
+    ASSERT_EQ(fa.steps[k].has_pose, fb.steps[k].has_pose) << "step " << k;
+    if (!fa.steps[k].has_pose) continue;
+    EXPECT_NEAR(fa.steps[k].pose.x, fb.steps[k].pose.x, 1e-3);
+    EXPECT_NEAR(fa.steps[k].pose.y, fb.steps[k].pose.y, 1e-3);
+  }
+}
+
+TEST(Localizer, NoticesBeingCarriedAwayAndFindsItselfAgain) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 400, 560, llc::Pose2{}, &fed);
+  ASSERT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+  const llc::Pose2 last_odometry = city().drive.frames[559].odometry;
+  const std::size_t kidnapped_at = fed.steps.size();
+  feed(localizer, 150, 330, llc::Pose2{}, &fed, &last_odometry);  // carried 400 scans back, to a mapped street
+  std::size_t lost_at = 0;
+  for (std::size_t k = kidnapped_at; k < fed.steps.size() && lost_at == 0; ++k)
+    if (fed.steps[k].lost) lost_at = k;
+  ASSERT_GT(lost_at, 0u) << "never noticed";
+  EXPECT_LE(lost_at - kidnapped_at, 20u) << "noticed after more than 2 s of scans";
+  EXPECT_FALSE(fed.steps[lost_at].why_lost.empty());
+  std::size_t fixed_again = 0;
+  for (std::size_t k = lost_at; k < fed.steps.size(); ++k) {
+    fixed_again += fed.steps[k].fixed;
+    if (fed.steps[k].has_pose) EXPECT_LT(offBy(fed.steps[k].pose, city().drive.frames[fed.frames[k]].truth), 1.0) << "step " << k;
+  }
+  EXPECT_GE(fixed_again, 1u);
+  EXPECT_EQ(localizer.counters().lost_events, 1u);
+  EXPECT_EQ(localizer.counters().relocalizations, 1u);
+}
+
+TEST(Localizer, ARequestedSearchForgetsTheFix) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 400, 520, llc::Pose2{}, &fed);
+  ASSERT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+  localizer.relocalize("asked to");
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLost);
+  feed(localizer, 520, 600, llc::Pose2{}, &fed);
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+  EXPECT_EQ(localizer.counters().relocalizations, 1u);
+}
+
+TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
+  EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, llc::SlamSession{}), std::invalid_argument);
+  llc::SlamSession broken = city().session;
+  broken.poses.pop_back();
+  EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, broken), std::invalid_argument);
+  llc::LocalizerOptions bad;
+  bad.min_track_fit = 0.0;
+  EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, city().session, bad), std::invalid_argument);
+
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  llc::Scan scan = llc_test::frameScan(city().drive, city().drive.frames[10]);
+  scan.ranges[3] = std::numeric_limits<double>::quiet_NaN();
+  scan.ranges.pop_back();  // ranges and bearings of different counts
+  const llc::Pose2 odometry{0.0, 0.0, 0.0};
+  const llc::LocalizationStep step = localizer.addScan(scan, &odometry);
+  EXPECT_FALSE(step.skip_reason.empty());
+  EXPECT_FALSE(step.has_pose);
+  const llc::Pose2 nan_odometry{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
+  EXPECT_FALSE(localizer.addScan(llc_test::frameScan(city().drive, city().drive.frames[11]), &nan_odometry).has_pose);
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLost);
+}
+
+}  // namespace

@@ -1,0 +1,165 @@
+// TrajectoryJoin (hand-worked stories of loops from a robot's keyframes to a map), and the
+// pieces llc localize scores with: kidnapped(), startsNearMap(), scoreLocalization().
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+#include "laser_loop_closure/core/sim/kidnap.hpp"
+#include "laser_loop_closure/core/slam/localization_evaluation.hpp"
+#include "laser_loop_closure/core/slam/trajectory_join.hpp"
+
+namespace {
+
+using llc::JoinHypothesis;
+using llc::Pose2;
+using llc::TrajectoryJoin;
+using llc::TrajectoryJoinOptions;
+
+/// The robot's keyframe k at (path, 0, 0) in its own frame, and a loop that puts it where the
+/// trajectory frame `map_from_trajectory` says (plus `miss`, in the map frame).
+JoinHypothesis loopAt(std::size_t keyframe, double path, const Pose2& map_from_trajectory, const Pose2& miss = {}) {
+  JoinHypothesis h;
+  h.keyframe = keyframe;
+  h.path = path;
+  h.trajectory_pose = {path, 0.0, 0.0};
+  h.map_pose = compose(miss, compose(map_from_trajectory, h.trajectory_pose));
+  return h;
+}
+
+const Pose2 kTrue{10.0, 5.0, 0.5};
+const Pose2 kLookAlike{16.0, 5.0, 0.5};  // the same corridor 6 m on
+
+TEST(TrajectoryJoin, OptionsAreValidated) {
+  EXPECT_TRUE(TrajectoryJoinOptions{}.validate().empty());
+  TrajectoryJoinOptions o;
+  o.min_keyframes = 1;
+  EXPECT_NE(o.validate().find("min_keyframes"), std::string::npos);
+  o = {}, o.max_translation = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(o.validate().find("max_translation"), std::string::npos);
+  o = {}, o.window = 0.5;  // not above min_spread
+  EXPECT_NE(o.validate().find("window"), std::string::npos);
+  EXPECT_THROW(TrajectoryJoin{o}, std::invalid_argument);
+}
+
+TEST(TrajectoryJoin, ThreeKeyframesThatAgreeJoinAndTwoDoNot) {
+  TrajectoryJoin join;
+  EXPECT_FALSE(join.offer({loopAt(0, 0.0, kTrue)}).joined);
+  const llc::TrajectoryJoinResult two = join.offer({loopAt(1, 1.0, kTrue)});
+  EXPECT_FALSE(two.joined);
+  EXPECT_EQ(two.keyframes, 2u);
+  EXPECT_NE(two.why_not.find("2 keyframes agree, 3 needed"), std::string::npos) << two.why_not;
+  const llc::TrajectoryJoinResult three = join.offer({loopAt(2, 2.0, kTrue)});
+  ASSERT_TRUE(three.joined) << three.why_not;
+  EXPECT_EQ(three.support.size(), 3u);
+  EXPECT_NEAR(three.map_from_trajectory.x, kTrue.x, 1e-9);
+  EXPECT_NEAR(three.map_from_trajectory.y, kTrue.y, 1e-9);
+  EXPECT_NEAR(three.map_from_trajectory.theta, kTrue.theta, 1e-9);
+}
+
+TEST(TrajectoryJoin, OneViewSeenThriceIsNotEnough) {
+  TrajectoryJoin join;  // min_spread 1 m of path
+  join.offer({loopAt(0, 0.0, kTrue)});
+  join.offer({loopAt(1, 0.3, kTrue)});
+  const llc::TrajectoryJoinResult r = join.offer({loopAt(2, 0.6, kTrue)});
+  EXPECT_FALSE(r.joined);
+  EXPECT_NE(r.why_not.find("span"), std::string::npos) << r.why_not;
+}
+
+TEST(TrajectoryJoin, ALookAlikeNearlyAsWellSupportedHoldsTheFixBack) {
+  TrajectoryJoin join;  // min_lead 2
+  join.offer({loopAt(0, 0.0, kTrue), loopAt(0, 0.0, kLookAlike)});
+  join.offer({loopAt(1, 1.0, kTrue), loopAt(1, 1.0, kLookAlike)});
+  const llc::TrajectoryJoinResult three = join.offer({loopAt(2, 2.0, kTrue)});
+  EXPECT_FALSE(three.joined);
+  EXPECT_EQ(three.keyframes, 3u);
+  EXPECT_EQ(three.rival_keyframes, 2u);
+  EXPECT_NE(three.why_not.find("another place"), std::string::npos) << three.why_not;
+  const llc::TrajectoryJoinResult four = join.offer({loopAt(3, 3.0, kTrue)});
+  ASSERT_TRUE(four.joined) << four.why_not;
+  EXPECT_NEAR(four.map_from_trajectory.x, kTrue.x, 1e-9);  // the true place, not the look-alike
+}
+
+TEST(TrajectoryJoin, ToleranceGrowsWithThePathBetweenTwoKeyframes) {
+  const TrajectoryJoin join;  // 0.5 m + 0.02 m per m of path
+  const JoinHypothesis a = loopAt(0, 0.0, kTrue);
+  const Pose2 miss{0.6, 0.0, 0.0};
+  EXPECT_FALSE(join.agree(a, loopAt(1, 1.0, kTrue, miss)));   // 0.52 m allowed
+  EXPECT_TRUE(join.agree(a, loopAt(1, 10.0, kTrue, miss)));   // 0.70 m allowed
+  EXPECT_FALSE(join.agree(a, loopAt(1, 10.0, kTrue, Pose2{0.0, 0.0, 0.15})));  // 0.13 rad allowed
+}
+
+TEST(TrajectoryJoin, LoopsOutOfTheWindowAreForgottenAndBadOnesIgnored) {
+  TrajectoryJoin join;  // window 30 m
+  join.offer({loopAt(0, 0.0, kTrue)});
+  join.offer({loopAt(1, 1.0, kTrue)});
+  JoinHypothesis bad = loopAt(2, 2.0, kTrue);
+  bad.map_pose.x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(join.offer({bad}).joined);
+  EXPECT_EQ(join.hypotheses().size(), 2u);
+  const llc::TrajectoryJoinResult r = join.offer({loopAt(3, 40.0, kTrue)});
+  EXPECT_FALSE(r.joined);
+  EXPECT_EQ(join.hypotheses().size(), 1u);
+}
+
+llc::ScanSequence straightSequence(std::size_t n) {
+  llc::ScanSequence s;
+  for (std::size_t i = 0; i < n; ++i) {
+    llc::LoggedScan scan;
+    scan.truth = {double(i), 0.0, 0.0};
+    scan.odometry = {double(i), 0.0, 0.0};
+    scan.stamp = 0.1 * double(i);
+    scan.scan.stamp = scan.stamp;
+    s.scans.push_back(scan);
+  }
+  return s;
+}
+
+TEST(Kidnapped, OdometryAndStampsRunOnWhileTheTruthJumps) {
+  const llc::ScanSequence moved = llc::kidnapped(straightSequence(10), 6, 2);
+  ASSERT_EQ(moved.scans.size(), 6u + 8u);
+  EXPECT_DOUBLE_EQ(moved.scans[5].odometry.x, 5.0);
+  EXPECT_DOUBLE_EQ(moved.scans[6].truth.x, 2.0);     // carried back to scan 2's place
+  EXPECT_DOUBLE_EQ(moved.scans[6].odometry.x, 6.0);  // one recorded step on from scan 5's reading
+  EXPECT_DOUBLE_EQ(moved.scans[13].odometry.x, 13.0);
+  EXPECT_NEAR(moved.scans[6].stamp, 0.6, 1e-12);
+  EXPECT_NEAR(moved.scans[6].scan.stamp, 0.6, 1e-12);
+  EXPECT_THROW(llc::kidnapped(straightSequence(10), 0, 2), std::invalid_argument);
+  EXPECT_THROW(llc::kidnapped(straightSequence(10), 3, 10), std::invalid_argument);
+}
+
+TEST(StartsNearMap, AStartCountsWhenItsFirstMetresPassTheMap) {
+  std::vector<Pose2> truth;
+  for (int i = 0; i <= 20; ++i) truth.push_back({double(i), 0.0, 0.0});
+  // Within 1 m of (15, 0.5): x in [14.13, 15.87], scan 15 alone; reached within 10 m from 5 .. 15.
+  const std::vector<bool> starts = llc::startsNearMap(truth, {{15.0, 0.5, 0.0}}, 10.0, 1.0);
+  for (int i = 0; i <= 20; ++i) EXPECT_EQ(starts[std::size_t(i)], i >= 5 && i <= 15) << "scan " << i;
+  EXPECT_EQ(llc::startsNearMap(truth, {}, 10.0, 1.0), std::vector<bool>(21, false));
+}
+
+TEST(ScoreLocalization, AgainstWhereTheMapHasThePlaceAndAgainstTheTruth) {
+  // Two map keyframes; the second sits 0.5 m off its truth in the map (the map bends there).
+  llc::MapWithTruth map;
+  map.truth = {{0.0, 0.0, 0.0}, {10.0, 0.0, 0.0}};
+  map.poses = {{0.0, 0.0, 0.0}, {10.0, 0.5, 0.0}};
+  map.truth_from_map = {};  // taken as the identity
+  std::vector<llc::LocalizedScan> scans(4);
+  scans[0] = {true, true, {1.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};    // exact, near keyframe 0
+  scans[1] = {true, false, {9.0, 0.5, 0.0}, {9.0, 0.0, 0.0}};   // where the map has it (near keyframe 1)
+  scans[2] = {false, false, {}, {3.0, 0.0, 0.0}};               // lost: not scored
+  scans[3] = {true, true, {9.0, 2.5, 0.0}, {9.0, 0.0, 0.0}};    // 2 m off the map's place: wrong
+  const llc::LocalizationScore s = llc::scoreLocalization(scans, map, 1.0, 0.1);
+  EXPECT_EQ(s.localized, 3u);
+  EXPECT_EQ(s.fixes, 2u);
+  EXPECT_EQ(s.wrong_fixes, 1u);
+  EXPECT_EQ(s.wrong_poses, 1u);
+  EXPECT_NEAR(s.rms_m, std::sqrt(4.0 / 3.0), 1e-12);
+  EXPECT_NEAR(s.max_m, 2.0, 1e-12);
+  // Against the truth: scan 1 is 0.5 m off (the map's bending), scan 3 2.5 m.
+  EXPECT_EQ(s.wrong_fixes_global, 1u);
+  EXPECT_NEAR(s.rms_global_m, std::sqrt((0.25 + 6.25) / 3.0), 1e-12);
+}
+
+}  // namespace
