@@ -50,6 +50,9 @@ int runSimulate(const Args& args) {
   const long seed = args.integer("seed", 1);
   if (seed < 0) throw UsageError("--seed must be zero or more");
   options.seed = std::uint64_t(seed);
+  const long route_seed = args.integer("route-seed", 0);
+  if (route_seed < 0) throw UsageError("--route-seed must be zero or more");
+  options.route_seed = std::uint64_t(route_seed);
   options.length_m = args.number("length-m", 2000.0);
   options.rate_hz = args.number("rate-hz", 10.0);
   options.parking_mean_s = args.number("parking-mean-s", options.parking_mean_s);

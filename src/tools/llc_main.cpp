@@ -71,9 +71,9 @@ const std::vector<Command>& commands() {
        "       model that saw neither: the smallest target keeping them all within 0.5-2% false alarm)"},
       {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
        "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
-      {"simulate", llc_tool::runSimulate, {"out", "seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},
-       "simulate --out DIR [--seed 1] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]\n"
-       "      [--parking-mean-s 1800]"},
+      {"simulate", llc_tool::runSimulate, {"out", "seed", "route-seed", "length-m", "scanners", "rate-hz", "parking-mean-s"}, {},
+       "simulate --out DIR [--seed 1] [--route-seed 0] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]\n"
+       "      [--parking-mean-s 1800]   (--route-seed N > 0: another route and noise through the city of --seed)"},
       {"align", llc_tool::runAlign,
        with(with({"data", "out", "model", "tolerance-m", "tolerance-deg"}, llc_tool::kAlignerFlags), kInputFlags),
        {"compare-pcl", "truth-check"},
@@ -88,7 +88,7 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "save-graph", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
-             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset"},
+             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
@@ -101,6 +101,7 @@ const std::vector<Command>& commands() {
        "       take its poses, the rest are carried by odometry; then as --evaluate)\n"
        "      [--wrong-loop-m 1.0] [--wrong-loop-deg 5.73]   (an applied loop off the truth by more is wrong)\n"
        "      [--load-session FILE [--continue-odometry]] [--save-session FILE]\n"
+       "      [--end-scan N]   (scans from N on are left out: a map of a drive's first part, llc localize for the rest)\n"
        "      [--save-graph FILE.g2o]   (the back end's pose graph at the end: its optimised keyframe poses and every\n"
        "       constraint it applied, odometry and loops, with their information; llc graph reads it)\n"
        "      [--odometry-offset 0|N|auto]   (each scan takes the odometry of the scan N later; auto, the default for\n"
@@ -113,6 +114,28 @@ const std::vector<Command>& commands() {
        "       keeping the truth: moderate as written, strong twice each figure)\n"
        "      [--seq-reorder-scans 20]   (a bag mapped without wheel odometry: its scans in header.seq order, as the\n"
        "       loop_closure nodelet's seq_reorder_scans; 0: off)"},
+      {"localize", llc_tool::runLocalize,
+       with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
+             "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+             "drift-noise-rad", "drift-noise-share", "drift-seed", "seq-reorder-scans"},
+            with(kInputFlags, llc::systemParameterNames())),
+       {"no-wheel-odometry"},
+       "localize --session SESSION (--log LOG | --bag BAG) --out DIR [--start-scan 0] [--model MODEL.yaml]\n"
+       "      [--config config/slam.yaml] [--SECTION/FIELD VALUE ...] [--no-wheel-odometry] [--drift ... as llc slam]\n"
+       "      (finds the robot on the saved map with no initial pose and tracks it; writes poses.csv: scan, stamp,\n"
+       "       x, y, theta, state (localized|lost; nan while lost) in the session's map frame, and report.txt)\n"
+       "      [--truth REF]   (REF: the recording the session was mapped from; the map's frame is laid onto the\n"
+       "       truth by its keyframes, then each localized pose checked against its scan's own truth:\n"
+       "       wrong_fixes, rms_error_localized_m)\n"
+       "      [--wrong-fix-m 1.0] [--wrong-fix-deg 5.73]   (a fix or pose off its truth by more is wrong)\n"
+       "      [--kidnap-at SCAN --kidnap-to SCAN]   (the robot carried from scan SCAN-1 to scan SCAN of the input\n"
+       "       while its odometry runs on: kidnap_lost_after_s, wrong_poses_after_kidnap_lost)\n"
+       "      [--end-scan N]   (scans from N on are left out)\n"
+       "      [--starts 20 --truth REF [--start-travel 100] [--fix-within-m 10] [--near-map-m 1] [--seed 1]]   (that many\n"
+       "       localisations, each from a random scan whose true path passes within --near-map-m m of a map keyframe in\n"
+       "       its first --fix-within-m m, over\n"
+       "       --start-travel m of its path: starts.csv, and in report.txt the share fixed within --fix-within-m m,\n"
+       "       median travel and computation to the first fix, wrong fixes, RMS)"},
       {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out", "mount-from"}, kInputFlags), {},
        "relations --log LOG (--poses DIR/scans.csv | --keyframes CSV) --relations R [--out ERRORS.csv]\n"
        "      [--mount-from BAG]\n"
@@ -157,7 +180,7 @@ void usage(std::ostream& out) {
 /// llc SUBCOMMAND --help: its usage with the defaults, and the option groups it takes.
 void commandHelp(const Command& c, std::ostream& out) {
   out << "usage: llc " << c.usage << "\n";
-  const bool slam = std::string(c.name) == "slam";  // takes every pipeline parameter: listed below
+  const bool slam = std::string(c.name) == "slam" || std::string(c.name) == "localize";  // every pipeline parameter: below
   if (!slam && takes(c, llc_tool::kAlignerFlags)) {
     alignmentOptionsHelp(out);
     llc_tool::systemParametersHelp(out, "aligner/");

@@ -197,6 +197,27 @@ check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F=
 check "slam: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/bad.yaml"
 head -c 5000 "$TMP/sim.llcsession" > "$TMP/truncated.llcsession"
 check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/truncated.llcsession"
+# llc localize: the drive's log mapped, then found on that map from anywhere with drifted odometry.
+check "localize: --session is required" 2 "--session" -- "$LLC" localize --log "$TMP/sim/sim.log" --out "$TMP/loc0"
+check "localize: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" localize --session "$TMP/bad.yaml" --log "$TMP/sim/sim.log" --out "$TMP/loc0"
+check "localize: truncated session" 1 "truncated session" -- "$LLC" localize --session "$TMP/truncated.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0"
+check "localize: a kidnapping needs both ends" 2 "both --kidnap-at SCAN and --kidnap-to SCAN" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --kidnap-at 5
+check "localize: --starts needs --truth" 2 "--starts needs --truth" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --starts 3
+check "localize: --start-scan beyond the input" 2 "start-scan must be before" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --start-scan 99999
+check "localize: a bad localization parameter" 2 "min_track_fit" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --localization/min_track_fit 0
+"$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_log" --quiet --save-session "$TMP/sim_log.llcsession" >/dev/null 2>&1
+"$LLC" simulate --out "$TMP/sim_other" --length-m 300 --seed 7 >/dev/null 2>&1
+check "localize --truth: another recording than the session's is refused" 1 "only [0-9]+ of the session's [0-9]+ keyframes" -- "$LLC" localize --session "$TMP/sim_log.llcsession" --log "$TMP/sim/sim.log" --truth "$TMP/sim_other/sim.log" --out "$TMP/loc0"
+check "localize: fixed, never wrong" 0 "^wrong_fixes=0 " -- "$LLC" localize --session "$TMP/sim_log.llcsession" --log "$TMP/sim/sim.log" --drift moderate --truth "$TMP/sim/sim.log" --start-scan 100 --end-scan 400 --out "$TMP/loc"
+check "localize: poses.csv, a row per scan from the start, nan while lost" 0 "^ok$" -- awk -F, '
+    NR == 1 { if ($0 != "scan,stamp,x,y,theta,state") bad++; next }
+    { n++; if ($1 != 99 + n) bad++; if ($6 == "lost") { lost++; if ($3 != "nan") bad++ } else if ($6 == "localized") { loc++; if ($3 == "nan") bad++ } else bad++ }
+    END { print (!bad && n == 300 && loc > 150 ? "ok" : "not ok: " n " rows, " loc " localized, " bad " bad") }' "$TMP/loc/poses.csv"
+check "localize: the report" 0 "^ok$" -- awk -F'[= ]' '{v[$1] = $2} END {
+    print (v["first_fix_scan"] >= 100 && v["first_fix_travel_m"] < 30 && v["fixes"] >= 1 && v["rms_error_localized_m"] < 0.2 && v["wrong_poses"] == 0 ? "ok" : "not ok") }' "$TMP/loc/report.txt"
+check "localize: search.csv" 0 "^scan,path_m,candidates,loops,agreeing_keyframes,rival_keyframes,joined,recent_fit,why_not$" -- head -1 "$TMP/loc/search.csv"
+check "localize: kidnapped, noticed within 2 s, never wrong after" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --truth '$TMP/sim/sim.log' --start-scan 100 --kidnap-at 300 --kidnap-to 600 --end-scan 800 --out '$TMP/loc_kidnap' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"kidnap_lost_after_s\"] >= 0 && v[\"kidnap_lost_after_s\"] <= 2 && v[\"wrong_poses_after_kidnap_lost\"] == 0 && v[\"relocalizations\"] >= 1 ? \"ok\" : \"not ok: lost after \" v[\"kidnap_lost_after_s\"] \" s\")}'"
+check "localize --starts: starts.csv and the summary" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --drift moderate --truth '$TMP/sim/sim.log' --starts 3 --start-travel 30 --out '$TMP/loc_starts' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"starts\"] == 3 && v[\"wrong_fixes\"] == 0 && v[\"fixed_share\"] == 1 ? \"ok\" : \"not ok\")}' && test \$(wc -l < '$TMP/loc_starts/starts.csv') -eq 4"
 check "slam: both inputs" 2 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
 slam_keyframes="$(sed -n 's/^keyframes=//p' "$TMP/slam/report.txt")"
 check "slam: a pipeline parameter as a flag (--odometry/keyframe_distance 3: fewer keyframes)" 0 "^ok$" -- bash -c "'$LLC' slam --bag '$TMP/sim/sim.bag' --out '$TMP/slam_flag' --quiet --odometry/keyframe_distance 3 >/dev/null && awk -F= -v before='$slam_keyframes' '/^keyframes=/ {print (\$2 + 0 < before / 2 ? \"ok\" : \"not ok: \" \$2 \" of \" before)}' '$TMP/slam_flag/report.txt'"
