@@ -21,6 +21,8 @@
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 #include "laser_loop_closure/core/sim/sim_world.hpp"
+#include "laser_loop_closure/core/slam/localizer.hpp"
+#include "laser_loop_closure/core/slam/loop_detector.hpp"
 
 namespace {
 
@@ -233,6 +235,52 @@ void BM_GlobalSearch(benchmark::State& state) {
   state.counters["best_near"] = std::hypot(error.x, error.y) < 0.3 && std::abs(error.theta) < 3.0 * M_PI / 180.0;
 }
 BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
+
+/// Localisation's global search (Localizer, while lost): one new keyframe classified against a
+/// map of n keyframes with no pose prior, and its best localization/global_candidates (20)
+/// aligned with no guess and shape-validated (LoopDetector::detectScan). The map's keyframes
+/// are the simulated drive's scans with a few percent of noise on their features, each
+/// prepared scan shared by the keyframes repeating it (as many keyframes as a long drive,
+/// without the memory). Arguments: map keyframes, threads of the classifier query.
+void BM_LocalizationGlobalSearch(benchmark::State& state) {
+  const auto& scans = simulatedScans().scans;
+  llc::SlamOptions options;
+  options.loops.threads = std::size_t(state.range(1));
+  const llc::ClassifierModel model = llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml");
+  llc::LoopDetector map(model, options.aligner, options.loops);
+  const std::size_t distinct = std::min<std::size_t>(scans.size(), 300);
+  std::vector<std::shared_ptr<const llc::PreparedScan>> prepared;
+  std::vector<std::vector<double>> features;
+  for (std::size_t k = 0; k < distinct; ++k) {
+    prepared.push_back(map.aligner().prepare(scans[k].scan));
+    features.push_back(map.describe(scans[k].scan));
+  }
+  llc::Random random(7);
+  for (std::size_t k = 0; k < std::size_t(state.range(0)); ++k) {
+    std::vector<double> f = features[k % distinct];
+    for (double& v : f)
+      if (v != llc::kProfileEmpty) v *= 1.0 + random.uniform(-0.03, 0.03);
+    map.addWithFeatures(f, prepared[k % distinct]);
+  }
+  const llc::Scan& query_scan = scans[distinct / 2 + 1].scan;
+  const auto query = map.aligner().prepare(query_scan);
+  const std::vector<double> query_features = map.describe(query_scan);
+  const llc::LocalizerOptions localization;
+  std::size_t aligned = 0, accepted = 0;
+  for (auto _ : state) {
+    const llc::LoopDetectionResult r = map.detectScan(query_features, *query, 0, localization.global_candidates);
+    aligned = r.aligned.size(), accepted = 0;
+    for (const llc::LoopClosure& loop : r.aligned) accepted += loop.accepted;
+    benchmark::DoNotOptimize(r.aligned.data());
+  }
+  state.counters["aligned"] = double(aligned);
+  state.counters["accepted"] = double(accepted);
+}
+BENCHMARK(BM_LocalizationGlobalSearch)
+    ->Args({10000, 2})
+    ->Args({100000, 2})
+    ->ArgNames({"keyframes", "threads"})
+    ->Unit(benchmark::kMillisecond);
 
 /// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a
 /// pose 25..1000 steps back, solved once (the state a long-running robot reaches).

@@ -32,20 +32,30 @@ struct MapTruth {
   std::size_t matched = 0;  ///< keyframes found in REF
 };
 
+/// The same scan (a session keeps its keyframes' scans as read): ranges equal to 1 mm.
+bool sameRanges(const llc::Scan& a, const llc::Scan& b) {
+  if (a.ranges.size() != b.ranges.size()) return false;
+  for (std::size_t i = 0; i < a.ranges.size(); ++i) {
+    const double x = a.ranges[i], y = b.ranges[i];
+    if (std::isfinite(x) != std::isfinite(y) || (std::isfinite(x) && std::abs(x - y) > 1e-3)) return false;
+  }
+  return true;
+}
+
 MapTruth mapTruth(const llc::SlamSession& session, const llc::ScanSequence& reference) {
   std::vector<llc::Pose2> map, truth;
   for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
     const llc::Keyframe& keyframe = session.keyframes[k];
     if (keyframe.scan_index >= reference.scans.size()) continue;
     const llc::LoggedScan& scan = reference.scans[keyframe.scan_index];
-    if (std::abs(scan.stamp - keyframe.stamp) > 1e-3) continue;
+    if (std::abs(scan.stamp - keyframe.stamp) > 1e-3 || !sameRanges(scan.scan, keyframe.scan)) continue;
     map.push_back(session.poses[k]);
     truth.push_back(scan.truth);
   }
   if (map.size() < 3)
     throw ToolError("--truth: only " + std::to_string(map.size()) + " of the session's " +
                     std::to_string(session.keyframes.size()) +
-                    " keyframes have a scan of the same index and stamp in it (give the recording the session was mapped from)");
+                    " keyframes have a scan of the same index, stamp and ranges in it (give the recording the session was mapped from)");
   MapTruth result;
   result.matched = map.size();
   result.rms_m = llc::alignedRmsError(map, truth, &result.frame.truth_from_map);
