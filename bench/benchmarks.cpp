@@ -241,7 +241,8 @@ BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
 /// aligned with no guess and shape-validated (LoopDetector::detectScan). The map's keyframes
 /// are the simulated drive's scans with a few percent of noise on their features, each
 /// prepared scan shared by the keyframes repeating it (as many keyframes as a long drive,
-/// without the memory). Arguments: map keyframes, threads of the classifier query.
+/// without the memory). Arguments: map keyframes, threads of the classifier query (the
+/// alignments take localization/search_threads, 2).
 void BM_LocalizationGlobalSearch(benchmark::State& state) {
   const auto& scans = simulatedScans().scans;
   llc::SlamOptions options;
@@ -268,7 +269,8 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   const llc::LocalizerOptions localization;
   std::size_t aligned = 0, accepted = 0;
   for (auto _ : state) {
-    const llc::LoopDetectionResult r = map.detectScan(query_features, *query, 0, localization.global_candidates);
+    const llc::LoopDetectionResult r = map.detectScan(query_features, *query, 0, localization.global_candidates,
+                                                      localization.score_threshold, localization.search_threads);
     aligned = r.aligned.size(), accepted = 0;
     for (const llc::LoopClosure& loop : r.aligned) accepted += loop.accepted;
     benchmark::DoNotOptimize(r.aligned.data());

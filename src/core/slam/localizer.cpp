@@ -13,6 +13,7 @@ namespace llc {
 std::string LocalizerOptions::validate() const {
   if (global_candidates == 0) return "global_candidates must be >= 1";
   if (!(score_threshold >= 0.0 && score_threshold < 1.0)) return "score_threshold must be in [0, 1) (0: the model's K)";
+  if (search_threads == 0 || search_threads > 64) return "search_threads must be in 1 .. 64";
   const std::string join_error = join.validate();
   if (!join_error.empty()) return "join: " + join_error;
   if (!(fix_min_fitting_share >= 0.0 && fix_min_fitting_share <= 1.0)) return "fix_min_fitting_share must be in [0, 1]";
@@ -108,7 +109,8 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
   const auto start = std::chrono::steady_clock::now();
   ++counters_.searched_keyframes;
   const LoopDetectionResult found = map_.detectScan(front_.detector().features(keyframe), front_.detector().prepared(keyframe),
-                                                    keyframe, options_.global_candidates, options_.score_threshold);
+                                                    keyframe, options_.global_candidates, options_.score_threshold,
+                                                    options_.search_threads);
   step.searched = true;
   step.candidates = found.aligned.size();
   std::vector<JoinHypothesis> loops;

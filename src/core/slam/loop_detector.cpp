@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <future>
 #include <stdexcept>
 
 namespace llc {
@@ -136,7 +137,7 @@ LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan,
 }
 
 LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
-                                             std::size_t max_candidates, double threshold) const {
+                                             std::size_t max_candidates, double threshold, std::size_t threads) const {
   const auto start = std::chrono::steady_clock::now();
   if (features.size() != store_.featureCount())
     throw std::invalid_argument("detectScan: expected " + std::to_string(store_.featureCount()) + " features, got " +
@@ -149,7 +150,17 @@ LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features
                                                             features.data(), result.compared, max_candidates, options_.threads);
   result.candidates = candidates.size();
   result.classify_seconds = secondsSince(start);
-  for (const LoopCandidate& candidate : candidates) result.aligned.push_back(verifyScan(candidate.keyframe, scan, to, candidate.score));
+  // Candidate i on thread i % threads; each writes its own slot.
+  result.aligned.resize(candidates.size());
+  auto alignEvery = [&](std::size_t first, std::size_t step) {
+    for (std::size_t i = first; i < candidates.size(); i += step)
+      result.aligned[i] = verifyScan(candidates[i].keyframe, scan, to, candidates[i].score);
+  };
+  const std::size_t workers = std::max<std::size_t>(1, std::min(threads, candidates.size()));
+  std::vector<std::future<void>> others;
+  for (std::size_t t = 1; t < workers; ++t) others.push_back(std::async(std::launch::async, alignEvery, t, workers));
+  alignEvery(0, workers);
+  for (std::future<void>& other : others) other.get();
   result.seconds = secondsSince(start);
   return result;
 }

@@ -130,6 +130,29 @@ TEST(Localizer, ARequestedSearchForgetsTheFix) {
   EXPECT_EQ(localizer.counters().relocalizations, 1u);
 }
 
+TEST(LoopDetector, AScanFromOutsideIsSearchedAlikeOnOneThreadOrTwo) {
+  const llc::SlamOptions options;
+  llc::LoopDetector map(llc_test::defaultModel(), options.aligner, options.loops);
+  for (std::size_t k = 0; k < city().session.keyframes.size(); ++k)
+    map.addWithFeatures(city().session.features[k], map.aligner().prepare(city().session.keyframes[k].scan));
+  const llc::Scan scan = llc_test::frameScan(city().drive, city().drive.frames[451]);
+  const auto prepared = map.aligner().prepare(scan);
+  const llc::LoopDetectionResult one = map.detectScan(map.describe(scan), *prepared, 7, 20, 0.0, 1);
+  const llc::LoopDetectionResult two = map.detectScan(map.describe(scan), *prepared, 7, 20, 0.0, 2);
+  ASSERT_EQ(one.aligned.size(), two.aligned.size());
+  ASSERT_GT(one.aligned.size(), 1u);
+  std::size_t accepted = 0;
+  for (std::size_t i = 0; i < one.aligned.size(); ++i) {
+    EXPECT_EQ(one.aligned[i].from, two.aligned[i].from);
+    EXPECT_EQ(one.aligned[i].to, 7u);
+    EXPECT_EQ(one.aligned[i].accepted, two.aligned[i].accepted);
+    EXPECT_DOUBLE_EQ(one.aligned[i].pose.x, two.aligned[i].pose.x);
+    accepted += one.aligned[i].accepted;
+  }
+  EXPECT_GE(accepted, 1u) << "a scan of a mapped street finds the map";
+  EXPECT_THROW(map.detectScan({1.0, 2.0}, *prepared, 7, 20), std::invalid_argument);
+}
+
 TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, llc::SlamSession{}), std::invalid_argument);
   llc::SlamSession broken = city().session;

@@ -24,6 +24,7 @@ struct LocalizerOptions {
   /// The normalised score those candidates must reach (0: the model's K, as in mapping); lower
   /// finds more places the model was not trained on, and more look-alikes for the checks below.
   double score_threshold = 0.0;
+  std::size_t search_threads = 2;     ///< threads aligning those candidates (the classifier query takes loops/threads)
   TrajectoryJoinOptions join{};       ///< when the loops of several keyframes fix the robot
   /// A fix the loops agree on is then checked as tracking would: the robot's keyframes of the
   /// join's window, placed by it, are matched to the map keyframes near them; at least this

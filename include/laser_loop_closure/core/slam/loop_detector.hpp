@@ -123,9 +123,10 @@ class LoopDetector {
   /// threshold aligned with no guess and shape-validated, each of them (no nearby keyframes,
   /// no context check). The loops read from = the stored keyframe, to = `to` (the caller's
   /// name for the scan). Throws std::invalid_argument for features of another length.
-  /// `threshold` > 0 takes the place of the K candidates must reach.
+  /// `threshold` > 0 takes the place of the K candidates must reach; `threads` > 1 aligns the
+  /// candidates on that many threads (the same loops, in the same order).
   LoopDetectionResult detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
-                                 std::size_t max_candidates, double threshold = 0.0) const;
+                                 std::size_t max_candidates, double threshold = 0.0, std::size_t threads = 1) const;
   /// verify() of stored keyframe `from` and a scan that is not stored, named `to`.
   LoopClosure verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const;
   /// A nearby keyframe: ICP from where the map puts `to` in `from`'s frame; below
