@@ -241,8 +241,8 @@ BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
 /// aligned with no guess and shape-validated (LoopDetector::detectScan). The map's keyframes
 /// are the simulated drive's scans with a few percent of noise on their features, each
 /// prepared scan shared by the keyframes repeating it (as many keyframes as a long drive,
-/// without the memory). Arguments: map keyframes, threads of the classifier query (the
-/// alignments take localization/search_threads, 2).
+/// without the memory). Arguments: map keyframes, threads of the classifier query, threads
+/// of the alignments (localization/search_threads; the default 2).
 void BM_LocalizationGlobalSearch(benchmark::State& state) {
   const auto& scans = simulatedScans().scans;
   llc::SlamOptions options;
@@ -270,7 +270,7 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   std::size_t aligned = 0, accepted = 0;
   for (auto _ : state) {
     const llc::LoopDetectionResult r = map.detectScan(query_features, *query, 0, localization.global_candidates,
-                                                      localization.score_threshold, localization.search_threads);
+                                                      localization.score_threshold, std::size_t(state.range(2)));
     aligned = r.aligned.size(), accepted = 0;
     for (const llc::LoopClosure& loop : r.aligned) accepted += loop.accepted;
     benchmark::DoNotOptimize(r.aligned.data());
@@ -279,9 +279,10 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   state.counters["accepted"] = double(accepted);
 }
 BENCHMARK(BM_LocalizationGlobalSearch)
-    ->Args({10000, 2})
-    ->Args({100000, 2})
-    ->ArgNames({"keyframes", "threads"})
+    ->Args({10000, 2, 2})
+    ->Args({100000, 2, 2})
+    ->Args({100000, 2, 1})
+    ->ArgNames({"keyframes", "threads", "search_threads"})
     ->Unit(benchmark::kMillisecond);
 
 /// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a

@@ -91,7 +91,7 @@ LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometr
       step.keyframe = true;
       ++counters_.keyframes;
       recent_.push_back({front.keyframe_index, front.odometry_pose, path_.length});
-      while (!recent_.empty() && recent_.front().path < path_.length - options_.join.window) recent_.erase(recent_.begin());
+      while (!recent_.empty() && recent_.front().path < path_.length - options_.join.window) recent_.pop_front();
       if (state_.tracking) track(front.keyframe_index, front.odometry_pose, step);
       else search(front.keyframe_index, front.odometry_pose, step);
     }

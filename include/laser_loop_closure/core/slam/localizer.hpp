@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstddef>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -146,7 +147,7 @@ class Localizer {
     Pose2 trajectory_pose;
     double path;
   };
-  std::vector<RecentKeyframe> recent_;
+  std::deque<RecentKeyframe> recent_;
   /// The trajectory's path length by its own odometry.
   struct Path {
     bool has_last = false;
