@@ -173,6 +173,33 @@ TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   const llc::Pose2 nan_odometry{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
   EXPECT_FALSE(localizer.addScan(llc_test::frameScan(city().drive, city().drive.frames[11]), &nan_odometry).has_pose);
   EXPECT_EQ(localizer.state(), llc::LocalizationState::kLost);
+  llc::Scan empty;
+  empty.stamp = city().drive.frames[12].stamp;
+  localizer.addScan(empty, &odometry);  // no crash; nothing to place
+  llc::Scan odd = llc_test::frameScan(city().drive, city().drive.frames[13]);
+  odd.ranges[0] = std::numeric_limits<double>::infinity(), odd.ranges[1] = -std::numeric_limits<double>::infinity();
+  odd.ranges[2] = -1.0;
+  localizer.addScan(odd, &city().drive.frames[13].odometry);
+}
+
+TEST(Localizer, TimeGoingBackwardsIsSkippedOrRestartsTheChainAndTheFixIsKept) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 400, 520, llc::Pose2{}, &fed);
+  ASSERT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+  const std::size_t keyframes = localizer.counters().keyframes;
+  const auto& second_back = city().drive.frames[510];  // 1 s back: skipped
+  const llc::LocalizationStep skipped = localizer.addScan(llc_test::frameScan(city().drive, second_back), &second_back.odometry);
+  EXPECT_FALSE(skipped.skip_reason.empty());
+  EXPECT_FALSE(skipped.keyframe);
+  EXPECT_EQ(localizer.counters().keyframes, keyframes);
+  // 7 s back (beyond restart_after_jump_back): a new odometry chain, in the same trajectory frame.
+  const auto& far_back = city().drive.frames[450];
+  localizer.addScan(llc_test::frameScan(city().drive, far_back), &far_back.odometry);
+  feed(localizer, 520, 560, llc::Pose2{}, &fed);
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized) << "stale scans lost the fix";
+  for (std::size_t k = fed.steps.size() - 40; k < fed.steps.size(); ++k)
+    if (fed.steps[k].has_pose) EXPECT_LT(offBy(fed.steps[k].pose, city().drive.frames[fed.frames[k]].truth), 0.3);
 }
 
 }  // namespace
