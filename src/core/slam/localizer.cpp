@@ -24,6 +24,7 @@ std::string LocalizerOptions::validate() const {
   if (confirm_keyframes > 20) return "confirm_keyframes must be at most 20";
   if (lost_after_misfits == 0) return "lost_after_misfits must be >= 1";
   if (!(max_unmatched_travel > 0.0) || !std::isfinite(max_unmatched_travel)) return "max_unmatched_travel must be > 0 m";
+  if (!(hint_max_travel > 0.0) || !std::isfinite(hint_max_travel)) return "hint_max_travel must be > 0 m";
   return "";
 }
 
@@ -32,6 +33,24 @@ const char* localizationStateName(LocalizationState state) {
 }
 
 namespace {
+
+/// A covariance of (x, y, theta) in a frame turned by `heading`, in the outer frame.
+Eigen::Matrix3d rotated(const Eigen::Matrix3d& covariance, double heading) {
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  r.topLeftCorner<2, 2>() << std::cos(heading), -std::sin(heading), std::sin(heading), std::cos(heading);
+  return r * covariance * r.transpose();
+}
+
+/// The covariance of compose(a, motion) to first order: a's (outer frame) and the motion's (a's frame).
+Eigen::Matrix3d composedCovariance(const Pose2& a, const Eigen::Matrix3d& of_a, const Pose2& motion, const Eigen::Matrix3d& of_motion) {
+  const double c = std::cos(a.theta), s = std::sin(a.theta);
+  Eigen::Matrix3d ja = Eigen::Matrix3d::Identity();
+  ja(0, 2) = -s * motion.x - c * motion.y;
+  ja(1, 2) = c * motion.x - s * motion.y;
+  Eigen::Matrix3d jb = Eigen::Matrix3d::Identity();
+  jb.topLeftCorner<2, 2>() << c, -s, s, c;
+  return ja * of_a * ja.transpose() + jb * of_motion * jb.transpose();
+}
 
 const SlamSession& checkedMap(const SlamSession& map) {
   const std::string error = map.validate();
@@ -67,6 +86,34 @@ void Localizer::relocalize(const std::string& why) {
   had_fix_ = true;
 }
 
+bool Localizer::hint(const Pose2& pose, double radius) {
+  if (!isFinite(pose) || !(radius > 0.0) || !std::isfinite(radius)) return false;
+  LocalizationStep ignored;
+  loseTrack("a pose hint was given", ignored);
+  had_fix_ = had_fix_ || counters_.fixes > 0;
+  hint_.active = true;
+  hint_.map_from_trajectory = compose(pose, inverse(path_.has_last ? path_.last : Pose2{}));
+  hint_.radius = radius;
+  hint_.path = path_.length;
+  return true;
+}
+
+std::vector<std::size_t> Localizer::hintedCandidates(const Pose2& trajectory_pose) const {
+  const Pose2 at = compose(hint_.map_from_trajectory, trajectory_pose);
+  // The odometry drifts away from the hinted pose as the robot goes on.
+  const double radius = hint_.radius + options_.join.drift_per_metre * (path_.length - hint_.path);
+  std::vector<std::pair<double, std::size_t>> near;
+  for (std::size_t m = 0; m < map_poses_.size(); ++m) {
+    const double d = std::hypot(map_poses_[m].x - at.x, map_poses_[m].y - at.y);
+    if (d <= radius) near.emplace_back(d, m);
+  }
+  const std::size_t count = std::min(near.size(), options_.global_candidates);
+  std::partial_sort(near.begin(), near.begin() + std::ptrdiff_t(count), near.end());
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < count; ++i) out.push_back(near[i].second);
+  return out;
+}
+
 void Localizer::loseTrack(const std::string& why, LocalizationStep& step) {
   if (state_.confirmed) ++counters_.lost_events;
   state_ = TrackState{};
@@ -92,12 +139,19 @@ LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometr
       ++counters_.keyframes;
       recent_.push_back({front.keyframe_index, front.odometry_pose, path_.length});
       while (!recent_.empty() && recent_.front().path < path_.length - options_.join.window) recent_.pop_front();
-      if (state_.tracking) track(front.keyframe_index, front.odometry_pose, step);
+      if (state_.tracking) track(front.keyframe_index, front.odometry_pose, front.odometry.covariance, step);
       else search(front.keyframe_index, front.odometry_pose, step);
     }
+    step.has_trajectory_pose = true;
+    step.trajectory_pose = front.odometry_pose;
     if (state_.confirmed) {
       step.has_pose = true;
       step.pose = compose(state_.map_from_trajectory, front.odometry_pose);
+      const Pose2 motion = between(state_.keyframe_trajectory_pose, front.odometry_pose);
+      const bool motion_known = !front.keyframe && front.odometry.covariance.allFinite();
+      step.covariance = composedCovariance(compose(state_.map_from_trajectory, state_.keyframe_trajectory_pose),
+                                           state_.keyframe_covariance, motion,
+                                           motion_known ? front.odometry.covariance : Eigen::Matrix3d::Zero());
     }
   }
   step.state = state();
@@ -108,19 +162,28 @@ LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometr
 void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step) {
   const auto start = std::chrono::steady_clock::now();
   ++counters_.searched_keyframes;
-  const LoopDetectionResult found = map_.detectScan(front_.detector().features(keyframe), front_.detector().prepared(keyframe),
-                                                    keyframe, options_.global_candidates, options_.score_threshold,
-                                                    options_.search_threads);
+  if (hint_.active && path_.length - hint_.path > options_.hint_max_travel) hint_ = Hint{};  // lapsed: the whole map again
+  LoopDetectionResult found;
+  if (hint_.active)
+    found.aligned = map_.verifyScans(hintedCandidates(trajectory_pose), front_.detector().prepared(keyframe), keyframe,
+                                     options_.search_threads);
+  else
+    found = map_.detectScan(front_.detector().features(keyframe), front_.detector().prepared(keyframe), keyframe,
+                            options_.global_candidates, options_.score_threshold, options_.search_threads);
   step.searched = true;
   step.candidates = found.aligned.size();
   std::vector<JoinHypothesis> loops;
+  const Pose2 hinted = compose(hint_.map_from_trajectory, trajectory_pose);
+  const double hint_radius = hint_.radius + options_.join.drift_per_metre * (path_.length - hint_.path);
   for (const LoopClosure& loop : found.aligned) {
     if (!loop.accepted) continue;
+    const Pose2 map_pose = compose(map_poses_[loop.from], loop.pose);
+    if (hint_.active && std::hypot(map_pose.x - hinted.x, map_pose.y - hinted.y) > hint_radius) continue;  // not where hinted
     JoinHypothesis hypothesis;
     hypothesis.keyframe = keyframe;
     hypothesis.path = path_.length;
     hypothesis.trajectory_pose = trajectory_pose;
-    hypothesis.map_pose = compose(map_poses_[loop.from], loop.pose);
+    hypothesis.map_pose = map_pose;
     hypothesis.map_keyframe = loop.from;
     hypothesis.covariance = loop.covariance;
     loops.push_back(hypothesis);
@@ -152,7 +215,10 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
     state_.tracking = true;
     state_.map_from_trajectory = step.join.map_from_trajectory;
     state_.last_fit_path = path_.length;
+    state_.keyframe_covariance = rotated(step.join.newest.covariance, map_poses_[step.join.newest.map_keyframe].theta);
+    state_.keyframe_trajectory_pose = trajectory_pose;
     join_.clear();
+    hint_ = Hint{};
     if (options_.confirm_keyframes == 0) declareFix(step);
   }
   counters_.seconds_search += secondsSince(start);
@@ -166,7 +232,7 @@ void Localizer::declareFix(LocalizationStep& step) {
   had_fix_ = true;
 }
 
-double Localizer::fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* placed) const {
+double Localizer::fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* placed, Eigen::Matrix3d* covariance) const {
   // The nearest map keyframes within track_radius (a scan of the poses: cheap next to ICP).
   std::vector<std::pair<double, std::size_t>> near;
   for (std::size_t m = 0; m < map_poses_.size(); ++m) {
@@ -185,7 +251,10 @@ double Localizer::fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* 
     const Pose2 moved = compose(map_poses_[m], icp.pose);
     if (std::hypot(moved.x - predicted.x, moved.y - predicted.y) > options_.max_correction) continue;
     const double fit = map_.aligner().fit(map_.prepared(m), scan, icp.pose);
-    if (fit > best_fit) best_fit = fit, *placed = moved;
+    if (fit <= best_fit) continue;
+    best_fit = fit;
+    *placed = moved;
+    if (covariance) *covariance = rotated(icp.covariance, map_poses_[m].theta);
   }
   return best_fit;
 }
@@ -246,15 +315,27 @@ std::string Localizer::checkFixContext(const JoinHypothesis& loop) const {
   return checked.accepted ? "" : "the loops agree, but " + checked.reject_reason;
 }
 
-void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step) {
+void Localizer::carryCovariance(const Pose2& trajectory_pose, const Eigen::Matrix3d& motion_covariance) {
+  // Not matched to the map: the newest keyframe's pose is the last matched one's carried by odometry.
+  const Pose2 motion = between(state_.keyframe_trajectory_pose, trajectory_pose);
+  state_.keyframe_covariance =
+      composedCovariance(compose(state_.map_from_trajectory, state_.keyframe_trajectory_pose), state_.keyframe_covariance,
+                         motion, motion_covariance.allFinite() ? motion_covariance : Eigen::Matrix3d::Zero());
+  state_.keyframe_trajectory_pose = trajectory_pose;
+}
+
+void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const Eigen::Matrix3d& motion_covariance,
+                      LocalizationStep& step) {
   const auto start = std::chrono::steady_clock::now();
   const Pose2 predicted = compose(state_.map_from_trajectory, trajectory_pose);
   Pose2 best_pose;
-  const double best_fit = fitToMap(keyframe, predicted, &best_pose);
+  Eigen::Matrix3d best_covariance = Eigen::Matrix3d::Zero();
+  const double best_fit = fitToMap(keyframe, predicted, &best_pose, &best_covariance);
   counters_.seconds_track += secondsSince(start);
   step.fit = best_fit;
   if (best_fit < 0.0) {  // off the map: carried by odometry for a while
     ++counters_.off_map_keyframes;
+    carryCovariance(trajectory_pose, motion_covariance);
     if (path_.length - state_.last_fit_path > options_.max_unmatched_travel) {
       char why[128];
       std::snprintf(why, sizeof why, "no map keyframe fitted over %.1f m of path (max_unmatched_travel)",
@@ -266,6 +347,8 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, Locali
   if (best_fit >= options_.min_track_fit) {
     ++counters_.tracked_keyframes;
     state_.map_from_trajectory = compose(best_pose, inverse(trajectory_pose));
+    state_.keyframe_covariance = best_covariance;
+    state_.keyframe_trajectory_pose = trajectory_pose;
     state_.misfits = 0;
     state_.last_fit_path = path_.length;
     state_.last_fit = best_fit;
@@ -274,6 +357,7 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, Locali
   }
   ++counters_.misfit_keyframes;
   state_.last_fit = best_fit;
+  carryCovariance(trajectory_pose, motion_covariance);
   if (!state_.confirmed) {  // on probation: the fix was a look-alike, search on
     ++counters_.fixes_dropped;
     state_ = TrackState{};

@@ -150,19 +150,31 @@ LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features
                                                             features.data(), result.compared, max_candidates, options_.threads);
   result.candidates = candidates.size();
   result.classify_seconds = secondsSince(start);
-  // Candidate i on thread i % threads; each writes its own slot.
-  result.aligned.resize(candidates.size());
+  std::vector<std::size_t> from;
+  std::vector<double> scores;
+  for (const LoopCandidate& candidate : candidates) {
+    from.push_back(candidate.keyframe);
+    scores.push_back(candidate.score);
+  }
+  result.aligned = verifyScans(from, scan, to, threads, scores);
+  result.seconds = secondsSince(start);
+  return result;
+}
+
+std::vector<LoopClosure> LoopDetector::verifyScans(const std::vector<std::size_t>& from, const PreparedScan& scan,
+                                                  std::size_t to, std::size_t threads, const std::vector<double>& scores) const {
+  // Keyframe i on thread i % threads; each writes its own slot.
+  std::vector<LoopClosure> aligned(from.size());
   auto alignEvery = [&](std::size_t first, std::size_t step) {
-    for (std::size_t i = first; i < candidates.size(); i += step)
-      result.aligned[i] = verifyScan(candidates[i].keyframe, scan, to, candidates[i].score);
+    for (std::size_t i = first; i < from.size(); i += step)
+      aligned[i] = verifyScan(from[i], scan, to, i < scores.size() ? scores[i] : 0.0);
   };
-  const std::size_t workers = std::max<std::size_t>(1, std::min(threads, candidates.size()));
+  const std::size_t workers = std::max<std::size_t>(1, std::min(threads, from.size()));
   std::vector<std::future<void>> others;
   for (std::size_t t = 1; t < workers; ++t) others.push_back(std::async(std::launch::async, alignEvery, t, workers));
   alignEvery(0, workers);
   for (std::future<void>& other : others) other.get();
-  result.seconds = secondsSince(start);
-  return result;
+  return aligned;
 }
 
 LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const {

@@ -3,6 +3,8 @@
 // being carried away and finds itself again; bad maps and scans are refused, not fatal.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -128,6 +130,73 @@ TEST(Localizer, ARequestedSearchForgetsTheFix) {
   feed(localizer, 520, 600, llc::Pose2{}, &fed);
   EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
   EXPECT_EQ(localizer.counters().relocalizations, 1u);
+}
+
+TEST(Localizer, APoseHintNarrowsTheSearchAndAWrongOneLapses) {
+  const llc::Pose2 truth = llc::compose(llc::inverse(city().truth_from_map), city().drive.frames[399].truth);  // in the map
+  // Right: the fix comes from the keyframes near the hint, no later than with no hint.
+  llc::Localizer hinted(llc_test::defaultModel(), {}, city().session), plain(llc_test::defaultModel(), {}, city().session);
+  EXPECT_FALSE(hinted.hint(llc::Pose2{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0}, 3.0));
+  EXPECT_FALSE(hinted.hint(truth, 0.0));
+  ASSERT_TRUE(hinted.hint(truth, 3.0));
+  EXPECT_TRUE(hinted.hinted());
+  Fed with_hint, without;
+  feed(hinted, 399, 520, llc::Pose2{50.0, 20.0, 1.0}, &with_hint);  // the hint is where scan 399 is taken
+  feed(plain, 399, 520, llc::Pose2{50.0, 20.0, 1.0}, &without);
+  auto firstFix = [](const Fed& fed) {
+    for (std::size_t k = 0; k < fed.steps.size(); ++k)
+      if (fed.steps[k].fixed) return k;
+    return fed.steps.size();
+  };
+  ASSERT_LT(firstFix(with_hint), with_hint.steps.size()) << "a right hint gave no fix";
+  EXPECT_LE(firstFix(with_hint), firstFix(without)) << "hinted " << firstFix(with_hint) << ", not " << firstFix(without);
+  EXPECT_FALSE(hinted.hinted()) << "a fix ends the hint";
+  for (std::size_t k = 0; k < with_hint.steps.size(); ++k)
+    if (with_hint.steps[k].has_pose)
+      EXPECT_LT(offBy(with_hint.steps[k].pose, city().drive.frames[with_hint.frames[k]].truth), 0.3) << "step " << k;
+  // Wrong (60 m away): no fix while it holds, then the whole map is searched and the robot found.
+  llc::LocalizerOptions short_hint;
+  short_hint.hint_max_travel = 20.0;
+  llc::Localizer misled(llc_test::defaultModel(), {}, city().session, short_hint);
+  ASSERT_TRUE(misled.hint(llc::compose(truth, llc::Pose2{60.0, 0.0, 0.0}), 3.0));
+  Fed fed;
+  feed(misled, 399, 600, llc::Pose2{}, &fed);
+  const double travel_at_fix = [&] {
+    for (std::size_t k = 0; k < fed.steps.size(); ++k)
+      if (fed.steps[k].fixed) {
+        const llc::Pose2& a = city().drive.frames[399].odometry;
+        const llc::Pose2& b = city().drive.frames[fed.frames[k]].odometry;
+        EXPECT_LT(offBy(fed.steps[k].pose, city().drive.frames[fed.frames[k]].truth), 0.3) << "fixed where hinted, wrongly";
+        return std::hypot(b.x - a.x, b.y - a.y);
+      }
+    return -1.0;
+  }();
+  EXPECT_GT(travel_at_fix, short_hint.hint_max_travel) << "fixed while a wrong hint held, or never (-1)";
+  EXPECT_EQ(misled.counters().relocalizations, 0u) << "a hint before any fix makes the first fix no relocalisation";
+}
+
+TEST(Localizer, LocalizedPosesCarryAUsableCovariance) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 400, 560, llc::Pose2{7.0, -3.0, 0.5}, &fed);
+  std::size_t localized = 0, within_three_sigma = 0;
+  for (std::size_t k = 0; k < fed.steps.size(); ++k) {
+    const llc::LocalizationStep& step = fed.steps[k];
+    if (k > 0) EXPECT_TRUE(step.has_trajectory_pose) << "step " << k;
+    if (!step.has_pose) continue;
+    ++localized;
+    const Eigen::Matrix3d& c = step.covariance;
+    ASSERT_TRUE(c.allFinite()) << "step " << k;
+    EXPECT_LT((c - c.transpose()).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_GT(c(0, 0), 0.0);
+    EXPECT_GT(c(1, 1), 0.0);
+    EXPECT_GT(c(2, 2), 0.0);
+    EXPECT_GE(c.selfadjointView<Eigen::Lower>().eigenvalues().minCoeff(), -1e-12);
+    const double off = offBy(step.pose, city().drive.frames[fed.frames[k]].truth);
+    within_three_sigma += off <= 3.0 * std::sqrt(c(0, 0) + c(1, 1)) + 0.05;  // the map's own error: a few cm
+  }
+  ASSERT_GT(localized, 50u);
+  EXPECT_GT(double(within_three_sigma), 0.9 * double(localized)) << "a covariance far too sure of itself";
 }
 
 TEST(LoopDetector, AScanFromOutsideIsSearchedAlikeOnOneThreadOrTwo) {

@@ -8,6 +8,8 @@
 // itself. The map is never changed.
 #pragma once
 
+#include <Eigen/Core>
+
 #include <cstddef>
 #include <deque>
 #include <memory>
@@ -40,6 +42,9 @@ struct LocalizerOptions {
   double max_correction = 1.0;        ///< m; a match that moves the tracked pose farther does not fit either
   std::size_t lost_after_misfits = 2;  ///< consecutive keyframes that do not fit where the map has keyframes: lost
   double max_unmatched_travel = 15.0;  ///< m of path with no keyframe fitting the map (off the map): lost
+  /// m of path after a pose hint (hint()) during which the search is narrowed to it; then the
+  /// hint is dropped and the whole map searched again (a wrong hint never strands the robot).
+  double hint_max_travel = 30.0;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -52,6 +57,13 @@ struct LocalizationStep {
   LocalizationState state = LocalizationState::kLost;  ///< after this scan
   bool has_pose = false;      ///< localized and the scan placed (pose valid)
   Pose2 pose;                 ///< the scan's pose in the map frame
+  /// Of pose (x, y, theta in the map frame), to first order: the last map match's ICP
+  /// covariance, and the odometry's since that keyframe.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  /// The scan's pose in the trajectory's own odometry frame (SlamFrontEnd's chain), whether
+  /// localized or not: what a robot without wheels broadcasts as odom -> base_link.
+  bool has_trajectory_pose = false;
+  Pose2 trajectory_pose;
   bool keyframe = false;      ///< the scan made a keyframe of the trajectory
   bool fixed = false;         ///< this scan fixed the robot (the first fix, or after being lost)
   bool lost = false;          ///< this scan lost it
@@ -90,6 +102,15 @@ class Localizer {
   LocalizationStep addScan(const Scan& scan, const Pose2* wheel_odometry);
   /// Forgets the fix and searches the whole map again from the next keyframe.
   void relocalize(const std::string& why);
+  /// Forgets the fix and searches again, near `pose` only (the robot's pose now, in the map):
+  /// the map keyframes within `radius` m of where the robot's odometry carries that pose,
+  /// nearest first, instead of the classifier's candidates over the whole map; the loops must
+  /// still agree (TrajectoryJoin) and fit. A hint is never needed: it lapses after
+  /// hint_max_travel m of path without a fix. False (and nothing changed) on a non-finite pose
+  /// or a radius not > 0.
+  bool hint(const Pose2& pose, double radius);
+  /// Whether a pose hint narrows the search now.
+  bool hinted() const { return hint_.active; }
 
   LocalizationState state() const { return state_.confirmed ? LocalizationState::kLocalized : LocalizationState::kLost; }
   /// The trajectory's own frame (SlamFrontEnd's odometry frame) in the map; valid when localized.
@@ -106,11 +127,15 @@ class Localizer {
   /// A keyframe while lost: loops to the map, offered to the join.
   void search(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step);
   /// A keyframe while localized: matched to the map near its tracked pose.
-  void track(std::size_t keyframe, const Pose2& trajectory_pose, LocalizationStep& step);
+  void track(std::size_t keyframe, const Pose2& trajectory_pose, const Eigen::Matrix3d& motion_covariance,
+             LocalizationStep& step);
+  /// A keyframe that did not fit the map: the covariance of its map pose is the last fitted
+  /// keyframe's carried by the odometry step (motion_covariance, from the keyframe before).
+  void carryCovariance(const Pose2& trajectory_pose, const Eigen::Matrix3d& motion_covariance);
   /// The robot's keyframe `keyframe` placed at `predicted` in the map: ICP to each of the
   /// nearest track_keyframes map keyframes within track_radius, the best fit (-1: none near)
   /// and where it puts the keyframe (moves over max_correction do not count).
-  double fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* placed) const;
+  double fitToMap(std::size_t keyframe, const Pose2& predicted, Pose2* placed, Eigen::Matrix3d* covariance = nullptr) const;
   /// Whether the recent keyframes placed by map_from_trajectory fit the map (fix_min_fitting_share);
   /// else why not.
   std::string verifyFix(const Pose2& map_from_trajectory, double* mean_fit) const;
@@ -138,9 +163,21 @@ class Localizer {
     std::size_t misfits = 0;      ///< consecutive keyframes that did not fit
     double last_fit_path = 0.0;   ///< path at the last keyframe that fitted
     double last_fit = -1.0;
+    Eigen::Matrix3d keyframe_covariance = Eigen::Matrix3d::Zero();  ///< of the newest keyframe's map pose
+    Pose2 keyframe_trajectory_pose;  ///< that keyframe's pose in the trajectory frame
   };
   TrackState state_;
   bool had_fix_ = false;  ///< a fix from now on is a relocalisation
+  /// A pose hint narrowing the search (hint()); reset as one.
+  struct Hint {
+    bool active = false;
+    Pose2 map_from_trajectory;  ///< the hinted pose over the robot's odometry pose then
+    double radius = 0.0;        ///< m
+    double path = 0.0;          ///< the path length when it was given
+  };
+  Hint hint_;
+  /// The map keyframes near the hint's position for a keyframe at `trajectory_pose`, nearest first.
+  std::vector<std::size_t> hintedCandidates(const Pose2& trajectory_pose) const;
   /// The robot's keyframes within the join's window of path, newest last (verifyFix).
   struct RecentKeyframe {
     std::size_t keyframe;

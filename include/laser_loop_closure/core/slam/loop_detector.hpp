@@ -127,6 +127,11 @@ class LoopDetector {
   /// candidates on that many threads (the same loops, in the same order).
   LoopDetectionResult detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
                                  std::size_t max_candidates, double threshold = 0.0, std::size_t threads = 1) const;
+  /// verifyScan() of each stored keyframe in `from` (scores 0) with the scan, on `threads`
+  /// threads; the loops in the order of `from`. What detectScan aligns its candidates with, and
+  /// what a localiser given a pose hint aligns the keyframes near it with.
+  std::vector<LoopClosure> verifyScans(const std::vector<std::size_t>& from, const PreparedScan& scan, std::size_t to,
+                                       std::size_t threads, const std::vector<double>& scores = {}) const;
   /// verify() of stored keyframe `from` and a scan that is not stored, named `to`.
   LoopClosure verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const;
   /// A nearby keyframe: ICP from where the map puts `to` in `from`'s frame; below

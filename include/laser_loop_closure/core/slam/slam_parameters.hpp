@@ -197,6 +197,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/max_correction", localization.max_correction);
   visit("localization/lost_after_misfits", localization.lost_after_misfits);
   visit("localization/max_unmatched_travel", localization.max_unmatched_travel);
+  visit("localization/hint_max_travel", localization.hint_max_travel);
 
   OccupancyGridOptions& map = options.map;
   visit("map/resolution", map.resolution);
