@@ -52,18 +52,18 @@ TEST(RosConfig, BadOptionsAreRefused) {
   backend.odom_frame = backend.map_frame;
   EXPECT_NE(backend.validate(), "");
   llc_ros::LoopClosureNodeOptions loop;
-  loop.max_lag = -1.0;
+  loop.input.max_lag = -1.0;
   EXPECT_NE(loop.validate(), "");
   loop = llc_ros::LoopClosureNodeOptions{};
-  loop.tf_queue_size = 0;
+  loop.input.tf_queue_size = 0;
   EXPECT_NE(loop.validate(), "");
   // Odometry after the scan's stamp may not be in tf yet when the scan passes its filter.
   for (const double offset : {0.05, -1.5, std::numeric_limits<double>::quiet_NaN()}) {
     loop = llc_ros::LoopClosureNodeOptions{};
-    loop.odometry_time_offset = offset;
+    loop.input.odometry_time_offset = offset;
     EXPECT_NE(loop.validate(), "") << offset;
   }
-  loop.odometry_time_offset = -0.2;
+  loop.input.odometry_time_offset = -0.2;
   EXPECT_EQ(loop.validate(), "");
 }
 

@@ -14,19 +14,11 @@
 namespace llc_ros {
 
 std::string LoopClosureNodeOptions::validate() const {
-  if (odom_frame.empty()) return "odom_frame must not be empty";
-  if (tf_queue_size < 1) return "tf_queue_size must be at least 1";
-  if (queue_size < 1) return "queue_size must be at least 1";
-  if (!(max_lag >= 0.0)) return "max_lag must not be negative";
+  const std::string input_error = input.validate();
+  if (!input_error.empty()) return input_error;
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
-  if (publish_odometry_tf && use_wheel_odometry)
+  if (publish_odometry_tf && input.use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
-  if (wheel_odometry_wait_scans < 0) return "wheel_odometry_wait_scans must be 0 (wait for ever) or more";
-  if (seq_reorder_scans < 0) return "seq_reorder_scans must be 0 (off) or more";
-  // Not later than the scan: tf's filter lets a scan through once its own stamp's transform is
-  // there, and a later one might not be yet.
-  if (!(odometry_time_offset >= -1.0 && odometry_time_offset <= 0.0))
-    return "odometry_time_offset must be in [-1, 0] s (odometry read at most 1 s before the scan's stamp)";
   return "";
 }
 
@@ -35,7 +27,7 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   loadNodeParameters(
       private_nh, "loop_closure", &options_,
       [](LoopClosureNodeOptions& o, ParameterReader& r) { visitLoopClosureParameters(o, r); }, &system_);
-  options_.odom_frame = tfFrame(options_.odom_frame);  // "/odom" is tf1's spelling of "odom"
+  options_.input.odom_frame = tfFrame(options_.input.odom_frame);  // "/odom" is tf1's spelling of "odom"
   if (options_.model_path.empty())
     options_.model_path = ros::package::getPath("laser_loop_closure") + "/config/classifier.yaml";
   llc::ClassifierModel model;
@@ -48,25 +40,25 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
   back_end_ = std::make_unique<BackEndClient>(nh, options_.place_check_service, options_.nearby_service, slam.place_gate);
   std::unique_ptr<llc::OdometryTimeOffsetProbe> probe;
-  if (options_.use_wheel_odometry && options_.estimate_odometry_time_offset)
+  if (options_.input.use_wheel_odometry && options_.input.estimate_odometry_time_offset)
     probe = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
-                                                           options_.odometry_time_offset);
-  wheels_ = std::make_unique<WheelOdometryReader>(tf_buffer_, options_.odom_frame, options_.odometry_time_offset, std::move(probe));
+                                                           options_.input.odometry_time_offset);
+  wheels_ = std::make_unique<WheelOdometryReader>(tf_buffer_, options_.input.odom_frame, options_.input.odometry_time_offset, std::move(probe));
   state_.model_path = options_.model_path;
   publishState();
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
 
   llc::ScanBacklogOptions backlog;
-  backlog.capacity = std::size_t(options_.queue_size);
+  backlog.capacity = std::size_t(options_.input.queue_size);
   // Without wheels every scan is a step of the odometry chain: none is skipped to catch up.
-  backlog.max_lag = options_.use_wheel_odometry ? options_.max_lag : 0.0;
+  backlog.max_lag = options_.input.use_wheel_odometry ? options_.input.max_lag : 0.0;
   backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(backlog);
   worker_ = std::thread([this] { work(); });
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
-  receiver_ = std::make_unique<ScanReceiver>(options_, tf_buffer_, nh, *wheels_, *backlog_);
+  receiver_ = std::make_unique<ScanReceiver>("loop_closure", options_.input, tf_buffer_, nh, *wheels_, *backlog_);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
   session_sub_ = nh.subscribe("session", 1000, &LoopClosureRos::onSession, this);  // every part of a long session
   train_srv_ = service_thread_.handle(private_nh).advertiseService("train_classifier", &LoopClosureRos::trainClassifier, this);
@@ -184,7 +176,7 @@ void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_ms
   last_odometry_stamp_ = scan_header.stamp;
   geometry_msgs::TransformStamped t;
   t.header.stamp = scan_header.stamp;
-  t.header.frame_id = options_.odom_frame;
+  t.header.frame_id = options_.input.odom_frame;
   t.child_frame_id = tfFrame(scan_header.frame_id);
   t.transform = toTransformMsg(pose);
   odometry_broadcaster_.sendTransform(t);
@@ -293,7 +285,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan received yet");
   else if (w.counters.keyframes == 0)
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no keyframe yet: " + problem);
-  else if (options_.max_lag > 0.0 && backlog.lag > options_.max_lag)
+  else if (options_.input.max_lag > 0.0 && backlog.lag > options_.input.max_lag)
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "falling behind the scans: " + std::to_string(backlog.lag) + " s");
   else
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");

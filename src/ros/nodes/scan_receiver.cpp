@@ -7,6 +7,20 @@
 
 namespace llc_ros {
 
+std::string ScanInputOptions::validate() const {
+  if (odom_frame.empty()) return "odom_frame must not be empty";
+  if (tf_queue_size < 1) return "tf_queue_size must be at least 1";
+  if (queue_size < 1) return "queue_size must be at least 1";
+  if (!(max_lag >= 0.0)) return "max_lag must not be negative";
+  if (wheel_odometry_wait_scans < 0) return "wheel_odometry_wait_scans must be 0 (wait for ever) or more";
+  if (seq_reorder_scans < 0) return "seq_reorder_scans must be 0 (off) or more";
+  // Not later than the scan: tf's filter lets a scan through once its own stamp's transform is
+  // there, and a later one might not be yet.
+  if (!(odometry_time_offset >= -1.0 && odometry_time_offset <= 0.0))
+    return "odometry_time_offset must be in [-1, 0] s (odometry read at most 1 s before the scan's stamp)";
+  return "";
+}
+
 namespace {
 const char* failureName(tf2_ros::FilterFailureReason reason) {
   switch (reason) {
@@ -17,9 +31,9 @@ const char* failureName(tf2_ros::FilterFailureReason reason) {
 }
 }  // namespace
 
-ScanReceiver::ScanReceiver(const LoopClosureNodeOptions& options, tf2_ros::Buffer& buffer, ros::NodeHandle nh,
+ScanReceiver::ScanReceiver(std::string node, const ScanInputOptions& options, tf2_ros::Buffer& buffer, ros::NodeHandle nh,
                            WheelOdometryReader& wheels, llc::ScanBacklog<PendingScan>& backlog)
-    : options_(options), wheels_(wheels), backlog_(backlog) {
+    : node_(std::move(node)), options_(options), wheels_(wheels), backlog_(backlog) {
   llc::SeqReorderOptions order;
   order.scans = options_.seq_reorder_scans;
   seq_order_ = llc::SeqReorder<PendingScan>(order);
@@ -60,8 +74,8 @@ void ScanReceiver::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& m
       awaiting_odometry_.clear();
       scans_given_up_at_jumps_ += given_up;
       clear_filter = odometry_filter_ != nullptr;
-      ROS_WARN("loop_closure: scan stamps jumped back %.2f s (a looped bag or a reset clock): %zu scans waiting "
-               "for odometry given up; mapping goes on in a new odometry chain",
+      ROS_WARN("%s: scan stamps jumped back %.2f s (a looped bag or a reset clock): %zu scans waiting "
+               "for odometry given up; the scans go on in a new odometry chain", node_.c_str(),
                (newest_received_stamp_ - stamp).toSec(), given_up);
       newest_received_stamp_ = stamp;
     }
@@ -73,9 +87,9 @@ void ScanReceiver::onScanReceived(const laser_loop_closure::Scan360::ConstPtr& m
       const std::size_t released = awaiting_odometry_.size();
       for (const auto& waiting : awaiting_odometry_) resolveInOrder(waiting.second.index, &waiting.second);
       awaiting_odometry_.clear();
-      ROS_WARN("loop_closure: %d scans and not one odometry transform (%s -> '%s'): mapping without wheel odometry "
+      ROS_WARN("%s: %d scans and not one odometry transform (%s -> '%s'): going on without wheel odometry "
                "from now on (%zu scans still waiting included), and broadcasting %s -> '%s' from scan matching (set "
-               "use_wheel_odometry false to say so, or wheel_odometry_wait_scans 0 to wait for the wheels)",
+               "use_wheel_odometry false to say so, or wheel_odometry_wait_scans 0 to wait for the wheels)", node_.c_str(),
                options_.wheel_odometry_wait_scans, options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str(),
                released, options_.odom_frame.c_str(), tfFrame(msg->header.frame_id).c_str());
     }
@@ -137,7 +151,7 @@ void ScanReceiver::onScanWithOdometry(const laser_loop_closure::Scan360::ConstPt
   if (!pending.has_wheel_odometry) {
     ++lookup_failed_;
     last_problem_ = "no wheel odometry: " + error;
-    ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, no wheel odometry (%s -> %s): %s", options_.odom_frame.c_str(),
+    ROS_WARN_THROTTLE(5.0, "%s: scan skipped, no wheel odometry (%s -> %s): %s", node_.c_str(), options_.odom_frame.c_str(),
                       msg->header.frame_id.c_str(), error.c_str());
     resolveInOrder(pending.index, nullptr);
     return;
@@ -158,7 +172,7 @@ void ScanReceiver::onOdometryFailure(const laser_loop_closure::Scan360::ConstPtr
     last_problem_ = why;
     resolveInOrder(index, nullptr);
   }
-  ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped, %s", why.c_str());
+  ROS_WARN_THROTTLE(5.0, "%s: scan skipped, %s", node_.c_str(), why.c_str());
 }
 
 void ScanReceiver::enqueue(PendingScan scan) {
@@ -170,10 +184,10 @@ void ScanReceiver::enqueue(PendingScan scan) {
     seq_order_.push(seq, std::move(scan), &due);
     const llc::SeqReorderCounters& now = seq_order_.counters();
     if (now.out_of_order_seen && !before.out_of_order_seen)
-      ROS_WARN("loop_closure: a scan came after one its driver numbered higher (header.seq): without wheel odometry "
-               "the scans are put back in that order from now on, up to seq_reorder_scans %d held", options_.seq_reorder_scans);
+      ROS_WARN("%s: a scan came after one its driver numbered higher (header.seq): without wheel odometry "
+               "the scans are put back in that order from now on, up to seq_reorder_scans %d held", node_.c_str(), options_.seq_reorder_scans);
     if (now.late_skipped > before.late_skipped)
-      ROS_WARN_THROTTLE(5.0, "loop_closure: a scan came after its place in header.seq order had passed: skipped (%zu so far)",
+      ROS_WARN_THROTTLE(5.0, "%s: a scan came after its place in header.seq order had passed: skipped (%zu so far)", node_.c_str(),
                         now.late_skipped);
   } else {
     due.push_back(std::move(scan));
@@ -193,7 +207,7 @@ void ScanReceiver::toBacklog(std::vector<PendingScan>& due) {
   for (PendingScan& next : due) {
     const double stamp = next.msg->header.stamp.toSec();
     if (backlog_.push(std::move(next), stamp) > 0)
-      ROS_WARN_THROTTLE(5.0, "loop_closure: %d scans wait for the front end: one where they lie closest in time was dropped (queue_size)%s",
+      ROS_WARN_THROTTLE(5.0, "%s: %d scans wait for the front end: one where they lie closest in time was dropped (queue_size)%s", node_.c_str(),
                         options_.queue_size, options_.use_wheel_odometry ? "" : "; without wheel odometry the chain's steps grow longer");
   }
 }

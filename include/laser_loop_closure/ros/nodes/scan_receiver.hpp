@@ -1,4 +1,4 @@
-// The loop_closure nodelet's receiving side: each merged scan is numbered as it arrives, waits
+// The receiving side of the nodelets that run the front end (loop_closure, localization): each merged scan is numbered as it arrives, waits
 // in a tf2_ros::MessageFilter for its odometry transform (no thread blocked, no clock waited
 // on), takes its wheel odometry (WheelOdometryReader), and goes to the worker's backlog in the
 // order the scans came; without wheels, in their driver's header.seq order (llc::SeqReorder).
@@ -26,7 +26,7 @@
 #include "laser_loop_closure/core/slam/scan_backlog.hpp"
 #include "laser_loop_closure/core/slam/seq_reorder.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
-#include "laser_loop_closure/ros/nodes/loop_closure_options.hpp"
+#include "laser_loop_closure/ros/nodes/scan_input_options.hpp"
 #include "laser_loop_closure/ros/nodes/wheel_odometry_reader.hpp"
 
 namespace llc_ros {
@@ -42,8 +42,9 @@ struct PendingScan {
 
 class ScanReceiver {
  public:
-  /// Subscribes nh's scan360. `buffer`, `wheels` and `backlog` must outlive it.
-  ScanReceiver(const LoopClosureNodeOptions& options, tf2_ros::Buffer& buffer, ros::NodeHandle nh, WheelOdometryReader& wheels,
+  /// Subscribes nh's scan360. `buffer`, `wheels` and `backlog` must outlive it. `node` names
+  /// the nodelet in its warnings.
+  ScanReceiver(std::string node, const ScanInputOptions& options, tf2_ros::Buffer& buffer, ros::NodeHandle nh, WheelOdometryReader& wheels,
                llc::ScanBacklog<PendingScan>& backlog);
   /// Unsubscribes and lets go of the tf filter before the members go.
   ~ScanReceiver();
@@ -73,7 +74,8 @@ class ScanReceiver {
   void enqueue(PendingScan scan);
   void toBacklog(std::vector<PendingScan>& due);  ///< in order; under mutex_
 
-  const LoopClosureNodeOptions options_;
+  const std::string node_;
+  const ScanInputOptions options_;
   WheelOdometryReader& wheels_;
   llc::ScanBacklog<PendingScan>& backlog_;
   CallbackTiming callback_timing_;  ///< onScanReceived and onScanWithOdometry (lock wait included)
