@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "laser_loop_closure/core/sim/carmen_writer.hpp"
+#include "laser_loop_closure/core/sim/kidnap.hpp"
 #include "laser_loop_closure/core/common/png_image.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 #include "laser_loop_closure/core/sim/sim_world.hpp"
@@ -42,6 +43,22 @@ void drawWorld(const llc::SimWorld& world, const llc::SimDrive& drive, const std
   image.savePng(path);
 }
 
+/// --start-frame/--end-frame and --kidnap-at/--kidnap-to (frame numbers of the whole drive).
+llc::SimDrive selectedFrames(llc::SimDrive drive, const Args& args) {
+  const long n = long(drive.frames.size());
+  const long first = args.integer("start-frame", 0), end = args.integer("end-frame", n);
+  if (first < 0 || end <= first || end > n)
+    throw UsageError("--start-frame and --end-frame must keep frames in 0 .. " + std::to_string(n) + " (the drive has " +
+                     std::to_string(n) + ")");
+  if (args.has("kidnap-at") != args.has("kidnap-to")) throw UsageError("give both --kidnap-at FRAME and --kidnap-to FRAME, or neither");
+  const long at = args.integer("kidnap-at", 0), to = args.integer("kidnap-to", 0);
+  if (args.has("kidnap-at") && (at <= first || at >= end || to <= first || to >= end))
+    throw UsageError("--kidnap-at and --kidnap-to must be frames after --start-frame and before --end-frame");
+  drive.frames = std::vector<llc::SimFrame>(drive.frames.begin() + first, drive.frames.begin() + end);
+  if (args.has("kidnap-at")) drive = llc::kidnapped(drive, std::size_t(at - first), std::size_t(to - first));
+  return drive;
+}
+
 }  // namespace
 
 int runSimulate(const Args& args) {
@@ -66,8 +83,9 @@ int runSimulate(const Args& args) {
 
   const auto start = std::chrono::steady_clock::now();
   const llc::SimWorld world(llc::simWorldOptions(options));
-  const llc::SimDrive drive = llc::simulateDrive(world, options);
+  llc::SimDrive drive = llc::simulateDrive(world, options);
   const double simulated = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  drive = selectedFrames(drive, args);
   llc::writeCarmenLog(drive, out_dir + "/sim.log");
   try {
     llc_ros::writeSimBag(drive, out_dir + "/sim.bag");

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "laser_loop_closure/ros/nodes/esdf_backend_ros.hpp"
+#include "laser_loop_closure/ros/nodes/localization_ros.hpp"
 #include "laser_loop_closure/ros/nodes/loop_closure_ros.hpp"
 #include "laser_loop_closure/ros/nodes/scan_merger_ros.hpp"
 
@@ -41,7 +42,8 @@ TEST(RosConfig, EveryParameterAtItsDefault) {
   checkSection<llc_ros::ScanMergerOptions>(root, "scan_merger", [](auto& o, auto& v) { llc_ros::visitScanMergerParameters(o, v); });
   checkSection<llc_ros::LoopClosureNodeOptions>(root, "loop_closure", [](auto& o, auto& v) { llc_ros::visitLoopClosureParameters(o, v); });
   checkSection<llc_ros::EsdfBackendNodeOptions>(root, "esdf_backend", [](auto& o, auto& v) { llc_ros::visitEsdfBackendParameters(o, v); });
-  EXPECT_EQ(root.size(), 3u);
+  checkSection<llc_ros::LocalizationNodeOptions>(root, "localization", [](auto& o, auto& v) { llc_ros::visitLocalizationParameters(o, v); });
+  EXPECT_EQ(root.size(), 4u);
 }
 
 TEST(RosConfig, BadOptionsAreRefused) {
@@ -65,6 +67,15 @@ TEST(RosConfig, BadOptionsAreRefused) {
   }
   loop.input.odometry_time_offset = -0.2;
   EXPECT_EQ(loop.validate(), "");
+  llc_ros::LocalizationNodeOptions localization;
+  localization.map_frame = "/odom";  // tf1's spelling of odom_frame
+  EXPECT_NE(localization.validate(), "");
+  localization = llc_ros::LocalizationNodeOptions{};
+  localization.hint_min_radius = 0.0;
+  EXPECT_NE(localization.validate(), "");
+  localization = llc_ros::LocalizationNodeOptions{};
+  localization.input.queue_size = 0;  // the shared input part is checked too
+  EXPECT_NE(localization.validate(), "");
 }
 
 }  // namespace

@@ -5,25 +5,44 @@
 
 namespace llc {
 
-ScanSequence kidnapped(const ScanSequence& input, std::size_t at, std::size_t to) {
-  const std::size_t n = input.scans.size();
+namespace {
+
+/// Frames 0 .. at-1, then frames from `to` on with their odometry and stamps going on from
+/// frame at-1 by the recorded steps from frame to-1.
+template <class Frame>
+std::vector<Frame> carriedAway(const std::vector<Frame>& in, std::size_t at, std::size_t to, Pose2 Frame::*odometry,
+                               double Frame::*stamp) {
+  const std::size_t n = in.size();
   if (at == 0 || at >= n || to == 0 || to >= n)
     throw std::invalid_argument("kidnap: scans " + std::to_string(at) + " and " + std::to_string(to) +
-                                " must both be in 1 .. " + std::to_string(n - 1));
+                                " must both be in 1 .. " + std::to_string(n == 0 ? 0 : n - 1));
+  std::vector<Frame> out(in.begin(), in.begin() + std::ptrdiff_t(at));
+  const Frame& left = in[at - 1];    // where it was taken from
+  const Frame& before = in[to - 1];  // the recorded frame before where it is put
+  for (std::size_t i = to; i < n; ++i) {
+    Frame frame = in[i];
+    frame.*odometry = compose(left.*odometry, between(before.*odometry, frame.*odometry));
+    frame.*stamp = left.*stamp + (frame.*stamp - before.*stamp);
+    out.push_back(std::move(frame));
+  }
+  return out;
+}
+
+}  // namespace
+
+ScanSequence kidnapped(const ScanSequence& input, std::size_t at, std::size_t to) {
   ScanSequence out;
   out.source = input.source;
   out.has_odometry = input.has_odometry;
   out.merged_count = input.merged_count;
-  out.scans.assign(input.scans.begin(), input.scans.begin() + std::ptrdiff_t(at));
-  const LoggedScan& left = input.scans[at - 1];      // where it was taken from
-  const LoggedScan& before = input.scans[to - 1];    // the recorded scan before where it is put
-  for (std::size_t i = to; i < n; ++i) {
-    LoggedScan scan = input.scans[i];
-    scan.odometry = compose(left.odometry, between(before.odometry, scan.odometry));
-    scan.stamp = left.stamp + (scan.stamp - before.stamp);
-    scan.scan.stamp = scan.stamp;
-    out.scans.push_back(std::move(scan));
-  }
+  out.scans = carriedAway(input.scans, at, to, &LoggedScan::odometry, &LoggedScan::stamp);
+  for (LoggedScan& scan : out.scans) scan.scan.stamp = scan.stamp;
+  return out;
+}
+
+SimDrive kidnapped(const SimDrive& drive, std::size_t at, std::size_t to) {
+  SimDrive out = drive;
+  out.frames = carriedAway(drive.frames, at, to, &SimFrame::odometry, &SimFrame::stamp);
   return out;
 }
 

@@ -130,6 +130,28 @@ TEST(Kidnapped, OdometryAndStampsRunOnWhileTheTruthJumps) {
   EXPECT_THROW(llc::kidnapped(straightSequence(10), 3, 10), std::invalid_argument);
 }
 
+TEST(Kidnapped, ASimulatedDriveIsCarriedAwayTheSameWay) {
+  llc::SimDrive drive;
+  for (std::size_t i = 0; i < 10; ++i) {
+    llc::SimFrame frame;
+    frame.truth = {double(i), 0.0, 0.0};
+    frame.odometry = {double(i), 1.0, 0.5};  // odometry in a frame of its own, turned
+    frame.stamp = 0.1 * double(i);
+    frame.front = {double(i)};
+    drive.frames.push_back(frame);
+  }
+  const llc::SimDrive moved = llc::kidnapped(drive, 6, 2);
+  ASSERT_EQ(moved.frames.size(), 6u + 8u);
+  EXPECT_DOUBLE_EQ(moved.frames[6].truth.x, 2.0);
+  EXPECT_DOUBLE_EQ(moved.frames[6].front[0], 2.0);  // its scan is where it was put
+  EXPECT_NEAR(moved.frames[6].odometry.x, 6.0, 1e-12);
+  EXPECT_NEAR(moved.frames[6].odometry.y, 1.0, 1e-12);
+  EXPECT_NEAR(moved.frames[13].odometry.x, 13.0, 1e-12);
+  EXPECT_NEAR(moved.frames[13].stamp, 1.3, 1e-12);
+  EXPECT_THROW(llc::kidnapped(drive, 6, 0), std::invalid_argument);
+  EXPECT_THROW(llc::kidnapped(llc::SimDrive{}, 1, 1), std::invalid_argument);
+}
+
 TEST(StartsNearMap, AStartCountsWhenItsFirstMetresPassTheMap) {
   std::vector<Pose2> truth;
   for (int i = 0; i <= 20; ++i) truth.push_back({double(i), 0.0, 0.0});

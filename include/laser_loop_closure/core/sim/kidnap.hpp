@@ -6,6 +6,7 @@
 #include <cstddef>
 
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/sim/sim_drive.hpp"
 
 namespace llc {
 
@@ -14,5 +15,8 @@ namespace llc {
 /// stamps go on from scan at-1 by the recorded steps from scan to-1 (no jump in either).
 /// Throws std::invalid_argument unless 0 < at < input size and 0 < to < input size.
 ScanSequence kidnapped(const ScanSequence& input, std::size_t at, std::size_t to);
+/// The same for a simulated drive (`llc simulate --kidnap-at/--kidnap-to`): frame truths are
+/// theirs, odometry and stamps go on without a jump.
+SimDrive kidnapped(const SimDrive& drive, std::size_t at, std::size_t to);
 
 }  // namespace llc
