@@ -9,7 +9,7 @@
 namespace llc {
 
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
-                                    double wrong_translation, double wrong_rotation) {
+                                    double wrong_translation, double wrong_rotation, double judge_within) {
   LocalizationScore score;
   auto wrong = [&](const Pose2& e) {
     return !(std::hypot(e.x, e.y) <= wrong_translation && std::abs(normalizeAngle(e.theta)) <= wrong_rotation);
@@ -23,6 +23,10 @@ LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, con
     for (std::size_t m = 0; m < map.truth.size() && m < map.poses.size(); ++m) {
       const double d = std::hypot(map.truth[m].x - s.truth.x, map.truth[m].y - s.truth.y);
       if (d < best) best = d, nearest = m;
+    }
+    if (std::isfinite(best) && best > judge_within) {
+      ++score.beyond_map;
+      continue;
     }
     const Pose2 expected = std::isfinite(best) ? compose(map.poses[nearest], between(map.truth[nearest], s.truth))
                                                : compose(inverse(map.truth_from_map), s.truth);

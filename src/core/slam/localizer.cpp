@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/slam/localizer.hpp"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -315,6 +317,21 @@ std::string Localizer::checkFixContext(const JoinHypothesis& loop) const {
   return checked.accepted ? "" : "the loops agree, but " + checked.reject_reason;
 }
 
+void fuse(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, Pose2* measured,
+          Eigen::Matrix3d* measured_covariance) {
+  const Eigen::Matrix3d sum = predicted_covariance + *measured_covariance;
+  if (!sum.allFinite() || !predicted_covariance.allFinite() || predicted_covariance.trace() <= 0.0 ||
+      std::abs(sum.determinant()) < 1e-30)
+    return;  // nothing to weigh: the measurement as it is
+  const Eigen::Matrix3d gain = predicted_covariance * sum.inverse();
+  const Eigen::Vector3d innovation(measured->x - predicted.x, measured->y - predicted.y,
+                                   normalizeAngle(measured->theta - predicted.theta));
+  const Eigen::Vector3d step = gain * innovation;
+  *measured = {predicted.x + step(0), predicted.y + step(1), normalizeAngle(predicted.theta + step(2))};
+  const Eigen::Matrix3d fused = (Eigen::Matrix3d::Identity() - gain) * predicted_covariance;
+  *measured_covariance = 0.5 * (fused + fused.transpose());
+}
+
 void Localizer::carryCovariance(const Pose2& trajectory_pose, const Eigen::Matrix3d& motion_covariance) {
   // Not matched to the map: the newest keyframe's pose is the last matched one's carried by odometry.
   const Pose2 motion = between(state_.keyframe_trajectory_pose, trajectory_pose);
@@ -346,8 +363,17 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const 
   }
   if (best_fit >= options_.min_track_fit) {
     ++counters_.tracked_keyframes;
-    state_.map_from_trajectory = compose(best_pose, inverse(trajectory_pose));
-    state_.keyframe_covariance = best_covariance;
+    // The map match and the odometry's prediction weighed by their covariances: along a
+    // corridor, where ICP cannot tell how far along it is, the odometry keeps the pose.
+    const Pose2 from = compose(state_.map_from_trajectory, state_.keyframe_trajectory_pose);
+    const Eigen::Matrix3d predicted_covariance =
+        composedCovariance(from, state_.keyframe_covariance, between(state_.keyframe_trajectory_pose, trajectory_pose),
+                           motion_covariance.allFinite() ? motion_covariance : Eigen::Matrix3d::Zero());
+    Pose2 corrected = best_pose;
+    Eigen::Matrix3d covariance = best_covariance;
+    fuse(predicted, predicted_covariance, &corrected, &covariance);
+    state_.map_from_trajectory = compose(corrected, inverse(trajectory_pose));
+    state_.keyframe_covariance = covariance;
     state_.keyframe_trajectory_pose = trajectory_pose;
     state_.misfits = 0;
     state_.last_fit_path = path_.length;

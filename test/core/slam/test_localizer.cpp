@@ -199,6 +199,36 @@ TEST(Localizer, LocalizedPosesCarryAUsableCovariance) {
   EXPECT_GT(double(within_three_sigma), 0.9 * double(localized)) << "a covariance far too sure of itself";
 }
 
+TEST(LocalizerFuse, WeighsTheMapMatchAndThePredictionByTheirCovariances) {
+  // Equal covariances: half way, and half the covariance.
+  llc::Pose2 measured{2.0, 0.0, 0.2};
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  llc::fuse(llc::Pose2{0.0, 0.0, 0.0}, Eigen::Matrix3d::Identity(), &measured, &covariance);
+  EXPECT_NEAR(measured.x, 1.0, 1e-12);
+  EXPECT_NEAR(measured.theta, 0.1, 1e-12);
+  EXPECT_TRUE(covariance.isApprox(0.5 * Eigen::Matrix3d::Identity(), 1e-12));
+  // A corridor along x: ICP cannot tell x (variance 100), the odometry can (0.01): the match
+  // moves y, not x.
+  measured = {1.0, 0.2, 0.0};
+  covariance = Eigen::Vector3d(100.0, 1e-4, 1e-4).asDiagonal();
+  llc::fuse(llc::Pose2{0.0, 0.0, 0.0}, 0.01 * Eigen::Matrix3d::Identity(), &measured, &covariance);
+  EXPECT_NEAR(measured.x, 0.01 / 100.01, 1e-9);
+  EXPECT_NEAR(measured.y, 0.2 * 0.01 / 0.0101, 1e-9);
+  // Angles wrap: 179 deg and -179 deg meet at 180, not at 0.
+  measured = {0.0, 0.0, -179.0 * M_PI / 180.0};
+  covariance = Eigen::Matrix3d::Identity();
+  llc::fuse(llc::Pose2{0.0, 0.0, 179.0 * M_PI / 180.0}, Eigen::Matrix3d::Identity(), &measured, &covariance);
+  EXPECT_NEAR(std::abs(measured.theta), M_PI, 1e-9);
+  // No covariance to weigh (none, or not finite): the measurement as it is.
+  measured = {3.0, 4.0, 0.5};
+  covariance = Eigen::Matrix3d::Identity();
+  llc::fuse(llc::Pose2{}, Eigen::Matrix3d::Zero(), &measured, &covariance);
+  EXPECT_EQ(measured.x, 3.0);
+  llc::fuse(llc::Pose2{}, Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN()), &measured, &covariance);
+  EXPECT_EQ(measured.y, 4.0);
+  EXPECT_TRUE(covariance.isApprox(Eigen::Matrix3d::Identity()));
+}
+
 TEST(LoopDetector, AScanFromOutsideIsSearchedAlikeOnOneThreadOrTwo) {
   const llc::SlamOptions options;
   llc::LoopDetector map(llc_test::defaultModel(), options.aligner, options.loops);

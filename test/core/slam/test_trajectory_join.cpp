@@ -182,6 +182,15 @@ TEST(ScoreLocalization, AgainstWhereTheMapHasThePlaceAndAgainstTheTruth) {
   // Against the truth: scan 1 is 0.5 m off (the map's bending), scan 3 2.5 m.
   EXPECT_EQ(s.wrong_fixes_global, 1u);
   EXPECT_NEAR(s.rms_global_m, std::sqrt((0.25 + 6.25) / 3.0), 1e-12);
+  EXPECT_EQ(s.beyond_map, 0u);
+  // Judged within 1.5 m of a map keyframe only: scans 1 and 3 (1 m from keyframe 1) still are,
+  // one 30 m from both is counted apart.
+  scans.push_back({true, false, {40.0, 9.0, 0.0}, {40.0, 0.0, 0.0}});
+  const llc::LocalizationScore near = llc::scoreLocalization(scans, map, 1.0, 0.1, 1.5);
+  EXPECT_EQ(near.localized, 3u);
+  EXPECT_EQ(near.beyond_map, 1u);
+  EXPECT_EQ(near.wrong_poses, 1u);
+  EXPECT_EQ(llc::scoreLocalization(scans, map, 1.0, 0.1).wrong_poses, 2u);  // judged when not bounded
 }
 
 }  // namespace

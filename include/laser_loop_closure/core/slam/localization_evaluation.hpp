@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include "laser_loop_closure/core/geometry/se2.hpp"
@@ -25,7 +26,10 @@ struct MapWithTruth {
 };
 
 struct LocalizationScore {
-  std::size_t localized = 0;    ///< scans with a pose
+  std::size_t localized = 0;    ///< scans with a pose, judged
+  /// Localized scans not judged: their truth lies farther than judge_within from every map
+  /// keyframe's (off the map, carried by odometry: the map has no place there to judge by).
+  std::size_t beyond_map = 0;
   std::size_t fixes = 0;        ///< fixed scans
   /// Against the map: each localized pose against where the map puts its truth, i.e. its
   /// truth relative to the map keyframe truly nearest, carried by that keyframe's map pose. A
@@ -40,9 +44,11 @@ struct LocalizationScore {
   double rms_global_m = 0.0;
 };
 
-/// Scores `scans` against the map (and against the truth: the *_global figures).
+/// Scores `scans` against the map (and against the truth: the *_global figures). Scans whose
+/// truth is farther than `judge_within` m from every map keyframe's are counted, not judged.
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
-                                    double wrong_translation = 1.0, double wrong_rotation = 0.1);
+                                    double wrong_translation = 1.0, double wrong_rotation = 0.1,
+                                    double judge_within = std::numeric_limits<double>::infinity());
 
 /// Scans from which a localiser can be asked to find itself: those whose true path, over its
 /// first `travel` m, passes within `radius` of a mapped pose (`mapped`, truth frame). A start

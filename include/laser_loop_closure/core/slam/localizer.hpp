@@ -90,6 +90,12 @@ struct LocalizerCounters {
   double seconds_front_end = 0.0, seconds_search = 0.0, seconds_track = 0.0;
 };
 
+/// A pose predicted (with its covariance) and one measured (with its): the measured one
+/// becomes their covariance-weighted mean (a Kalman update), and its covariance the mean's.
+/// Unchanged when the prediction has no covariance to weigh.
+void fuse(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, Pose2* measured,
+          Eigen::Matrix3d* measured_covariance);
+
 class Localizer {
  public:
   /// Throws std::invalid_argument on bad options, a model the extractor cannot serve, or a map
