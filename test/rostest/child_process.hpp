@@ -1,6 +1,7 @@
 // A command started from a rostest (roslaunch, rosbag play) on the test's own master, its
-// output to a file, stopped as a user stops it: SIGINT, then SIGKILL when it does not end
-// within a bound of wall time.
+// output to a file, in a process group of its own, stopped as a user stops it in a terminal:
+// SIGINT to the group, then SIGKILL to the group when it does not end within a bound of wall
+// time (so no node roslaunch started outlives the test).
 #pragma once
 
 #include <fcntl.h>
@@ -31,7 +32,12 @@ class ChildProcess {
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, 1, log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    started_ = posix_spawnp(&pid_, argv[0], &actions, nullptr, argv.data(), environ) == 0;
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attributes, 0);  // a group of its own, led by the child
+    started_ = posix_spawnp(&pid_, argv[0], &actions, &attributes, argv.data(), environ) == 0;
+    posix_spawnattr_destroy(&attributes);
     posix_spawn_file_actions_destroy(&actions);
   }
   ~ChildProcess() { stop(30.0); }
@@ -45,16 +51,19 @@ class ChildProcess {
     reaped_ = waitpid(pid_, nullptr, WNOHANG) == pid_;
     return reaped_;
   }
-  /// SIGINT, then SIGKILL after `seconds` of wall time.
+  /// SIGINT to its group, then SIGKILL to what is left of it after `seconds` of wall time.
   void stop(double seconds) {
-    if (ended()) return;
-    kill(pid_, SIGINT);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!ended() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (ended()) return;
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-    reaped_ = true;
+    if (!started_) return;
+    if (!ended()) {
+      kill(-pid_, SIGINT);
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+      while (!ended() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    kill(-pid_, SIGKILL);  // any node left behind (none when roslaunch shut down cleanly)
+    if (!ended()) {
+      waitpid(pid_, nullptr, 0);
+      reaped_ = true;
+    }
   }
   /// The last `lines` lines of its output (for a failure message).
   std::string tail(std::size_t lines = 30) const {

@@ -361,6 +361,12 @@ check "bag: a topic of another type" 1 "does not hold sensor_msgs/LaserScan" -- 
 head -c 100000 "$TMP/sim/sim.bag" > "$TMP/cut.bag"
 check "bag: truncated" 1 "cut.bag: (not a readable bag|the bag is damaged)" -- "$LLC" features --log "$TMP/cut.bag" --out "$TMP/f.csv"
 check "simulate bad parking time" 2 "parking-mean-s must be" -- "$LLC" simulate --out "$TMP/sim" --parking-mean-s 0
+check "simulate kidnap half given" 2 "give both --kidnap-at" -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --kidnap-at 50
+check "simulate frames out of the drive" 2 "must keep frames in" -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --start-frame 10 --end-frame 999999
+check "simulate kidnap outside the frames" 2 "must be frames after --start-frame" -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --start-frame 100 --end-frame 300 --kidnap-at 50 --kidnap-to 200
+# A kidnapped drive: 150 frames, then the drive from frame 50 on (odometry running on), as the
+# localisation rostest's bag is made.
+check "simulate kidnapped" 0 "frames=350 " -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --start-frame 0 --end-frame 250 --kidnap-at 150 --kidnap-to 50
 
 # Help for every subcommand: its usage with defaults, exit 0.
 for sub in pairs features train evaluate score simulate align graph slam train-crf relations; do
