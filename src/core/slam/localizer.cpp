@@ -141,6 +141,8 @@ LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometr
       ++counters_.keyframes;
       recent_.push_back({front.keyframe_index, front.odometry_pose, path_.length});
       while (!recent_.empty() && recent_.front().path < path_.length - options_.join.window) recent_.pop_front();
+      // Older keyframes are never aligned again: memory stays bounded over a long run.
+      counters_.scans_released += front_.releaseScansBefore(recent_.front().keyframe);
       if (state_.tracking) track(front.keyframe_index, front.odometry_pose, front.odometry.covariance, step);
       else search(front.keyframe_index, front.odometry_pose, step);
     }

@@ -100,6 +100,16 @@ std::size_t LoopDetector::calibrate(std::size_t index, const std::vector<std::si
   return scored;
 }
 
+const PreparedScan& LoopDetector::prepared(std::size_t index) const {
+  const std::shared_ptr<const PreparedScan>& scan = prepared_.at(index);
+  if (!scan) throw std::out_of_range("keyframe " + std::to_string(index) + ": its scan was let go (releasePrepared)");
+  return *scan;
+}
+
+void LoopDetector::releasePrepared(std::size_t index) {
+  if (index < prepared_.size()) prepared_[index].reset();
+}
+
 std::size_t LoopDetector::add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared) {
   if (!prepared) prepared = aligner_.prepare(scan);
   return addWithFeatures(extractor_.extract(scan), std::move(prepared));
@@ -117,11 +127,11 @@ std::size_t LoopDetector::addWithFeatures(const std::vector<double>& features,
 }
 
 LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score) const {
-  return verifyScan(from, *prepared_.at(to), to, score);
+  return verifyScan(from, prepared(to), to, score);
 }
 
 LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const {
-  const ScanAlignmentResult alignment = aligner_.align(*prepared_.at(from), scan);
+  const ScanAlignmentResult alignment = aligner_.align(prepared(from), scan);
   LoopClosure loop;
   loop.from = from;
   loop.to = to;
@@ -179,8 +189,8 @@ std::vector<LoopClosure> LoopDetector::verifyScans(const std::vector<std::size_t
 
 LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const {
   const auto start = std::chrono::steady_clock::now();
-  const PreparedScan& a = *prepared_.at(from);
-  const PreparedScan& b = *prepared_.at(to);
+  const PreparedScan& a = prepared(from);
+  const PreparedScan& b = prepared(to);
   const IcpResult icp = aligner_.refine(a, b, predicted);
   const double fit = icp.converged ? aligner_.fit(a, b, icp.pose) : 0.0;
   if (fit >= options_.nearby_min_predicted_fit) {  // searched as any candidate
@@ -206,7 +216,7 @@ ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t bef
   auto scans = [&](std::size_t keyframe, std::size_t older_than) {
     std::vector<ContextScan> found;
     for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing)) {
-      if (k.keyframe >= prepared_.size() || !isFinite(k.pose)) continue;
+      if (!hasPrepared(k.keyframe) || !isFinite(k.pose)) continue;
       const PreparedScan& scan = *prepared_[k.keyframe];
       found.push_back({&scan.points, k.pose, &scan.icp_target.normals});
     }

@@ -43,6 +43,7 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
+  scans_released_before_ = 0;
   // Every restored keyframe its own chain, unless the run goes on (continue_odometry with the
   // measured steps): then its chains are those the steps made, as the run that saved them had
   // them, so the local map, the context and the calibration go on across the restore.
@@ -347,6 +348,15 @@ void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& whe
   odometry.covariance = odometry_.stepCovariance(aligned.pose, false);
   odometry.disputed = false;
   odometry.realigned = true;
+}
+
+std::size_t SlamFrontEnd::releaseScansBefore(std::size_t keyframe) {
+  const std::size_t kept = std::max<std::size_t>(1, odometry_.options().local_map_keyframes);
+  const std::size_t size = detector_.size();
+  const std::size_t until = std::min(keyframe, size > kept ? size - kept : 0);
+  std::size_t released = 0;
+  for (; scans_released_before_ < until; ++scans_released_before_, ++released) detector_.releasePrepared(scans_released_before_);
+  return released;
 }
 
 const MatchTarget& SlamFrontEnd::keyframeStepTarget() {

@@ -120,6 +120,33 @@ TEST(Localizer, NoticesBeingCarriedAwayAndFindsItselfAgain) {
   EXPECT_EQ(localizer.counters().relocalizations, 1u);
 }
 
+TEST(Localizer, LetsGoOfItsOwnOldScansAndTracksTheSame) {
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
+  Fed fed;
+  feed(localizer, 300, 650, llc::Pose2{}, &fed);
+  const llc::LocalizerCounters& c = localizer.counters();
+  // Only the join's window (30 m of path, about 20 keyframes here) keeps its scans.
+  EXPECT_GT(c.scans_released, c.keyframes - 40) << c.keyframes << " keyframes";
+  EXPECT_LT(c.scans_released, c.keyframes);
+  EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
+  for (std::size_t k = 0; k < fed.steps.size(); ++k)
+    if (fed.steps[k].has_pose) EXPECT_LT(offBy(fed.steps[k].pose, city().drive.frames[fed.frames[k]].truth), 0.3) << "step " << k;
+}
+
+TEST(LoopDetector, AKeyframeWhoseScanWasLetGoIsRefusedClearly) {
+  const llc::SimDrive& drive = city().drive;
+  llc::LoopDetector detector(llc_test::defaultModel(), llc::ScanAlignerOptions{});
+  for (std::size_t i = 0; i < 3; ++i) detector.add(llc_test::frameScan(drive, drive.frames[10 * i]));
+  detector.releasePrepared(1);
+  detector.releasePrepared(99);  // unknown: ignored
+  EXPECT_FALSE(detector.hasPrepared(1));
+  EXPECT_TRUE(detector.hasPrepared(2));
+  EXPECT_THROW(detector.prepared(1), std::out_of_range);
+  EXPECT_THROW(detector.verify(0, 1, 1.0), std::out_of_range);
+  EXPECT_EQ(detector.features(1).size(), detector.features(0).size()) << "its features stay";
+  EXPECT_NO_THROW(detector.verify(0, 2, 1.0));
+}
+
 TEST(Localizer, ARequestedSearchForgetsTheFix) {
   llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
   Fed fed;

@@ -87,6 +87,9 @@ struct LocalizerCounters {
   std::size_t tracked_keyframes = 0, misfit_keyframes = 0, off_map_keyframes = 0;
   std::size_t fixes_refused = 0;       ///< fixes the loops agreed on that the recent keyframes did not fit (verifyFix) ...
   std::size_t fixes_dropped = 0;       ///< ... or that a keyframe on probation did not fit (confirm_keyframes)
+  /// The robot's keyframes whose scans were let go, out of the join's window (only their
+  /// features and poses stay: a long run's memory stays bounded).
+  std::size_t scans_released = 0;
   double seconds_front_end = 0.0, seconds_search = 0.0, seconds_track = 0.0;
 };
 

@@ -141,7 +141,14 @@ class LoopDetector {
   std::vector<double> features(std::size_t index) const { return store_.features(index); }
   /// The feature vector the detector would store for this scan.
   std::vector<double> describe(const Scan& scan) { return extractor_.extract(scan); }
-  const PreparedScan& prepared(std::size_t index) const { return *prepared_.at(index); }
+  /// Throws std::out_of_range for an unknown keyframe or one whose scan was let go.
+  const PreparedScan& prepared(std::size_t index) const;
+  /// Lets go of keyframe `index`'s prepared scan (points, normals, search structures: most of
+  /// a keyframe's memory); its features stay, so it is still classified and counted, but it
+  /// can no longer be aligned. For stores whose old keyframes are never aligned again (a
+  /// localising robot's own). Unknown indices are ignored.
+  void releasePrepared(std::size_t index);
+  bool hasPrepared(std::size_t index) const { return index < prepared_.size() && prepared_[index] != nullptr; }
   /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
   /// The calibration starts again (its scores were the old model's).
   void setModel(const ClassifierModel& model);

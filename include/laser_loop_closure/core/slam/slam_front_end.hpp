@@ -111,6 +111,13 @@ class SlamFrontEnd {
   /// set, min_keyframe_gap and scans). Throws std::invalid_argument as selfTrainingSet does.
   SelfTrainingSet selfTrainingSet(const std::vector<Pose2>& optimised_poses) const;
 
+  /// Lets go of the prepared scans of keyframes before `keyframe` (LoopDetector::releasePrepared),
+  /// but never of the newest local_map_keyframes, which odometry matches against. For a front
+  /// end whose loops are not searched among its own keyframes (the localiser's): detectLoops,
+  /// the context check and self-training would find those scans gone. Memory per keyframe then
+  /// stays its features and pose. Returns how many were let go now.
+  std::size_t releaseScansBefore(std::size_t keyframe);
+
   std::size_t keyframeCount() const { return detector_.size(); }
   const FrontEndCounters& counters() const { return counters_; }
   LoopDetector& detector() { return detector_; }
@@ -121,6 +128,7 @@ class SlamFrontEnd {
   // detector_.options(), detector_.aligner().options()).
   ScanOdometry odometry_;
   LoopDetector detector_;
+  std::size_t scans_released_before_ = 0;  ///< releaseScansBefore's progress in detector_ (0 again on restore)
   MotionClock motion_clock_;  ///< the scans' time as the motion model reads it
   WheelNoiseScale wheel_noise_;
   FrontEndCounters counters_;
