@@ -79,17 +79,8 @@ LocalizationRos::LocalizationRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   status_pub_.publish(state_.status);
   last_published_state_ = state_.status.state;
 
-  std::unique_ptr<llc::OdometryTimeOffsetProbe> probe;
-  const llc::SlamOptions& slam = system_.slam;
-  if (options_.input.use_wheel_odometry && options_.input.estimate_odometry_time_offset)
-    probe = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
-                                                           options_.input.odometry_time_offset);
-  wheels_ = std::make_unique<WheelOdometryReader>(tf_buffer_, options_.input.odom_frame, options_.input.odometry_time_offset,
-                                                  std::move(probe));
-  llc::ScanBacklogOptions backlog;
-  backlog.capacity = std::size_t(options_.input.queue_size);
-  backlog.max_lag = options_.input.use_wheel_odometry ? options_.input.max_lag : 0.0;
-  backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(backlog);
+  wheels_ = makeWheelOdometryReader(tf_buffer_, options_.input, system_.slam);
+  backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(scanBacklogOptions(options_.input));
   publishState();
   worker_ = std::thread([this] { work(); });
   receiver_ = std::make_unique<ScanReceiver>("localization", options_.input, tf_buffer_, nh, *wheels_, *backlog_);
@@ -140,17 +131,12 @@ void LocalizationRos::processScan(const PendingScan& pending) {
   const laser_loop_closure::Scan360& msg = *pending.msg;
   std::string error;
   llc::Scan scan;
-  if (!fromScan360(msg, &scan, &error)) {
+  llc::Pose2 wheel_odometry;
+  if (!takeScan("localization", pending, *wheels_, &scan, &wheel_odometry, &error)) {
     ++state_.malformed;
     state_.last_problem = error;
     ROS_WARN_THROTTLE(5.0, "localization: scan skipped: %s", error.c_str());
     return;
-  }
-  llc::Pose2 wheel_odometry = pending.wheel_odometry;
-  if (pending.has_wheel_odometry && wheels_->estimate(msg, scan, &wheel_odometry)) {
-    const llc::OdometryTimeOffsetProbeResult& r = *wheels_->estimateResult();
-    ROS_INFO("localization: wheel odometry read %.3f s from each scan's stamp from now on (%s)", r.offset,
-             r.estimate.reason.c_str());
   }
   const llc::LocalizationStep step = localizer_->addScan(scan, pending.has_wheel_odometry ? &wheel_odometry : nullptr);
   if (!step.skip_reason.empty()) {

@@ -39,21 +39,13 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   const llc::SlamOptions& slam = system_.slam;
   front_ = std::make_unique<llc::SlamFrontEnd>(model, slam.odometry, slam.aligner, slam.loops);
   back_end_ = std::make_unique<BackEndClient>(nh, options_.place_check_service, options_.nearby_service, slam.place_gate);
-  std::unique_ptr<llc::OdometryTimeOffsetProbe> probe;
-  if (options_.input.use_wheel_odometry && options_.input.estimate_odometry_time_offset)
-    probe = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
-                                                           options_.input.odometry_time_offset);
-  wheels_ = std::make_unique<WheelOdometryReader>(tf_buffer_, options_.input.odom_frame, options_.input.odometry_time_offset, std::move(probe));
+  wheels_ = makeWheelOdometryReader(tf_buffer_, options_.input, slam);
   state_.model_path = options_.model_path;
   publishState();
   ROS_INFO("loop_closure: model %s (%zu stumps, K %.3f)", options_.model_path.c_str(), model.classifier.stumps().size(),
            model.classifier.thresholdK());
 
-  llc::ScanBacklogOptions backlog;
-  backlog.capacity = std::size_t(options_.input.queue_size);
-  // Without wheels every scan is a step of the odometry chain: none is skipped to catch up.
-  backlog.max_lag = options_.input.use_wheel_odometry ? options_.input.max_lag : 0.0;
-  backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(backlog);
+  backlog_ = std::make_unique<llc::ScanBacklog<PendingScan>>(scanBacklogOptions(options_.input));
   worker_ = std::thread([this] { work(); });
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
@@ -113,20 +105,12 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   const laser_loop_closure::Scan360& msg = *pending.msg;
   std::string error;
   llc::Scan scan;
-  if (!fromScan360(msg, &scan, &error)) {
+  llc::Pose2 wheel_odometry;
+  if (!takeScan("loop_closure", pending, *wheels_, &scan, &wheel_odometry, &error)) {
     ++state_.malformed;
     state_.last_problem = error;
     ROS_WARN_THROTTLE(5.0, "loop_closure: scan skipped: %s", error.c_str());
     return;
-  }
-  llc::Pose2 wheel_odometry = pending.wheel_odometry;
-  if (pending.has_wheel_odometry && wheels_->estimate(msg, scan, &wheel_odometry)) {
-    const llc::OdometryTimeOffsetProbeResult& r = *wheels_->estimateResult();
-    if (r.estimate.ok)
-      ROS_INFO("loop_closure: wheel odometry read %.3f s from each scan's stamp from now on (estimate_odometry_time_offset: %s)",
-               r.offset, r.estimate.reason.c_str());
-    else
-      ROS_WARN("loop_closure: the odometry time offset stays %.3f s: %s", r.offset, r.estimate.reason.c_str());
   }
   llc::Keyframe keyframe = llc::makeKeyframe(std::move(scan), pending.index, pending.has_wheel_odometry ? &wheel_odometry : nullptr);
   const llc::FrontEndStep step = front_->addScan(keyframe.scan, keyframe.has_wheel_odometry ? &keyframe.wheel_odometry : nullptr);

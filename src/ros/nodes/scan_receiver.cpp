@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "laser_loop_closure/ros/io/msg_conversion.hpp"
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
 namespace llc_ros {
@@ -19,6 +20,36 @@ std::string ScanInputOptions::validate() const {
   if (!(odometry_time_offset >= -1.0 && odometry_time_offset <= 0.0))
     return "odometry_time_offset must be in [-1, 0] s (odometry read at most 1 s before the scan's stamp)";
   return "";
+}
+
+std::unique_ptr<WheelOdometryReader> makeWheelOdometryReader(const tf2_ros::Buffer& buffer, const ScanInputOptions& options,
+                                                             const llc::SlamOptions& slam) {
+  std::unique_ptr<llc::OdometryTimeOffsetProbe> probe;
+  if (options.use_wheel_odometry && options.estimate_odometry_time_offset)
+    probe = std::make_unique<llc::OdometryTimeOffsetProbe>(llc::ScanOdometry(slam.odometry), llc::ScanAligner(slam.aligner),
+                                                           options.odometry_time_offset);
+  return std::make_unique<WheelOdometryReader>(buffer, options.odom_frame, options.odometry_time_offset, std::move(probe));
+}
+
+llc::ScanBacklogOptions scanBacklogOptions(const ScanInputOptions& options) {
+  llc::ScanBacklogOptions backlog;
+  backlog.capacity = std::size_t(options.queue_size);
+  backlog.max_lag = options.use_wheel_odometry ? options.max_lag : 0.0;
+  return backlog;
+}
+
+bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader& wheels, llc::Scan* scan,
+              llc::Pose2* wheel_odometry, std::string* error) {
+  if (!fromScan360(*pending.msg, scan, error)) return false;
+  *wheel_odometry = pending.wheel_odometry;
+  if (!pending.has_wheel_odometry || !wheels.estimate(*pending.msg, *scan, wheel_odometry)) return true;
+  const llc::OdometryTimeOffsetProbeResult& r = *wheels.estimateResult();
+  if (r.estimate.ok)
+    ROS_INFO("%s: wheel odometry read %.3f s from each scan's stamp from now on (estimate_odometry_time_offset: %s)", node,
+             r.offset, r.estimate.reason.c_str());
+  else
+    ROS_WARN("%s: the odometry time offset stays %.3f s: %s", node, r.offset, r.estimate.reason.c_str());
+  return true;
 }
 
 namespace {

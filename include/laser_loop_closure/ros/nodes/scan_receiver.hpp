@@ -25,6 +25,7 @@
 #include "laser_loop_closure/core/geometry/se2.hpp"
 #include "laser_loop_closure/core/slam/scan_backlog.hpp"
 #include "laser_loop_closure/core/slam/seq_reorder.hpp"
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/ros/nodes/scan_input_options.hpp"
 #include "laser_loop_closure/ros/nodes/wheel_odometry_reader.hpp"
@@ -39,6 +40,20 @@ struct PendingScan {
   llc::Pose2 wheel_odometry;
   std::chrono::steady_clock::time_point arrival;  ///< when the receiver took it
 };
+
+/// The wheel odometry of a front-end nodelet's input: read from tf, with the time offset
+/// estimated (llc::OdometryTimeOffsetProbe on the pipeline's odometry and aligner) when asked.
+std::unique_ptr<WheelOdometryReader> makeWheelOdometryReader(const tf2_ros::Buffer& buffer, const ScanInputOptions& options,
+                                                             const llc::SlamOptions& slam);
+/// The backlog of a front-end nodelet's input: queue_size scans; with wheels, the oldest skipped
+/// beyond max_lag (without, every scan is a step of the odometry chain: none is skipped).
+llc::ScanBacklogOptions scanBacklogOptions(const ScanInputOptions& options);
+
+/// A scan off the backlog as the core takes it: converted (false with why for a malformed
+/// one), its wheel odometry read again at the offset the estimate chose (logged once, naming
+/// `node`, when it chooses).
+bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader& wheels, llc::Scan* scan,
+              llc::Pose2* wheel_odometry, std::string* error);
 
 class ScanReceiver {
  public:
