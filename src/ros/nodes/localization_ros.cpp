@@ -27,7 +27,7 @@ std::string LocalizationNodeOptions::validate() const {
 
 namespace {
 
-/// x, y, yaw of a 6x6 ROS covariance (x, y, z, roll, pitch, yaw) from a 3x3 one, and back.
+/// Where x, y and yaw sit in a ROS 6x6 covariance (x, y, z, roll, pitch, yaw), row-major.
 constexpr int kPlanar[3] = {0, 1, 5};
 
 }  // namespace
