@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <stdexcept>
 
 #include "laser_loop_closure/core/common/file_util.hpp"
@@ -75,10 +76,20 @@ Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, cons
   // first keyframe, as SlamFrontEnd::restore does), else recomputed.
   const bool stored_features_fit = map.features.size() == map.keyframes.size() && !map.features.empty() &&
                                    map_.describe(map.keyframes.front().scan) == map.features.front();
+  // Preparing every map scan for alignment is most of a big map's load: on search_threads
+  // threads (ScanAligner::prepare is const), keyframe k on thread k % threads.
+  std::vector<std::shared_ptr<const PreparedScan>> prepared(map.keyframes.size());
+  auto prepareEvery = [&](std::size_t first, std::size_t step) {
+    for (std::size_t k = first; k < prepared.size(); k += step) prepared[k] = map_.aligner().prepare(map.keyframes[k].scan);
+  };
+  const std::size_t workers = std::max<std::size_t>(1, std::min(options_.search_threads, prepared.size()));
+  std::vector<std::future<void>> others;
+  for (std::size_t t = 1; t < workers; ++t) others.push_back(std::async(std::launch::async, prepareEvery, t, workers));
+  prepareEvery(0, workers);
+  for (std::future<void>& other : others) other.get();
   for (std::size_t k = 0; k < map.keyframes.size(); ++k) {
-    const Scan& scan = map.keyframes[k].scan;
-    if (stored_features_fit) map_.addWithFeatures(map.features[k], map_.aligner().prepare(scan));
-    else map_.add(scan);
+    if (stored_features_fit) map_.addWithFeatures(map.features[k], std::move(prepared[k]));
+    else map_.add(map.keyframes[k].scan, std::move(prepared[k]));
   }
 }
 
