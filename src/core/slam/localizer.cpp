@@ -103,7 +103,6 @@ bool Localizer::hint(const Pose2& pose, double radius) {
   if (!isFinite(pose) || !(radius > 0.0) || !std::isfinite(radius)) return false;
   LocalizationStep ignored;
   loseTrack("a pose hint was given", ignored);
-  had_fix_ = had_fix_ || counters_.fixes > 0;
   hint_.active = true;
   hint_.map_from_trajectory = compose(pose, inverse(path_.has_last ? path_.last : Pose2{}));
   hint_.radius = radius;

@@ -303,10 +303,7 @@ void LocalizationRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat
   status.add("own keyframes whose scans were let go (memory)", c.scans_released);
   status.add("newest search (s)", w.last_search_seconds);
   status.add("path driven (m)", w.status.path_length);
-  status.add("scans waiting", backlog.waiting);
-  status.add("lag behind the newest scan (s)", backlog.lag);
-  status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
-  status.add("scans processed", backlog.popped);
+  addBacklogTo(backlog, status);
   scan_latency_.addTo(status, "scan arrival to processed");
   status.add("malformed scans", w.malformed);
   status.add("tf stamps that jumped back (tf history cleared)", tf_listener_.clears());

@@ -283,12 +283,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
                                          std::to_string(llc::OdometryTimeOffsetProbeOptions{}.pairs) +
                                          " scan pairs so far (they come in turns and changes of speed)");
   }
-  status.add("scans waiting for the front end", backlog.waiting);
-  status.add("lag behind the newest scan (s)", backlog.lag);
-  status.add("largest lag (s)", backlog.largest_lag);
-  status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
-  status.add("scans dropped, queue full (queue_size)", backlog.dropped_full);
-  status.add("scans processed", backlog.popped);
+  addBacklogTo(backlog, status);
   scan_latency_.addTo(status, "scan arrival to processed");
   // Candidates refused, by the stage that refused them (llc::LoopRefusal's names).
   for (llc::LoopRefusal kind : {llc::LoopRefusal::kPlaceGate, llc::LoopRefusal::kCrfMatch, llc::LoopRefusal::kIcp,

@@ -52,6 +52,15 @@ bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader&
   return true;
 }
 
+void addBacklogTo(const llc::ScanBacklogCounters& backlog, diagnostic_updater::DiagnosticStatusWrapper& status) {
+  status.add("scans waiting for the front end", backlog.waiting);
+  status.add("lag behind the newest scan (s)", backlog.lag);
+  status.add("largest lag (s)", backlog.largest_lag);
+  status.add("scans dropped to catch up (max_lag)", backlog.dropped_behind);
+  status.add("scans dropped, queue full (queue_size)", backlog.dropped_full);
+  status.add("scans processed", backlog.popped);
+}
+
 namespace {
 const char* failureName(tf2_ros::FilterFailureReason reason) {
   switch (reason) {

@@ -55,6 +55,9 @@ llc::ScanBacklogOptions scanBacklogOptions(const ScanInputOptions& options);
 bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader& wheels, llc::Scan* scan,
               llc::Pose2* wheel_odometry, std::string* error);
 
+/// The backlog's counters in a nodelet's diagnostics (waiting, lag, drops, processed).
+void addBacklogTo(const llc::ScanBacklogCounters& backlog, diagnostic_updater::DiagnosticStatusWrapper& status);
+
 class ScanReceiver {
  public:
   /// Subscribes nh's scan360. `buffer`, `wheels` and `backlog` must outlive it. `node` names
