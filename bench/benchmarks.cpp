@@ -242,7 +242,10 @@ BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
 /// are the simulated drive's scans with a few percent of noise on their features, each
 /// prepared scan shared by the keyframes repeating it (as many keyframes as a long drive,
 /// without the memory). Arguments: map keyframes, threads of the classifier query, threads
-/// of the alignments (localization/search_threads; the default 2).
+/// of the alignments (localization/search_threads; the default 2), and whether the query's
+/// place is mapped (1: a scan among the map's; 0: the drive's last scan, a place the map's
+/// first stretch never saw, so every candidate is a look-alike: the dearest case, where
+/// alignment goes on to the reverse match and the global search).
 void BM_LocalizationGlobalSearch(benchmark::State& state) {
   const auto& scans = simulatedScans().scans;
   llc::SlamOptions options;
@@ -263,7 +266,7 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
       if (v != llc::kProfileEmpty) v *= 1.0 + random.uniform(-0.03, 0.03);
     map.addWithFeatures(f, prepared[k % distinct]);
   }
-  const llc::Scan& query_scan = scans[distinct / 2 + 1].scan;
+  const llc::Scan& query_scan = state.range(3) ? scans[distinct / 2 + 1].scan : scans.back().scan;
   const auto query = map.aligner().prepare(query_scan);
   const std::vector<double> query_features = map.describe(query_scan);
   const llc::LocalizerOptions localization;
@@ -279,10 +282,11 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   state.counters["accepted"] = double(accepted);
 }
 BENCHMARK(BM_LocalizationGlobalSearch)
-    ->Args({10000, 2, 2})
-    ->Args({100000, 2, 2})
-    ->Args({100000, 2, 1})
-    ->ArgNames({"keyframes", "threads", "search_threads"})
+    ->Args({10000, 2, 2, 1})
+    ->Args({100000, 2, 2, 1})
+    ->Args({100000, 2, 1, 1})
+    ->Args({100000, 2, 2, 0})
+    ->ArgNames({"keyframes", "threads", "search_threads", "mapped"})
     ->Unit(benchmark::kMillisecond);
 
 /// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a

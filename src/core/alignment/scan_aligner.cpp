@@ -153,7 +153,7 @@ IcpResult ScanAligner::refine(const PreparedScan& a, const PreparedScan& b, cons
   return refineFrom(a, b, start, options_);
 }
 
-ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b) const {
+ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b, bool parallel) const {
   const auto start = std::chrono::steady_clock::now();
   ScanAlignmentResult result;
   auto finish = [&](AlignmentRefusal refusal, std::string reason) {
@@ -166,7 +166,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   // case (candidates are mostly other places): with parallel, it runs beside the forward one
   // and is dropped when not needed, so the result is the same as one after the other.
   std::future<ReverseMatch> reverse_ahead;
-  if (options_.parallel) reverse_ahead = std::async(std::launch::async, matchReverse, std::cref(a), std::cref(b), std::cref(options_));
+  if (parallel) reverse_ahead = std::async(std::launch::async, matchReverse, std::cref(a), std::cref(b), std::cref(options_));
 
   std::vector<IcpResult> converged;
   std::vector<AlignmentFit> fits;
@@ -192,7 +192,7 @@ ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan
   }
   // A poor best fit: CRF-match the other way round (a's contour as the chain) for more starts.
   if (best_share < options_.reverse_below) {
-    ReverseMatch reverse = options_.parallel ? reverse_ahead.get() : matchReverse(a, b, options_);
+    ReverseMatch reverse = parallel ? reverse_ahead.get() : matchReverse(a, b, options_);
     if (reverse.crf.ok) take(std::move(reverse.starts));
     crf_found_none = !result.crf.ok && !reverse.crf.ok;
   }

@@ -130,8 +130,9 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
   return verifyScan(from, prepared(to), to, score);
 }
 
-LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score) const {
-  const ScanAlignmentResult alignment = aligner_.align(prepared(from), scan);
+LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score,
+                                     bool parallel) const {
+  const ScanAlignmentResult alignment = aligner_.align(prepared(from), scan, parallel && aligner_.options().parallel);
   LoopClosure loop;
   loop.from = from;
   loop.to = to;
@@ -173,13 +174,15 @@ LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features
 
 std::vector<LoopClosure> LoopDetector::verifyScans(const std::vector<std::size_t>& from, const PreparedScan& scan,
                                                   std::size_t to, std::size_t threads, const std::vector<double>& scores) const {
-  // Keyframe i on thread i % threads; each writes its own slot.
+  // Keyframe i on thread i % threads; each writes its own slot. With several threads, each
+  // alignment stays on its own (its reverse match on a thread of its own would only compete
+  // with the other candidates' work: 1e5 keyframes, 20 candidates of a mapped place: 57 -> 33 ms, BM_LocalizationGlobalSearch).
   std::vector<LoopClosure> aligned(from.size());
+  const std::size_t workers = std::max<std::size_t>(1, std::min(threads, from.size()));
   auto alignEvery = [&](std::size_t first, std::size_t step) {
     for (std::size_t i = first; i < from.size(); i += step)
-      aligned[i] = verifyScan(from[i], scan, to, i < scores.size() ? scores[i] : 0.0);
+      aligned[i] = verifyScan(from[i], scan, to, i < scores.size() ? scores[i] : 0.0, workers == 1);
   };
-  const std::size_t workers = std::max<std::size_t>(1, std::min(threads, from.size()));
   std::vector<std::future<void>> others;
   for (std::size_t t = 1; t < workers; ++t) others.push_back(std::async(std::launch::async, alignEvery, t, workers));
   alignEvery(0, workers);
