@@ -17,6 +17,7 @@ std::string LocalizerOptions::validate() const {
   if (global_candidates == 0) return "global_candidates must be >= 1";
   if (!(score_threshold >= 0.0 && score_threshold < 1.0)) return "score_threshold must be in [0, 1) (0: the model's K)";
   if (search_threads == 0 || search_threads > 64) return "search_threads must be in 1 .. 64";
+  if (!(min_inlier_share > 0.0 && min_inlier_share <= 1.0)) return "min_inlier_share must be in (0, 1]";
   const std::string join_error = join.validate();
   if (!join_error.empty()) return "join: " + join_error;
   if (!(fix_min_fitting_share >= 0.0 && fix_min_fitting_share <= 1.0)) return "fix_min_fitting_share must be in [0, 1]";
@@ -55,6 +56,12 @@ Eigen::Matrix3d composedCovariance(const Pose2& a, const Eigen::Matrix3d& of_a, 
   return ja * of_a * ja.transpose() + jb * of_motion * jb.transpose();
 }
 
+/// The aligner's options for the map's candidates: validation's N is localisation's own.
+ScanAlignerOptions mapAlignerOptions(ScanAlignerOptions aligner, const LocalizerOptions& options) {
+  if (options.min_inlier_share > 0.0 && options.min_inlier_share <= 1.0) aligner.validation.min_inlier_share = options.min_inlier_share;
+  return aligner;  // (a bad value is refused by validate() below, with its name)
+}
+
 const SlamSession& checkedMap(const SlamSession& map) {
   const std::string error = map.validate();
   if (!error.empty()) throw std::invalid_argument("map session: " + error);
@@ -67,7 +74,7 @@ const SlamSession& checkedMap(const SlamSession& map) {
 Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, const SlamSession& map, const LocalizerOptions& options)
     : options_(options),
       front_(model, slam.odometry, slam.aligner, slam.loops),
-      map_(model, slam.aligner, slam.loops),
+      map_(model, mapAlignerOptions(slam.aligner, options), slam.loops),
       map_poses_(checkedMap(map).poses),
       join_(options.join) {
   const std::string error = options_.validate();

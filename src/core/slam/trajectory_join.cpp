@@ -96,6 +96,11 @@ TrajectoryJoinResult TrajectoryJoin::offer(const std::vector<JoinHypothesis>& lo
   } else if (best_story.size() < rival + options_.min_lead) {
     result.why_not = std::to_string(best_story.size()) + " keyframes agree, but " + std::to_string(rival) +
                      " agree on another place";
+  } else if (rival >= options_.min_keyframes) {
+    // Two places that each earned a fix: the map is ambiguous here (a corridor of like doors);
+    // a longer story is no proof, and the join waits until the other one leaves its window.
+    result.why_not = std::to_string(best_story.size()) + " keyframes agree, but " + std::to_string(rival) +
+                     " agree on another place, enough for a fix of its own";
   } else {
     result.joined = true;
     result.map_from_trajectory = kept_[newest_loop].mapFromTrajectory();

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "../test_util.hpp"
@@ -287,6 +288,16 @@ TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   llc::LocalizerOptions bad;
   bad.min_track_fit = 0.0;
   EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, city().session, bad), std::invalid_argument);
+  for (const double share : {0.0, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    llc::LocalizerOptions bad_share;
+    bad_share.min_inlier_share = share;
+    try {
+      llc::Localizer(llc_test::defaultModel(), {}, city().session, bad_share);
+      ADD_FAILURE() << "min_inlier_share " << share << " taken";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("min_inlier_share"), std::string::npos) << e.what();
+    }
+  }
 
   llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
   llc::Scan scan = llc_test::frameScan(city().drive, city().drive.frames[10]);
@@ -306,6 +317,25 @@ TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   odd.ranges[0] = std::numeric_limits<double>::infinity(), odd.ranges[1] = -std::numeric_limits<double>::infinity();
   odd.ranges[2] = -1.0;
   localizer.addScan(odd, &city().drive.frames[13].odometry);
+}
+
+TEST(Localizer, ItsOwnInlierShareValidatesTheMapsCandidates) {
+  // The search alone (no fix: more keyframes must agree than are fed): a stricter N than the
+  // aligner's keeps fewer of the same candidates' loops, a looser one more.
+  auto loopsWith = [](double share) {
+    llc::LocalizerOptions options;
+    options.min_inlier_share = share;
+    options.join.min_keyframes = 1000;
+    llc::Localizer localizer(llc_test::defaultModel(), {}, city().session, options);
+    Fed fed;
+    feed(localizer, 400, 460, llc::Pose2{}, &fed);
+    EXPECT_EQ(localizer.counters().fixes, 0u);
+    return localizer.counters().loops_to_map;
+  };
+  const std::size_t loose = loopsWith(0.5), usual = loopsWith(0.85), strict = loopsWith(0.999);
+  EXPECT_GT(usual, 0u);
+  EXPECT_GE(loose, usual);
+  EXPECT_GT(usual, strict) << "the option did not reach the map's aligner";
 }
 
 TEST(Localizer, TimeGoingBackwardsIsSkippedOrRestartsTheChainAndTheFixIsKept) {

@@ -82,6 +82,25 @@ TEST(TrajectoryJoin, ALookAlikeNearlyAsWellSupportedHoldsTheFixBack) {
   EXPECT_NEAR(four.map_from_trajectory.x, kTrue.x, 1e-9);  // the true place, not the look-alike
 }
 
+TEST(TrajectoryJoin, TwoPlacesEachWithEnoughSupportFixNeither) {
+  // A corridor of like doors: the look-alike gathers three keyframes of its own, the other
+  // place five. A lead of two is no proof when the rival alone would have been a fix.
+  TrajectoryJoin join;  // min_keyframes 3, min_lead 2
+  for (std::size_t k = 0; k < 3; ++k) join.offer({loopAt(k, double(k), kTrue), loopAt(k, double(k), kLookAlike)});
+  join.offer({loopAt(3, 3.0, kTrue)});
+  const llc::TrajectoryJoinResult five = join.offer({loopAt(4, 4.0, kTrue)});
+  EXPECT_FALSE(five.joined);
+  EXPECT_EQ(five.keyframes, 5u);
+  EXPECT_EQ(five.rival_keyframes, 3u);
+  EXPECT_NE(five.why_not.find("enough for a fix of its own"), std::string::npos) << five.why_not;
+  // Once the look-alike's loops leave the window (30 m of path), the place is told apart.
+  for (std::size_t k = 5; k < 40; ++k) join.offer({loopAt(k, double(k), kTrue)});
+  const llc::TrajectoryJoinResult later = join.offer({loopAt(40, 40.0, kTrue)});
+  ASSERT_TRUE(later.joined) << later.why_not;
+  EXPECT_EQ(later.rival_keyframes, 0u);
+  EXPECT_NEAR(later.map_from_trajectory.x, kTrue.x, 1e-9);
+}
+
 TEST(TrajectoryJoin, ToleranceGrowsWithThePathBetweenTwoKeyframes) {
   const TrajectoryJoin join;  // 0.5 m + 0.02 m per m of path
   const JoinHypothesis a = loopAt(0, 0.0, kTrue);

@@ -28,6 +28,11 @@ struct LocalizerOptions {
   /// finds more places the model was not trained on, and more look-alikes for the checks below.
   double score_threshold = 0.0;
   std::size_t search_threads = 2;     ///< threads aligning those candidates (the classifier query takes loops/threads)
+  /// Shape validation's N for those candidates (mapping keeps aligner/validation/min_inlier_share,
+  /// 0.9): a saved map was recorded at another time, so parked cars, doors and people have
+  /// moved, and a right candidate may keep fewer points within d. Several keyframes must still
+  /// agree, fit and pass probation before a fix.
+  double min_inlier_share = 0.85;
   TrajectoryJoinOptions join{};       ///< when the loops of several keyframes fix the robot
   /// A fix the loops agree on is then checked as tracking would: the robot's keyframes of the
   /// join's window, placed by it, are matched to the map keyframes near them; at least this

@@ -181,6 +181,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/global_candidates", localization.global_candidates);
   visit("localization/score_threshold", localization.score_threshold);
   visit("localization/search_threads", localization.search_threads);
+  visit("localization/min_inlier_share", localization.min_inlier_share);
   visit("localization/join/min_keyframes", localization.join.min_keyframes);
   visit("localization/join/min_spread", localization.join.min_spread);
   visit("localization/join/max_translation", localization.join.max_translation);
