@@ -3,16 +3,28 @@
 // fix, then localized with map -> odom on /tf and /pose near where the map has each place; the
 // kidnapping reported lost within 2 s of scan time; no localized pose more than 1 m off after
 // that, and the robot found again; the session file untouched. Then ~relocalize makes it lost
-// (searching), and a pose on /initialpose is taken as a hint.
+// (searching), and a pose on /initialpose is taken as a hint. Last, a localization nodelet
+// loaded into the same manager with a truncated or missing session is refused, naming the
+// file, and every nodelet of the package loads and unloads, while the running one and the
+// manager go on.
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
+#include <nodelet/NodeletList.h>
+#include <nodelet/NodeletLoad.h>
+#include <nodelet/NodeletUnload.h>
+#include <ros/master.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -202,6 +214,91 @@ TEST(LocalizeKidnap, LostWithinTwoSecondsAndFoundAgainWithNoPoseFarOff) {
   })) << "the pose hint was not taken";
   spinner.stop();
   EXPECT_EQ(fileBytes(session_path), session_before) << "the saved session was altered";
+}
+
+TEST(LocalizeKidnap, ASessionThatCannotBeReadIsRefusedByNameAndTheManagerGoesOn) {
+  ros::NodeHandle nh, pnh("~");
+  std::string session_path;
+  pnh.getParam("session", session_path);
+  if (!std::ifstream(session_path).good()) GTEST_SKIP() << "no session at '" << session_path << "' (scripts/test makes it)";
+  const std::string whole = fileBytes(session_path);
+  const std::string truncated = "/tmp/llc_localize_kidnap_truncated_" + std::to_string(::getpid()) + ".llcsession";
+  std::ofstream(truncated, std::ios::binary) << whole.substr(0, whole.size() / 2);
+  const std::string missing = "/tmp/llc_localize_kidnap_missing_" + std::to_string(::getpid()) + ".llcsession";
+  std::mutex mutex;
+  std::vector<std::string> log_lines;
+  ros::Subscriber log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    log_lines.push_back(m->msg);
+  });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  // Connected to every node's /rosout (the manager's above all) before anything is loaded.
+  auto rosoutPublishers = [] {
+    XmlRpc::XmlRpcValue args, result, payload;
+    args[0] = ros::this_node::getName();
+    if (!ros::master::execute("getSystemState", args, result, payload, true)) return 0;
+    for (int i = 0; i < payload[0].size(); ++i)
+      if (std::string(payload[0][i][0]) == "/rosout") return payload[0][i][1].size();
+    return 0;
+  };
+  ASSERT_TRUE(llc_test::waitUntilReady(30.0, [&] {
+    const int publishers = rosoutPublishers();
+    return publishers > 1 && int(log_sub.getNumPublishers()) >= publishers;
+  })) << "not connected to every publisher of /rosout";
+  // The manager's load_nodelet fails the call itself when the nodelet does not load.
+  auto loadNodelet = [&](const std::string& name, const std::string& type) {
+    nodelet::NodeletLoad srv;
+    srv.request.name = "/" + name;
+    srv.request.type = type;
+    std::string why;
+    return llc_test::callWithin("/llc_manager/load_nodelet", &srv, 120.0, &why) && srv.response.success;
+  };
+  auto load = [&](const std::string& name, const std::string& session) {
+    ros::param::set("/" + name + "/map_session", session);
+    return loadNodelet(name, "laser_loop_closure/Localization");
+  };
+  auto unload = [&](const std::string& name) {
+    nodelet::NodeletUnload srv;
+    srv.request.name = "/" + name;
+    std::string why;
+    EXPECT_TRUE(llc_test::callWithin("/llc_manager/unload_nodelet", &srv, 60.0, &why)) << why;
+    return bool(srv.response.success);
+  };
+  auto logged = [&](const std::string& text) {
+    return llc_test::waitUntilReady(30.0, [&] {
+      std::lock_guard<std::mutex> lock(mutex);
+      for (const std::string& line : log_lines)
+        if (line.find(text) != std::string::npos) return true;
+      return false;
+    });
+  };
+  EXPECT_FALSE(load("truncated_localization", truncated)) << "a truncated session was loaded";
+  EXPECT_TRUE(logged(truncated)) << "no log line names " << truncated;
+  EXPECT_FALSE(load("missing_localization", missing)) << "a missing session was loaded";
+  EXPECT_TRUE(logged(missing)) << "no log line names " << missing;
+  // The same parameters with the real session load: the refusals above were the sessions'.
+  EXPECT_TRUE(load("second_localization", session_path));
+  EXPECT_TRUE(unload("second_localization"));
+  // Every nodelet of the package loads with its defaults and unloads, and the manager lives on
+  // (a handle outliving its callback thread's queue once aborted the manager on unload).
+  for (const char* type : {"laser_loop_closure/ScanMerger", "laser_loop_closure/LoopClosure", "laser_loop_closure/EsdfBackend"}) {
+    const std::string name = std::string("unload_check_") + std::string(type).substr(std::string(type).find('/') + 1);
+    EXPECT_TRUE(loadNodelet(name, type)) << type;
+    EXPECT_TRUE(unload(name)) << type;
+  }
+  std::string why;
+  nodelet::NodeletList list;
+  ASSERT_TRUE(llc_test::callWithin("/llc_manager/list", &list, 30.0, &why)) << why;
+  EXPECT_NE(std::find(list.response.nodelets.begin(), list.response.nodelets.end(), "/localization"), list.response.nodelets.end())
+      << "the running localization nodelet is gone";
+  EXPECT_EQ(std::find(list.response.nodelets.begin(), list.response.nodelets.end(), "/truncated_localization"),
+            list.response.nodelets.end());
+  std_srvs::Trigger relocalize;
+  EXPECT_TRUE(llc_test::callWithin("/localization/relocalize", &relocalize, 60.0, &why)) << why;
+  spinner.stop();
+  std::remove(truncated.c_str());
+  EXPECT_EQ(fileBytes(session_path), whole) << "the saved session was altered";
 }
 
 }  // namespace

@@ -115,18 +115,24 @@ class EsdfBackendRos {
   EsdfBackendNodeOptions options_;
   llc::SystemOptions system_;
   std::unique_ptr<llc::SlamBackEnd> back_;
-  tf2_ros::TransformBroadcaster tf_broadcaster_;
-  ros::Subscriber keyframe_sub_, loop_sub_;
-  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
-  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_, nearby_srv_;
+  // Each CallbackThread is declared before the handles registered on its queue: members go in
+  // reverse order, and a handle that goes after its queue locks a destroyed mutex (unloading the
+  // nodelet then aborted the whole manager: localize_kidnap.test loads and unloads each nodelet).
   // The place check has its own queue and thread: it waits for keyframes the main queue brings.
   CallbackThread place_thread_;
   // The services have their own queue and thread: they answer while keyframes queue up and
   // while the clock stands still (a bag ended or paused).
   CallbackThread service_thread_;
-  ros::Timer tf_timer_;  // on transform_thread_
   // /map, the cloud and the markers are rebuilt on their own queue and thread (map_timer_).
   CallbackThread map_thread_;
+  // map -> odom is broadcast from its own thread and queue, so that a map rebuild (which holds
+  // mutex_ and the nodelet's queue for a while) never leaves tf users without it.
+  CallbackThread transform_thread_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ros::Subscriber keyframe_sub_, loop_sub_;
+  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
+  ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_, nearby_srv_;
+  ros::Timer tf_timer_;  // on transform_thread_
   // Wall time: the last keyframes of a bag reach /map, and the health is told, after the clock stopped.
   ros::WallTimer map_timer_, diagnostics_timer_;
   diagnostic_updater::Updater diagnostics_;
@@ -147,13 +153,10 @@ class EsdfBackendRos {
   std::mutex map_building_;  ///< one rebuild at a time
   bool map_dirty_ = false;
 
-  // map -> odom is broadcast from its own thread and queue, so that a map rebuild (which holds
-  // mutex_ and the nodelet's queue for a while) never leaves tf users without it.
   std::mutex transform_mutex_;
   llc::Pose2 map_to_odom_;       ///< guarded by transform_mutex_
   bool has_map_to_odom_ = false;  ///< guarded by transform_mutex_: the newest keyframe has wheel odometry
   ros::Time last_tf_time_;        ///< the transform thread's own
-  CallbackThread transform_thread_;
   std::size_t refused_keyframes_ = 0, dropped_loops_ = 0;
   /// Keyframes refused since the last one taken: the graph is stopped while above 0 (a load's
   /// race with the front end refuses a few, then mapping goes on and this is 0 again).

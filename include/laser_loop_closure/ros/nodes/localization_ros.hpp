@@ -80,11 +80,14 @@ class LocalizationRos {
   llc::SystemOptions system_;
   tf2_ros::Buffer tf_buffer_;
   TfListener tf_listener_;
+  // Each CallbackThread is declared before the handles registered on its queue: members go in
+  // reverse order, and a handle that goes after its queue locks a destroyed mutex (unloading the
+  // nodelet then aborted the whole manager: localize_kidnap.test loads and unloads each nodelet).
+  CallbackThread service_thread_;    ///< ~relocalize and /initialpose: answered while the worker searches
+  CallbackThread transform_thread_;  ///< map -> odom broadcasts
   ros::Publisher pose_pub_, map_pub_, status_pub_;
   ros::Subscriber initial_pose_sub_;
   ros::ServiceServer relocalize_srv_;
-  CallbackThread service_thread_;    ///< ~relocalize and /initialpose: answered while the worker searches
-  CallbackThread transform_thread_;  ///< map -> odom broadcasts
   ros::Timer tf_timer_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Time last_tf_time_;

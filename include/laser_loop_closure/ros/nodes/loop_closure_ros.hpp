@@ -95,9 +95,12 @@ class LoopClosureRos {
   llc::SystemOptions system_;
   tf2_ros::Buffer tf_buffer_;
   TfListener tf_listener_;  ///< clears the buffer when tf stamps jump back (a looped bag)
+  // Each CallbackThread is declared before the handles registered on its queue: members go in
+  // reverse order, and a handle that goes after its queue locks a destroyed mutex (unloading the
+  // nodelet then aborted the whole manager: localize_kidnap.test loads and unloads each nodelet).
+  CallbackThread service_thread_;  ///< ~train_classifier's own queue and thread
   ros::Subscriber path_sub_, session_sub_;
   ros::ServiceServer train_srv_;
-  CallbackThread service_thread_;  ///< ~train_classifier's own queue and thread
   ros::Publisher keyframe_pub_, loop_pub_;
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
