@@ -1,7 +1,8 @@
 // One callback queue served by its own thread: what a nodelet gives a timer or a service that
 // must not wait behind its main queue (a map rebuild, a service that answers while keyframes
 // queue up, a transform broadcast). handle() before registering, start() after, stop() in the
-// owner's destructor before the members the callbacks read go.
+// owner's destructor before the members the callbacks read go. Declare it before the handles
+// registered on it: a handle destroyed after its queue locks a destroyed mutex (the manager aborts).
 #pragma once
 
 #include <ros/callback_queue.h>
