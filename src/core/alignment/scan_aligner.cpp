@@ -153,8 +153,9 @@ IcpResult ScanAligner::refine(const PreparedScan& a, const PreparedScan& b, cons
   return refineFrom(a, b, start, options_);
 }
 
-ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b, bool parallel) const {
+ScanAlignmentResult ScanAligner::align(const PreparedScan& a, const PreparedScan& b, bool second_thread) const {
   const auto start = std::chrono::steady_clock::now();
+  const bool parallel = second_thread && options_.parallel;
   ScanAlignmentResult result;
   auto finish = [&](AlignmentRefusal refusal, std::string reason) {
     result.refusal = refusal;

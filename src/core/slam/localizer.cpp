@@ -58,8 +58,15 @@ Eigen::Matrix3d composedCovariance(const Pose2& a, const Eigen::Matrix3d& of_a, 
 
 /// The aligner's options for the map's candidates: validation's N is localisation's own.
 ScanAlignerOptions mapAlignerOptions(ScanAlignerOptions aligner, const LocalizerOptions& options) {
-  if (options.min_inlier_share > 0.0 && options.min_inlier_share <= 1.0) aligner.validation.min_inlier_share = options.min_inlier_share;
-  return aligner;  // (a bad value is refused by validate() below, with its name)
+  aligner.validation.min_inlier_share = options.min_inlier_share;
+  return aligner;
+}
+
+/// Validated once, before anything is built from them.
+const LocalizerOptions& checkedOptions(const LocalizerOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("localizer options: " + error);
+  return options;
 }
 
 const SlamSession& checkedMap(const SlamSession& map) {
@@ -72,13 +79,11 @@ const SlamSession& checkedMap(const SlamSession& map) {
 }  // namespace
 
 Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, const SlamSession& map, const LocalizerOptions& options)
-    : options_(options),
+    : options_(checkedOptions(options)),
       front_(model, slam.odometry, slam.aligner, slam.loops),
-      map_(model, mapAlignerOptions(slam.aligner, options), slam.loops),
+      map_(model, mapAlignerOptions(slam.aligner, options_), slam.loops),
       map_poses_(checkedMap(map).poses),
-      join_(options.join) {
-  const std::string error = options_.validate();
-  if (!error.empty()) throw std::invalid_argument("localizer options: " + error);
+      join_(options_.join) {
   // The session's features when they are what this model's extractor makes (checked on the
   // first keyframe, as SlamFrontEnd::restore does), else recomputed.
   const bool stored_features_fit = map.features.size() == map.keyframes.size() && !map.features.empty() &&

@@ -131,8 +131,8 @@ LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score)
 }
 
 LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score,
-                                     bool parallel) const {
-  const ScanAlignmentResult alignment = aligner_.align(prepared(from), scan, parallel && aligner_.options().parallel);
+                                     bool second_thread) const {
+  const ScanAlignmentResult alignment = aligner_.align(prepared(from), scan, second_thread);
   LoopClosure loop;
   loop.from = from;
   loop.to = to;

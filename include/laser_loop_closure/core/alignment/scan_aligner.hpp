@@ -94,10 +94,11 @@ class ScanAligner {
 
   std::shared_ptr<const PreparedScan> prepare(const Scan& scan) const;
   /// Aligns b to a with no initial guess.
-  ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b) const { return align(a, b, options_.parallel); }
-  /// The same result; `parallel` false keeps it on the calling thread (for callers that
-  /// already align several pairs side by side, where a second thread per pair only competes).
-  ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b, bool parallel) const;
+  ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b) const { return align(a, b, true); }
+  /// The same result; `second_thread` false keeps it on the calling thread whatever
+  /// options().parallel says (for callers that already align several pairs side by side, where
+  /// a second thread per pair only competes).
+  ScanAlignmentResult align(const PreparedScan& a, const PreparedScan& b, bool second_thread) const;
   /// How well b placed at `pose` in a's frame fits a, as align() ranks its ICP results: the
   /// mean of the shares of b's points near a's and of a's points near b's (within
   /// selection_distance), each among the points the other scanner could have seen.

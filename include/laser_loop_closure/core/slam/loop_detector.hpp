@@ -132,9 +132,10 @@ class LoopDetector {
   /// what a localiser given a pose hint aligns the keyframes near it with.
   std::vector<LoopClosure> verifyScans(const std::vector<std::size_t>& from, const PreparedScan& scan, std::size_t to,
                                        std::size_t threads, const std::vector<double>& scores = {}) const;
-  /// verify() of stored keyframe `from` and a scan that is not stored, named `to`; `parallel`
-  /// as in ScanAligner::align (false when the caller aligns pairs side by side itself).
-  LoopClosure verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score, bool parallel = true) const;
+  /// verify() of stored keyframe `from` and a scan that is not stored, named `to`;
+  /// `second_thread` as in ScanAligner::align (false when the caller aligns pairs side by side).
+  LoopClosure verifyScan(std::size_t from, const PreparedScan& scan, std::size_t to, double score,
+                         bool second_thread = true) const;
   /// A nearby keyframe: ICP from where the map puts `to` in `from`'s frame; below
   /// nearby_min_predicted_fit refused (validation), else verify()'s search with no guess.
   LoopClosure verifyFromPrediction(std::size_t from, std::size_t to, double score, const Pose2& predicted) const;
