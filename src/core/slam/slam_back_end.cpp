@@ -97,6 +97,13 @@ std::vector<NearbyKeyframe> SlamBackEnd::nearbyKeyframes(std::size_t index, std:
 Eigen::Matrix3d looseLinkCovariance() { return Eigen::Vector3d(1e4, 1e4, 1e2).asDiagonal(); }
 
 std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance) {
+  return addKeyframeFrom(keyframes_.empty() ? 0 : keyframes_.size() - 1, std::move(keyframe), motion, covariance);
+}
+
+std::string SlamBackEnd::addKeyframeFrom(std::size_t base, Keyframe keyframe, const Pose2& motion,
+                                         const Eigen::Matrix3d& covariance) {
+  if (!keyframes_.empty() && base >= keyframes_.size())
+    throw std::out_of_range("back end: no keyframe " + std::to_string(base) + " to link a new one from");
   std::string note;
   if (keyframe.has_wheel_odometry && !isFinite(keyframe.wheel_odometry)) {
     keyframe.has_wheel_odometry = false;
@@ -111,13 +118,13 @@ std::string SlamBackEnd::addKeyframe(Keyframe keyframe, const Pose2& motion, con
       unusable = "odometry motion not finite, or its covariance not positive definite";
     } else {
       try {
-        esdf_->augment(motion, covariance);
+        esdf_->augmentFrom(base, motion, covariance);
       } catch (const std::invalid_argument& e) {  // the filter's own limits (an information it cannot hold)
         unusable = e.what();
       }
     }
     if (!unusable.empty()) {
-      esdf_->augment(isFinite(motion) ? motion : Pose2{}, looseLinkCovariance());
+      esdf_->augmentFrom(base, isFinite(motion) ? motion : Pose2{}, looseLinkCovariance());
       ++counters_.loosely_linked_keyframes;
       note += (note.empty() ? "" : "; ") + unusable + ": loosely linked instead (the first loop closure places it)";
     }

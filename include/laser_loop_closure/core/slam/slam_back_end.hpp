@@ -46,6 +46,10 @@ class SlamBackEnd {
   /// loose link (the motion when finite, else none, with looseLinkCovariance());
   /// non-finite wheel odometry is dropped (has_wheel_odometry false).
   std::string addKeyframe(Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
+  /// The same with the motion from keyframe `base` instead of the previous one: a graph that
+  /// holds several robots' chains (MultiRobotSlam's map). Throws std::out_of_range for a base
+  /// it does not have (a caller's bug, not data).
+  std::string addKeyframeFrom(std::size_t base, Keyframe keyframe, const Pose2& motion, const Eigen::Matrix3d& covariance);
   /// A loop between two stored keyframes (from older than to), through the gate when
   /// gate_loops. The record says whether it was applied and why not; never throws on data.
   /// One the gate refused is offered to the consensus (LoopConsensus): when enough refused
