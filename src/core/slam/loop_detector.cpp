@@ -216,16 +216,22 @@ LoopClosure LoopDetector::verifyFromPrediction(std::size_t from, std::size_t to,
 }
 
 ContextCheckResult LoopDetector::checkContext(LoopClosure& loop, std::size_t before, const KeyframeContext& context) const {
-  auto scans = [&](std::size_t keyframe, std::size_t older_than) {
+  return checkContextWith(loop, before, context, *this, context);
+}
+
+ContextCheckResult LoopDetector::checkContextWith(LoopClosure& loop, std::size_t before, const KeyframeContext& context,
+                                                  const LoopDetector& new_store, const KeyframeContext& new_context_of) const {
+  auto scans = [&](const LoopDetector& store, const KeyframeContext& of, std::size_t keyframe, std::size_t older_than) {
     std::vector<ContextScan> found;
-    for (const ContextKeyframe& k : context(keyframe, older_than, options_.context.distance, options_.context.spacing)) {
-      if (!hasPrepared(k.keyframe) || !isFinite(k.pose)) continue;
-      const PreparedScan& scan = *prepared_[k.keyframe];
+    for (const ContextKeyframe& k : of(keyframe, older_than, options_.context.distance, options_.context.spacing)) {
+      if (!store.hasPrepared(k.keyframe) || !isFinite(k.pose)) continue;
+      const PreparedScan& scan = *store.prepared_[k.keyframe];
       found.push_back({&scan.points, k.pose, &scan.icp_target.normals});
     }
     return found;
   };
-  const std::vector<ContextScan> old_context = scans(loop.from, before), new_context = scans(loop.to, loop.to + 1);
+  const std::vector<ContextScan> old_context = scans(*this, context, loop.from, before),
+                                 new_context = scans(new_store, new_context_of, loop.to, loop.to + 1);
   ContextCheckResult checked =
       checkLoopContext(old_context, new_context, loop.pose, loop.covariance, options_.context, aligner_.options().icp);
   if (!checked.accepted) {

@@ -165,6 +165,12 @@ class LoopDetector {
   /// The K candidates must reach now.
   double threshold() const { return classifier_.thresholdK(); }
   const ThresholdCalibrator& calibrator() const { return calibrator_; }
+  /// The context check of a shape-validated loop from this store's keyframe loop.from (its
+  /// context from `context`, keyframes older than `before`) to keyframe loop.to of `new_store`
+  /// (its context from `new_context`, itself and older): another robot's, or this store again.
+  /// Refuses the loop in place (refusal kContext) when the context fits better elsewhere.
+  ContextCheckResult checkContextWith(LoopClosure& loop, std::size_t before, const KeyframeContext& context,
+                                      const LoopDetector& new_store, const KeyframeContext& new_context) const;
 
  private:
   /// The context check of a shape-validated loop (from older than `before`, to the newer);

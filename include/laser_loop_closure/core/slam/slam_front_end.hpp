@@ -118,6 +118,10 @@ class SlamFrontEnd {
   /// stays its features and pose. Returns how many were let go now.
   std::size_t releaseScansBefore(std::size_t keyframe);
 
+  /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it (also
+  /// the context of a loop between two robots' keyframes, each from its own front end).
+  std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
+
   std::size_t keyframeCount() const { return detector_.size(); }
   const FrontEndCounters& counters() const { return counters_; }
   LoopDetector& detector() { return detector_; }
@@ -247,8 +251,6 @@ class SlamFrontEnd {
   /// What a keyframe step with wheels is matched to: the newest keyframe's local map, or the
   /// newest keyframe alone.
   const MatchTarget& keyframeStepTarget();
-  /// The KeyframeContext of the loop detector: keyframes of index's chain, placed by it.
-  std::vector<ContextKeyframe> context(std::size_t index, std::size_t before, double distance, double spacing) const;
   /// Older keyframes of this chain that the odometry puts surely elsewhere than `index` (at
   /// most calibration.pairs_per_keyframe, drawn at random when there are more).
   std::vector<std::size_t> surelyElsewhere(std::size_t index);

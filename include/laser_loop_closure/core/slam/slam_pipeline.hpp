@@ -128,6 +128,7 @@ class SlamPipeline {
   [[nodiscard]] std::string restore(const SlamSession& session, bool continue_odometry);
   LoopDetector& detector() { return front_.detector(); }
   const LoopDetector& detector() const { return front_.detector(); }
+  const SlamFrontEnd& frontEnd() const { return front_; }
 
  private:
   SlamOptions options_;
