@@ -294,7 +294,8 @@ std::string timeOffsetProbeLines(const llc::OdometryTimeOffsetProbeResult& r) {
 }  // namespace
 
 int runSlam(const Args& args) {
-  if (args.has("bag") == args.has("log")) throw UsageError("give exactly one of --bag BAG and --log LOG");
+  if (args.all("log").size() + args.all("bag").size() > 1 || args.has("split")) return runMultiRobotSlam(args);
+  if (args.has("bag") == args.has("log")) throw UsageError("give --bag BAG or --log LOG (several of them: several robots)");
   const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");
   const std::string dir = args.required("out");
   // Every flag and output checked before the run starts, not after it.

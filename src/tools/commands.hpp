@@ -19,6 +19,8 @@ int runAlign(const Args& args);
 int runTrainCrf(const Args& args);
 int runGraph(const Args& args);
 int runSlam(const Args& args);
+/// llc slam with several inputs or --split N: several robots, one map (cmd_slam_robots.cpp).
+int runMultiRobotSlam(const Args& args);
 int runLocalize(const Args& args);
 int runRelations(const Args& args);
 /// The relations metric of a run: the log's stamps and odometry, the run's (scan, pose) pairs.

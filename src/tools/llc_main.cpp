@@ -93,9 +93,9 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "save-graph", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
-             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan"},
+             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan", "split", "seed"},
             with(kInputFlags, llc::systemParameterNames())),
-       {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry"},
+       {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry", "simultaneous"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
        "      [--SECTION/FIELD VALUE ...]   (any pipeline parameter, named as in config/slam.yaml; after --config)\n"
        "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, scans.csv, loops.csv,\n"
@@ -118,7 +118,13 @@ const std::vector<Command>& commands() {
        "      [--drift-noise-rad 0.002] [--drift-noise-share 0.02] [--drift-seed 1]   (degrades the odometry first,\n"
        "       keeping the truth: moderate as written, strong twice each figure)\n"
        "      [--seq-reorder-scans 20]   (a bag mapped without wheel odometry: its scans in header.seq order, as the\n"
-       "       loop_closure nodelet's seq_reorder_scans; 0: off)"},
+       "       loop_closure nodelet's seq_reorder_scans; 0: off)\n"
+       "   several robots, one map: slam --log A --log B [...] (and/or several --bag; logs first) --out DIR, or one\n"
+       "      input --split N (N consecutive parts, each a robot; parts after the first in a random odometry frame,\n"
+       "      --seed 1); each robot its own odometry frame, no relative prior; --drift per robot (seed + robot);\n"
+       "      [--simultaneous]   (fed as if every robot started at once; default: by stamp)\n"
+       "      (trajectory.csv and scans.csv with robot and joined columns, loops.csv with robot_a/robot_b,\n"
+       "       one map of the joined robots, report.txt: robots, robots_joined, cross_robot_loops, per robot)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",

@@ -197,6 +197,16 @@ check "slam: the second run is joined to the first by loops" 0 "^ok$" -- awk -F=
 check "slam: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/bad.yaml"
 head -c 5000 "$TMP/sim.llcsession" > "$TMP/truncated.llcsession"
 check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam3" --load-session "$TMP/truncated.llcsession"
+# llc slam with several robots: the drive cut in two, each half its own drifting odometry in a
+# frame of its own; the second joins the first's map, with no wrong loop.
+check "slam, several robots: --split needs one input" 2 "give exactly one --log or --bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/sim/sim.log" --split 2 --out "$TMP/robots0"
+check "slam, several robots: sessions are for one robot" 2 "--save-session is for one robot" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --save-session "$TMP/robots.llcsession" --out "$TMP/robots0"
+check "slam, several robots: a bad multi_robot parameter" 2 "cross_candidates" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --multi_robot/cross_candidates 0 --out "$TMP/robots0"
+check "slam, several robots: a missing input" 1 "no such file" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/none.log" --out "$TMP/robots0"
+check "slam, several robots: joined, never wrong" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --split 2 --drift moderate --out '$TMP/robots' --quiet | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"robots\"] == 2 && v[\"robots_joined\"] == 2 && v[\"wrong_loops_accepted\"] == 0 && v[\"cross_robot_loops\"] >= 3 && v[\"rms_error_m\"] < 0.2 ? \"ok\" : \"not ok\")}'"
+check "slam, several robots: trajectory.csv has a robot column, every keyframe joined" 0 "^ok$" -- awk -F, 'NR == 1 { if ($0 != "robot,index,stamp,x,y,theta,joined") bad++; next }
+    { n[$1]++; if ($7 != 1) bad++ } END { print (!bad && n[0] > 50 && n[1] > 50 ? "ok" : "not ok") }' "$TMP/robots/trajectory.csv"
+
 # llc localize: the drive's log mapped, then found on that map from anywhere with drifted odometry.
 check "localize: --session is required" 2 "--session" -- "$LLC" localize --log "$TMP/sim/sim.log" --out "$TMP/loc0"
 check "localize: corrupt session" 1 "bad.yaml: not a laser_loop_closure session" -- "$LLC" localize --session "$TMP/bad.yaml" --log "$TMP/sim/sim.log" --out "$TMP/loc0"
@@ -218,7 +228,8 @@ check "localize: the report" 0 "^ok$" -- awk -F'[= ]' '{v[$1] = $2} END {
 check "localize: search.csv" 0 "^scan,path_m,candidates,loops,agreeing_keyframes,rival_keyframes,joined,recent_fit,why_not$" -- head -1 "$TMP/loc/search.csv"
 check "localize: kidnapped, noticed within 2 s, never wrong after" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --truth '$TMP/sim/sim.log' --start-scan 100 --kidnap-at 300 --kidnap-to 600 --end-scan 800 --out '$TMP/loc_kidnap' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"kidnap_lost_after_s\"] >= 0 && v[\"kidnap_lost_after_s\"] <= 2 && v[\"wrong_poses_after_kidnap_lost\"] == 0 && v[\"relocalizations\"] >= 1 ? \"ok\" : \"not ok: lost after \" v[\"kidnap_lost_after_s\"] \" s\")}'"
 check "localize --starts: starts.csv and the summary" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --drift moderate --truth '$TMP/sim/sim.log' --starts 3 --start-travel 30 --out '$TMP/loc_starts' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"starts\"] == 3 && v[\"wrong_fixes\"] == 0 && v[\"fixed_share\"] == 1 ? \"ok\" : \"not ok\")}' && test \$(wc -l < '$TMP/loc_starts/starts.csv') -eq 4"
-check "slam: both inputs" 2 "exactly one of --bag BAG and --log LOG" -- "$LLC" slam --bag a.bag --log b.log --out "$TMP/slam3"
+check "slam: no input" 2 "give --bag BAG or --log LOG" -- "$LLC" slam --out "$TMP/slam3"
+check "slam: a bag and a log are two robots, each read" 1 "no such file" -- "$LLC" slam --bag "$TMP/none.bag" --log "$TMP/sim/sim.log" --out "$TMP/slam3"
 slam_keyframes="$(sed -n 's/^keyframes=//p' "$TMP/slam/report.txt")"
 check "slam: a pipeline parameter as a flag (--odometry/keyframe_distance 3: fewer keyframes)" 0 "^ok$" -- bash -c "'$LLC' slam --bag '$TMP/sim/sim.bag' --out '$TMP/slam_flag' --quiet --odometry/keyframe_distance 3 >/dev/null && awk -F= -v before='$slam_keyframes' '/^keyframes=/ {print (\$2 + 0 < before / 2 ? \"ok\" : \"not ok: \" \$2 \" of \" before)}' '$TMP/slam_flag/report.txt'"
 check "slam: a bad parameter flag is refused before the run" 2 "parameter 'odometry/keyframe_distance': bad value" -- "$LLC" slam --bag "$TMP/sim/sim.bag" --out "$TMP/slam_badflag" --odometry/keyframe_distance far

@@ -30,7 +30,9 @@ std::string SystemOptions::validate() const {
   error = map.validate();
   if (!error.empty()) return "map: " + error;
   error = localization.validate();
-  return error.empty() ? "" : "localization: " + error;
+  if (!error.empty()) return "localization: " + error;
+  error = multi_robot.validate();
+  return error.empty() ? "" : "multi_robot: " + error;
 }
 
 std::vector<std::string> systemParameterNames() {

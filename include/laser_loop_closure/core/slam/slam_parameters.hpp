@@ -14,6 +14,7 @@
 
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
 #include "laser_loop_closure/core/slam/localizer.hpp"
+#include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 
 namespace llc {
@@ -23,8 +24,21 @@ struct SystemOptions {
   SlamOptions slam{};
   OccupancyGridOptions map{};
   LocalizerOptions localization{};  ///< llc localize and mode localization only
+  MultiRobotOptions multi_robot{};  ///< llc slam with several inputs only
   [[nodiscard]] std::string validate() const;
 };
+
+template <class Visit>
+void visitJoinParameters(const std::string& prefix, TrajectoryJoinOptions& o, Visit&& visit) {
+  visit(prefix + "min_keyframes", o.min_keyframes);
+  visit(prefix + "min_spread", o.min_spread);
+  visit(prefix + "max_translation", o.max_translation);
+  visit(prefix + "max_rotation", o.max_rotation);
+  visit(prefix + "drift_per_metre", o.drift_per_metre);
+  visit(prefix + "drift_rad_per_metre", o.drift_rad_per_metre);
+  visit(prefix + "window", o.window);
+  visit(prefix + "min_lead", o.min_lead);
+}
 
 template <class Visit>
 void visitIcpParameters(const std::string& prefix, IcpOptions& o, Visit&& visit) {
@@ -182,14 +196,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/score_threshold", localization.score_threshold);
   visit("localization/search_threads", localization.search_threads);
   visit("localization/min_inlier_share", localization.min_inlier_share);
-  visit("localization/join/min_keyframes", localization.join.min_keyframes);
-  visit("localization/join/min_spread", localization.join.min_spread);
-  visit("localization/join/max_translation", localization.join.max_translation);
-  visit("localization/join/max_rotation", localization.join.max_rotation);
-  visit("localization/join/drift_per_metre", localization.join.drift_per_metre);
-  visit("localization/join/drift_rad_per_metre", localization.join.drift_rad_per_metre);
-  visit("localization/join/window", localization.join.window);
-  visit("localization/join/min_lead", localization.join.min_lead);
+  visitJoinParameters("localization/join/", localization.join, visit);
   visit("localization/fix_min_fitting_share", localization.fix_min_fitting_share);
   visit("localization/confirm_keyframes", localization.confirm_keyframes);
   visit("localization/track_radius", localization.track_radius);
@@ -199,6 +206,11 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/lost_after_misfits", localization.lost_after_misfits);
   visit("localization/max_unmatched_travel", localization.max_unmatched_travel);
   visit("localization/hint_max_travel", localization.hint_max_travel);
+
+  MultiRobotOptions& multi_robot = options.multi_robot;
+  visit("multi_robot/cross_candidates", multi_robot.cross_candidates);
+  visit("multi_robot/search_threads", multi_robot.search_threads);
+  visitJoinParameters("multi_robot/join/", multi_robot.join, visit);
 
   OccupancyGridOptions& map = options.map;
   visit("map/resolution", map.resolution);

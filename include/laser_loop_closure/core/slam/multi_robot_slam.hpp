@@ -1,0 +1,129 @@
+// Several robots, one map (issue 64; ../shared/ARCHITECTURE.md, "trajectories"). Each robot is
+// a trajectory: its own SlamPipeline (front end, loops within its own run, a back end in its
+// own odometry frame). Robot 0 defines the map. A robot not yet in the map searches every
+// new keyframe against the keyframes of the robots in it with no pose prior (aligned,
+// shape-validated and context-checked, each end's context from its own robot's odometry), and
+// TrajectoryJoin joins it once the loops of several of its keyframes agree (the same rule as
+// localisation: one look-alike never places a robot). Until then it maps in its own frame and
+// nothing of it touches the map. Once joined, its keyframes, odometry and own loops enter the
+// map's graph (one back end, one chain per robot), and its cross-robot loops pass that back
+// end's chi-square gate like any loop.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "laser_loop_closure/core/slam/slam_pipeline.hpp"
+#include "laser_loop_closure/core/slam/trajectory_join.hpp"
+
+namespace llc {
+
+struct MultiRobotOptions {
+  /// Classifier candidates of each other robot in the map aligned per new keyframe (no pose
+  /// prior), before and after joining.
+  std::size_t cross_candidates = 5;
+  std::size_t search_threads = 2;  ///< threads aligning those candidates
+  TrajectoryJoinOptions join{};    ///< when the loops of several keyframes join a robot to the map
+  [[nodiscard]] std::string validate() const;
+};
+
+/// A keyframe of the map's graph: which robot's, and its index in that robot's pipeline.
+struct RobotKeyframe {
+  std::size_t robot = 0;
+  std::size_t keyframe = 0;
+};
+
+/// A loop between two robots' keyframes as the map's back end met it (map indices in
+/// record.loop.from / to).
+struct CrossRobotLoop {
+  RobotKeyframe from, to;
+  LoopRecord record;
+  bool joining = false;  ///< one of the loops that joined robot `to.robot` to the map
+};
+
+/// What one scan of one robot did.
+struct RobotStep {
+  SlamStepResult slam;               ///< in the robot's own pipeline
+  std::size_t cross_aligned = 0;     ///< when a keyframe: other robots' keyframes aligned with it
+  std::size_t cross_validated = 0;   ///< of those, shape-validated
+  std::size_t cross_refused_by_context = 0;  ///< of those, refused by the context check (loops/context), each robot's from its own chain
+  std::size_t cross_applied = 0;     ///< of those, applied to the map (joined robots)
+  bool joined_now = false;           ///< this keyframe joined the robot to the map
+  TrajectoryJoinResult join;         ///< when a keyframe of a robot not yet joined: whether it joined, or why not
+};
+
+struct MultiRobotCounters {
+  std::size_t robots_joined = 0;         ///< robot 0 included
+  std::size_t cross_aligned = 0, cross_validated = 0;
+  std::size_t cross_refused_by_context = 0;  ///< shape-validated, then refused by the context check
+  std::size_t cross_robot_loops = 0;     ///< applied to the map (the joining ones included)
+  std::size_t cross_refused_by_gate = 0;  ///< shape-validated between joined robots, refused by the map's gate
+  double seconds_search = 0.0;           ///< in the cross-robot search
+};
+
+class MultiRobotSlam {
+ public:
+  /// Throws std::invalid_argument on bad options, robots == 0, or a model the extractor cannot serve.
+  MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam = {},
+                 const MultiRobotOptions& options = {});
+
+  /// Feeds one scan of `robot` (base frame) with its wheel-odometry pose in that robot's own
+  /// odometry frame when there is one; nothing of it is taken as a position in the map. Never
+  /// throws on bad data (SlamPipeline::addScan); std::out_of_range for an unknown robot.
+  RobotStep addScan(std::size_t robot, const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry);
+
+  std::size_t robots() const { return robots_.size(); }
+  /// Whether the robot's keyframes are in the map (robot 0 always, once it has one).
+  bool joined(std::size_t robot) const { return robot < state_.size() && state_[robot].joined; }
+  /// The robot's own run: keyframes, poses in its own frame, its loops.
+  const SlamPipeline& robot(std::size_t robot) const { return *robots_.at(robot); }
+  /// The map's graph: every joined robot's keyframes (in the order they entered) in robot 0's frame.
+  const SlamBackEnd& map() const { return map_; }
+  /// Whose keyframe the map's keyframe `index` is.
+  const RobotKeyframe& mapKeyframe(std::size_t index) const { return map_keyframes_.at(index); }
+  /// The map index of a joined robot's keyframe; throws std::out_of_range when not in the map.
+  std::size_t mapIndex(std::size_t robot, std::size_t keyframe) const;
+  /// Every scan the robot used, placed in the map frame when joined(robot), else in the
+  /// robot's own frame (its own pipeline's poses).
+  std::vector<ScanPose> scanPoses(std::size_t robot) const;
+  const std::vector<CrossRobotLoop>& crossLoops() const { return cross_loops_; }
+  const MultiRobotCounters& counters() const { return counters_; }
+  /// m of path by the robot's own odometry when it joined (only when joined; robot 0: 0).
+  double joinedAtPath(std::size_t robot) const { return state_.at(robot).joined_at_path; }
+  const MultiRobotOptions& options() const { return options_; }
+
+ private:
+  /// Per robot: what its own pipeline does not keep, reset as one per robot.
+  struct RobotState {
+    bool joined = false;
+    double path = 0.0;                   ///< m; its own odometry path length
+    double joined_at_path = 0.0;
+    std::vector<Pose2> chain;            ///< each keyframe in its own odometry frame (the front end's steps composed)
+    std::vector<OdometryStep> steps;     ///< each keyframe's step from the one before (the first's unused)
+    std::vector<LoopClosure> own_loops;  ///< shape-validated loops within its own run, as they came
+    std::vector<std::size_t> map_index;  ///< when joined: each keyframe's index in the map
+    std::vector<LoopClosure> joining_loops;  ///< loops offered to the join, parallel to its hypotheses' order of offer
+  };
+
+  /// The robot's keyframe against every other joined robot's keyframes: the shape-validated
+  /// loops (from = the other robot's keyframe in its own pipeline, to = this keyframe).
+  std::vector<std::pair<std::size_t, LoopClosure>> searchOthers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// Enters keyframe `keyframe` of a joined robot into the map, linked from its previous one.
+  void enterKeyframe(std::size_t robot, std::size_t keyframe);
+  /// A loop between two keyframes that are both in the map (own or cross-robot) to its back end.
+  LoopRecord applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot);
+  /// Robot `robot` joins: its keyframes so far, its own loops and the loops that joined it.
+  void joinRobot(std::size_t robot, const TrajectoryJoinResult& join, RobotStep& step);
+
+  MultiRobotOptions options_;
+  std::vector<std::unique_ptr<SlamPipeline>> robots_;
+  std::vector<RobotState> state_;
+  std::vector<TrajectoryJoin> joins_;
+  SlamBackEnd map_;
+  std::vector<RobotKeyframe> map_keyframes_;
+  std::vector<CrossRobotLoop> cross_loops_;
+  MultiRobotCounters counters_;
+};
+
+}  // namespace llc

@@ -1,0 +1,224 @@
+#include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace llc {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+const MultiRobotOptions& checked(const MultiRobotOptions& options) {
+  const std::string error = options.validate();
+  if (!error.empty()) throw std::invalid_argument("multi-robot options: " + error);
+  return options;
+}
+
+}  // namespace
+
+std::string MultiRobotOptions::validate() const {
+  if (cross_candidates == 0) return "cross_candidates must be >= 1";
+  if (search_threads == 0) return "search_threads must be >= 1";
+  const std::string error = join.validate();
+  return error.empty() ? "" : "join: " + error;
+}
+
+MultiRobotSlam::MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam,
+                               const MultiRobotOptions& options)
+    : options_(checked(options)), map_(slam.esdf, slam.gate_loops, slam.consensus) {
+  if (robots == 0) throw std::invalid_argument("multi-robot: at least one robot");
+  for (std::size_t r = 0; r < robots; ++r) {
+    robots_.push_back(std::make_unique<SlamPipeline>(model, slam));
+    joins_.emplace_back(options_.join);
+  }
+  state_.resize(robots);
+  state_[0].joined = true;  // robot 0's frame is the map's
+  counters_.robots_joined = 1;
+}
+
+std::size_t MultiRobotSlam::mapIndex(std::size_t robot, std::size_t keyframe) const {
+  const RobotState& state = state_.at(robot);
+  if (!state.joined || keyframe >= state.map_index.size())
+    throw std::out_of_range("multi-robot: keyframe " + std::to_string(keyframe) + " of robot " + std::to_string(robot) +
+                            " is not in the map");
+  return state.map_index[keyframe];
+}
+
+RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
+  SlamPipeline& pipeline = *robots_.at(robot);
+  RobotState& state = state_[robot];
+  RobotStep step;
+  step.slam = pipeline.addScan(scan, scan_index, wheel_odometry);
+  if (!step.slam.keyframe) return step;
+  const std::size_t keyframe = step.slam.keyframe_index;
+  // The robot's own odometry chain: what TrajectoryJoin places its keyframes by.
+  if (state.chain.empty()) {
+    state.chain.push_back(Pose2{});
+  } else {
+    // A step with no motion (a new chain after a time jump) leaves the keyframe where the
+    // last one was: the join's drift allowance, not a NaN, absorbs it.
+    const Pose2& motion = step.slam.odometry.motion;
+    const bool finite = std::isfinite(motion.x) && std::isfinite(motion.y) && std::isfinite(motion.theta);
+    state.chain.push_back(finite ? compose(state.chain.back(), motion) : state.chain.back());
+    if (finite) state.path += std::hypot(motion.x, motion.y);
+  }
+  state.steps.push_back(step.slam.odometry);
+  for (const LoopClosure& loop : step.slam.loops.aligned)
+    if (loop.accepted) state.own_loops.push_back(loop);
+
+  if (state.joined) {
+    enterKeyframe(robot, keyframe);
+    for (const LoopClosure& loop : step.slam.loops.aligned)
+      if (loop.accepted) applyToMap(robot, loop, robot);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<std::pair<std::size_t, LoopClosure>> found = searchOthers(robot, keyframe, step);
+  if (state.joined) {
+    for (const auto& [other, loop] : found) {
+      const LoopRecord record = applyToMap(other, loop, robot);
+      step.cross_applied += record.applied;
+      if (!record.applied && record.refusal == LoopRefusal::kBackEndGate) ++counters_.cross_refused_by_gate;
+    }
+  } else {
+    std::vector<JoinHypothesis> hypotheses;
+    for (const auto& [other, loop] : found) {
+      JoinHypothesis h;
+      h.keyframe = keyframe;
+      h.path = state.path;
+      h.trajectory_pose = state.chain[keyframe];
+      h.map_keyframe = mapIndex(other, loop.from);
+      h.map_pose = compose(map_.poses()[h.map_keyframe], loop.pose);
+      h.covariance = loop.covariance;
+      hypotheses.push_back(h);
+      LoopClosure offered = loop;
+      offered.from = h.map_keyframe;  // kept by map index: what the join's hypotheses name
+      state.joining_loops.push_back(offered);
+    }
+    step.join = joins_[robot].offer(hypotheses);
+    if (step.join.joined) joinRobot(robot, step.join, step);
+  }
+  counters_.seconds_search += secondsSince(start);
+  return step;
+}
+
+std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(std::size_t robot, std::size_t keyframe,
+                                                                               RobotStep& step) {
+  std::vector<std::pair<std::size_t, LoopClosure>> found;
+  const LoopDetector& own = robots_[robot]->detector();
+  const std::vector<double> features = own.features(keyframe);
+  const PreparedScan& prepared = own.prepared(keyframe);
+  // Each keyframe's context from its own robot's odometry chain (a loop between robots is
+  // checked against both, as a loop within one run is: a corridor a door along fits worse).
+  auto contextOf = [](const SlamFrontEnd& front) -> KeyframeContext {
+    return [&front](std::size_t index, std::size_t before, double distance, double spacing) {
+      return front.context(index, before, distance, spacing);
+    };
+  };
+  const KeyframeContext own_context = contextOf(robots_[robot]->frontEnd());
+  for (std::size_t other = 0; other < robots_.size(); ++other) {
+    if (other == robot || !state_[other].joined || robots_[other]->detector().size() == 0) continue;
+    const LoopDetectionResult result = robots_[other]->detector().detectScan(
+        features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
+    step.cross_aligned += result.aligned.size();
+    const LoopDetector& store = robots_[other]->detector();
+    for (LoopClosure loop : result.aligned) {
+      if (!loop.accepted) continue;
+      // Only keyframes already in the map (a robot's newest keyframe enters it with its scan).
+      if (loop.from >= state_[other].map_index.size()) continue;
+      ++step.cross_validated;
+      if (store.options().context.enabled) {
+        store.checkContextWith(loop, store.size(), contextOf(robots_[other]->frontEnd()), own, own_context);
+        if (!loop.accepted) {
+          ++step.cross_refused_by_context;
+          continue;
+        }
+      }
+      found.emplace_back(other, loop);
+    }
+  }
+  counters_.cross_aligned += step.cross_aligned;
+  counters_.cross_validated += step.cross_validated;
+  counters_.cross_refused_by_context += step.cross_refused_by_context;
+  return found;
+}
+
+void MultiRobotSlam::enterKeyframe(std::size_t robot, std::size_t keyframe) {
+  RobotState& state = state_[robot];
+  const Keyframe& kf = robots_[robot]->keyframes().at(keyframe);
+  if (keyframe == 0) {
+    // Only robot 0's first keyframe starts the map (a joining robot's first is linked in joinRobot).
+    map_.addKeyframe(kf, Pose2{}, Eigen::Matrix3d::Identity());
+  } else {
+    const OdometryStep& odometry = state.steps[keyframe];
+    map_.addKeyframeFrom(state.map_index.at(keyframe - 1), kf, odometry.motion, odometry.covariance);
+  }
+  state.map_index.push_back(map_keyframes_.size());
+  map_keyframes_.push_back({robot, keyframe});
+}
+
+LoopRecord MultiRobotSlam::applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot) {
+  LoopClosure in_map = loop;
+  in_map.from = mapIndex(from_robot, loop.from);
+  in_map.to = mapIndex(to_robot, loop.to);
+  const LoopRecord record = map_.addLoop(in_map);
+  if (from_robot != to_robot) {
+    cross_loops_.push_back({{from_robot, loop.from}, {to_robot, loop.to}, record, false});
+    counters_.cross_robot_loops += record.applied;
+  }
+  return record;
+}
+
+void MultiRobotSlam::joinRobot(std::size_t robot, const TrajectoryJoinResult& join, RobotStep& step) {
+  RobotState& state = state_[robot];
+  const std::vector<JoinHypothesis>& offered = joins_[robot].hypotheses();
+  // The first keyframe: where the join's frame puts it, loosely linked to the map keyframe of
+  // the newest joining loop (the loops below place it; the link only gives it a mean).
+  const std::size_t anchor = join.newest.map_keyframe;
+  const Pose2 first_in_map = compose(join.map_from_trajectory, state.chain[0]);
+  map_.addKeyframeFrom(anchor, robots_[robot]->keyframes().at(0), between(map_.poses()[anchor], first_in_map),
+                       looseLinkCovariance());
+  state.joined = true;
+  state.joined_at_path = state.path;
+  state.map_index.push_back(map_keyframes_.size());
+  map_keyframes_.push_back({robot, 0});
+  for (std::size_t k = 1; k < state.chain.size(); ++k) enterKeyframe(robot, k);
+  for (const LoopClosure& loop : state.own_loops) applyToMap(robot, loop, robot);
+  // The loops that joined it: one per supporting keyframe, as the join kept them.
+  for (std::size_t index : join.support) {
+    const JoinHypothesis& h = offered.at(index);
+    for (const LoopClosure& loop : state.joining_loops) {
+      if (loop.to != h.keyframe || loop.from != h.map_keyframe) continue;
+      LoopClosure in_map = loop;
+      in_map.to = state.map_index.at(loop.to);
+      const LoopRecord record = map_.addLoop(in_map);
+      const RobotKeyframe& other = map_keyframes_.at(loop.from);
+      cross_loops_.push_back({other, {robot, loop.to}, record, true});
+      counters_.cross_robot_loops += record.applied;
+      step.cross_applied += record.applied;
+      break;
+    }
+  }
+  state.joining_loops.clear();
+  joins_[robot].clear();
+  step.joined_now = true;
+  ++counters_.robots_joined;
+}
+
+std::vector<ScanPose> MultiRobotSlam::scanPoses(std::size_t robot) const {
+  std::vector<ScanPose> scans = robots_.at(robot)->scanPoses();
+  const RobotState& state = state_[robot];
+  if (!state.joined) return scans;
+  const std::vector<Pose2>& own = robots_[robot]->poses();
+  const std::vector<Pose2>& map = map_.poses();
+  for (ScanPose& s : scans) {
+    if (s.keyframe >= state.map_index.size()) continue;
+    // The scan's offset from its keyframe in the robot's own map, carried by the keyframe's map pose.
+    s.pose = compose(map[state.map_index[s.keyframe]], between(own[s.keyframe], s.pose));
+  }
+  return scans;
+}
+
+}  // namespace llc

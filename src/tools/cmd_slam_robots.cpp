@@ -1,0 +1,325 @@
+// llc slam with several inputs (--log A --log B ..., or one input --split N): each input is a
+// robot with its own odometry frame and no relative prior; MultiRobotSlam joins them into
+// robot 0's map. Writes one map, the trajectories with a robot column, and a report.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "commands.hpp"
+#include "input_preparation.hpp"
+#include "laser_loop_closure/core/classifier/classifier_model.hpp"
+#include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
+#include "laser_loop_closure/core/geometry/trajectory_error.hpp"
+#include "laser_loop_closure/core/map/map_picture.hpp"
+#include "laser_loop_closure/core/sim/odometry_drift.hpp"
+#include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
+
+namespace llc_tool {
+namespace {
+
+struct RobotInput {
+  std::string source;
+  llc::ScanSequence sequence;  ///< its scans; index = the scan's index in its input file
+  std::vector<std::size_t> input_index;  ///< per scan of `sequence`: its index in the input file
+  bool wheels = true;
+  bool has_truth = false;
+};
+
+/// The inputs as robots: every --log, then every --bag; or one input cut into --split N parts.
+std::vector<RobotInput> loadRobots(const Args& args, const llc::SlamOptions& slam) {
+  std::vector<std::string> paths = args.all("log");
+  for (const std::string& bag : args.all("bag")) paths.push_back(bag);
+  const long split = args.integer("split", 1);
+  if (split < 1 || split > 64) throw UsageError("--split must be 1 to 64");
+  if (split > 1 && paths.size() != 1) throw UsageError("--split N cuts one input into N robots: give exactly one --log or --bag");
+  const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
+  llc::Random random(std::uint64_t(args.integer("seed", 1)));
+  std::vector<RobotInput> robots;
+  for (const std::string& path : paths) {
+    driveReadOptions(path, args);  // checked before anything is read
+    llc::ScanSequence whole = loadSequence(path, args, true);
+    if (whole.scans.size() < 2) throw ToolError(path + ": fewer than 2 scans");
+    const bool truth = args.has("evaluate") || drift || hasTruthBesideOdometry(whole);
+    llc::shiftOdometry(&whole, chooseOdometryOffset(args, whole, slam).offset);
+    const std::size_t parts = std::size_t(split), per_part = whole.scans.size() / parts;
+    if (per_part < 2) throw UsageError("--split: fewer than 2 scans per robot");
+    for (std::size_t p = 0; p < parts; ++p) {
+      RobotInput robot;
+      robot.source = path;
+      robot.sequence.source = whole.source;
+      robot.sequence.has_odometry = whole.has_odometry;
+      const std::size_t end = p + 1 == parts ? whole.scans.size() : (p + 1) * per_part;
+      for (std::size_t i = p * per_part; i < end; ++i) {
+        robot.sequence.scans.push_back(whole.scans[i]);
+        robot.input_index.push_back(i);
+      }
+      robot.wheels = whole.has_odometry && !args.has("no-wheel-odometry");
+      robot.has_truth = truth;
+      robots.push_back(std::move(robot));
+    }
+  }
+  if (robots.size() < 2) throw UsageError("several robots need two inputs or more (--log A --log B), or --split N");
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    RobotInput& robot = robots[r];
+    if (drift) {  // each robot's wheels drift their own way
+      llc::OdometryDrift own = *drift;
+      own.seed = drift->seed + r;
+      try {
+        llc::driftOdometry(&robot.sequence, own);
+      } catch (const std::invalid_argument& e) {
+        throw ToolError(e.what());
+      }
+    }
+    if (split > 1 && r > 0) {  // a part of one drive: its odometry in a frame of its own, anywhere
+      const llc::Pose2 frame{random.uniform(-500.0, 500.0), random.uniform(-500.0, 500.0), random.uniform(-M_PI, M_PI)};
+      for (llc::LoggedScan& s : robot.sequence.scans) s.odometry = llc::compose(frame, s.odometry);
+    }
+  }
+  return robots;
+}
+
+/// The order in which the robots' scans are fed: by stamp, or (--simultaneous) by time since
+/// each robot's first scan, as if all had started together.
+std::vector<std::pair<std::size_t, std::size_t>> feedOrder(const std::vector<RobotInput>& robots, bool simultaneous) {
+  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> order;
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const auto& scans = robots[r].sequence.scans;
+    for (std::size_t i = 0; i < scans.size(); ++i)
+      order.push_back({simultaneous ? scans[i].stamp - scans.front().stamp : scans[i].stamp, {r, i}});
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::pair<std::size_t, std::size_t>> feed;
+  for (const auto& o : order) feed.push_back(o.second);
+  return feed;
+}
+
+struct RobotTruth {
+  double rms_m = std::numeric_limits<double>::quiet_NaN();  ///< its keyframes, in the map's alignment when joined
+  double first_overlap_m = -1.0;  ///< truth path to its join/min_keyframes-th keyframe within 1.5 m of one another robot mapped earlier
+  double joined_m = -1.0;         ///< truth path to the keyframe that joined it
+};
+
+}  // namespace
+
+int runMultiRobotSlam(const Args& args) {
+  for (const char* flag : {"load-session", "save-session", "save-graph", "relations", "truth", "end-scan", "continue-odometry",
+                           "estimate-odometry-time-offset"})
+    if (args.has(flag)) throw UsageError(std::string("--") + flag + " is for one robot (one input, no --split)");
+  const std::string dir = args.required("out");
+  const double wrong_m = args.number("wrong-loop-m", 1.0), wrong_rad = args.number("wrong-loop-deg", 5.73) * M_PI / 180.0;
+  if (!(wrong_m > 0.0 && wrong_rad > 0.0)) throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");
+  const llc::SystemOptions options = systemOptions(args);
+  std::vector<RobotInput> robots = loadRobots(args, options.slam);
+  prepareOutputFolder("out", dir);
+  llc::ClassifierModel model;
+  try {
+    model = llc::loadClassifierModel(args.get("model", defaultModelPath()));
+  } catch (const llc::ModelError& e) {
+    throw ToolError(e.what());
+  }
+  const auto start = std::chrono::steady_clock::now();
+  llc::MultiRobotSlam slam(model, robots.size(), options.slam, options.multi_robot);
+  const std::vector<std::pair<std::size_t, std::size_t>> feed = feedOrder(robots, args.has("simultaneous"));
+  // Per robot and keyframe: when (in the feed) it was made, and which keyframe joined the robot.
+  std::vector<std::vector<std::size_t>> made_at(robots.size());
+  std::vector<std::size_t> joined_by(robots.size(), 0);
+  std::size_t done = 0, skipped = 0;
+  for (const auto& [r, i] : feed) {
+    const llc::LoggedScan& s = robots[r].sequence.scans[i];
+    const llc::RobotStep step = slam.addScan(r, s.scan, robots[r].input_index[i], robots[r].wheels ? &s.odometry : nullptr);
+    skipped += !step.slam.skip_reason.empty();
+    if (step.slam.keyframe) made_at[r].push_back(done);
+    if (step.joined_now) {
+      joined_by[r] = step.slam.keyframe_index;
+      if (!args.has("quiet"))
+        std::cerr << "robot " << r << " joined the map at its scan " << robots[r].input_index[i] << " after "
+                  << slam.joinedAtPath(r) << " m of its path\n";
+    }
+    ++done;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // The truth of keyframe k of robot r.
+  auto truthOf = [&](std::size_t r, std::size_t k) -> const llc::Pose2& {
+    const std::size_t scan = slam.robot(r).keyframes()[k].scan_index;
+    const auto& index = robots[r].input_index;
+    const std::size_t i = std::size_t(std::lower_bound(index.begin(), index.end(), scan) - index.begin());
+    return robots[r].sequence.scans[i].truth;
+  };
+  const bool truth = std::all_of(robots.begin(), robots.end(), [](const RobotInput& r) { return r.has_truth; });
+
+  // Outputs: the map's keyframes (joined robots, map frame), then the unjoined robots' own.
+  const llc::SlamBackEnd& map = slam.map();
+  llc::AtomicTextFile trajectory(dir + "/trajectory.csv");
+  trajectory << "robot,index,stamp,x,y,theta,joined\n" << std::fixed << std::setprecision(6);
+  for (std::size_t m = 0; m < map.keyframes().size(); ++m) {
+    const llc::Pose2& p = map.poses()[m];
+    trajectory << slam.mapKeyframe(m).robot << "," << map.keyframes()[m].scan_index << "," << map.keyframes()[m].stamp << ","
+               << p.x << "," << p.y << "," << p.theta << ",1\n";
+  }
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    if (slam.joined(r)) continue;
+    const auto& keyframes = slam.robot(r).keyframes();
+    for (std::size_t k = 0; k < keyframes.size(); ++k) {
+      const llc::Pose2& p = slam.robot(r).poses()[k];
+      trajectory << r << "," << keyframes[k].scan_index << "," << keyframes[k].stamp << "," << p.x << "," << p.y << ","
+                 << p.theta << ",0\n";
+    }
+  }
+  trajectory.commit();
+  llc::AtomicTextFile scans(dir + "/scans.csv");
+  scans << "robot,scan,stamp,x,y,theta,joined\n" << std::fixed << std::setprecision(6);
+  for (std::size_t r = 0; r < robots.size(); ++r)
+    for (const llc::ScanPose& s : slam.scanPoses(r))
+      scans << r << "," << s.scan_index << "," << s.stamp << "," << s.pose.x << "," << s.pose.y << "," << s.pose.theta << ","
+            << (slam.joined(r) ? 1 : 0) << "\n";
+  scans.commit();
+  // The map's loops (own and cross-robot), with wrong ones counted against the truth.
+  std::size_t wrong_loops = 0, wrong_cross = 0, wrong_joining = 0, applied_loops = 0;
+  std::ostringstream wrong_lines;
+  std::set<std::pair<std::size_t, std::size_t>> joining;  // map (from, to) of the loops that joined a robot
+  for (const llc::CrossRobotLoop& loop : slam.crossLoops())
+    if (loop.joining) joining.insert({loop.record.loop.from, loop.record.loop.to});
+  llc::AtomicTextFile loops(dir + "/loops.csv");
+  loops << "robot_a,a,robot_b,b,applied,score,inlier_share,x,y,theta,innovation_chi2,refusal\n";
+  std::vector<llc::PictureLoop> picture_loops;
+  for (const llc::LoopRecord& record : map.loops()) {
+    const llc::RobotKeyframe& a = slam.mapKeyframe(record.loop.from);
+    const llc::RobotKeyframe& b = slam.mapKeyframe(record.loop.to);
+    loops << a.robot << "," << map.keyframes()[record.loop.from].scan_index << "," << b.robot << ","
+          << map.keyframes()[record.loop.to].scan_index << "," << (record.applied ? 1 : 0) << "," << std::setprecision(4)
+          << record.loop.score << "," << record.loop.inlier_share << "," << std::setprecision(6) << record.loop.pose.x << ","
+          << record.loop.pose.y << "," << record.loop.pose.theta << "," << std::setprecision(4) << record.innovation_chi2 << ","
+          << llc::loopRefusalName(record.refusal) << "\n";
+    picture_loops.push_back({record.loop.from, record.loop.to, record.applied, record.by_consensus});
+    if (!record.applied) continue;
+    ++applied_loops;
+    if (!truth) continue;
+    const llc::Pose2 e = llc::between(llc::between(truthOf(a.robot, a.keyframe), truthOf(b.robot, b.keyframe)), record.loop.pose);
+    if (std::hypot(e.x, e.y) > wrong_m || std::abs(e.theta) > wrong_rad) {
+      const bool joined_by_it = joining.count({record.loop.from, record.loop.to}) > 0;
+      ++wrong_loops;
+      wrong_cross += a.robot != b.robot;
+      wrong_joining += joined_by_it;
+      wrong_lines << "wrong_loop: robot " << a.robot << " scan " << map.keyframes()[record.loop.from].scan_index << " -> robot "
+                  << b.robot << " scan " << map.keyframes()[record.loop.to].scan_index << ", off the truth by "
+                  << std::hypot(e.x, e.y) << " m " << e.theta * 180.0 / M_PI << " deg" << (joined_by_it ? ", one that joined the robot" : "")
+                  << "\n";
+    }
+  }
+  loops.commit();
+  std::vector<const llc::Scan*> map_scans;
+  for (const llc::Keyframe& k : map.keyframes()) map_scans.push_back(&k.scan);
+  try {
+    const llc::OccupancyGrid grid = llc::buildOccupancyGrid(map_scans, map.poses(), options.map);
+    llc::saveMapFiles(grid, dir + "/map", options.map);
+    llc::renderMapPicture(grid, map.poses(), picture_loops).savePng(dir + "/map.png");
+  } catch (const std::exception& e) {
+    throw ToolError(std::string("map: ") + e.what());
+  }
+
+  // Against the truth: the joined map in one alignment, each robot within it.
+  std::vector<RobotTruth> robot_truth(robots.size());
+  double map_rms = std::numeric_limits<double>::quiet_NaN();
+  if (truth) {
+    std::vector<llc::Pose2> estimate, reference;
+    for (std::size_t m = 0; m < map.keyframes().size(); ++m) {
+      estimate.push_back(map.poses()[m]);
+      reference.push_back(truthOf(slam.mapKeyframe(m).robot, slam.mapKeyframe(m).keyframe));
+    }
+    llc::Pose2 alignment;
+    map_rms = llc::alignedRmsError(estimate, reference, &alignment);
+    for (std::size_t r = 0; r < robots.size(); ++r) {
+      RobotTruth& t = robot_truth[r];
+      const auto& keyframes = slam.robot(r).keyframes();
+      if (slam.joined(r)) {
+        double sum = 0.0;
+        for (std::size_t k = 0; k < keyframes.size(); ++k) {
+          const llc::Pose2 p = llc::compose(alignment, map.poses()[slam.mapIndex(r, k)]);
+          const llc::Pose2& q = truthOf(r, k);
+          sum += (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y);
+        }
+        t.rms_m = keyframes.empty() ? 0.0 : std::sqrt(sum / double(keyframes.size()));
+      } else {
+        std::vector<llc::Pose2> own(slam.robot(r).poses()), own_truth;
+        for (std::size_t k = 0; k < keyframes.size(); ++k) own_truth.push_back(truthOf(r, k));
+        t.rms_m = llc::alignedRmsError(own, own_truth);
+      }
+      if (r == 0) continue;
+      // A join needs min_keyframes keyframes that see mapped places: the path at the
+      // min_keyframes-th one is the earliest a join could be right.
+      double path = 0.0;
+      std::size_t overlapping = 0;
+      for (std::size_t k = 0; k < keyframes.size(); ++k) {
+        const llc::Pose2& q = truthOf(r, k);
+        if (k > 0) path += std::hypot(q.x - truthOf(r, k - 1).x, q.y - truthOf(r, k - 1).y);
+        bool overlaps = false;
+        for (std::size_t o = 0; o < robots.size() && !overlaps && t.first_overlap_m < 0.0; ++o) {
+          if (o == r) continue;
+          for (std::size_t j = 0; j < made_at[o].size() && made_at[o][j] < made_at[r][k] && !overlaps; ++j) {
+            const llc::Pose2& u = truthOf(o, j);
+            overlaps = std::hypot(q.x - u.x, q.y - u.y) <= 1.5 &&
+                       (keyframes[k].scan.full_circle || std::abs(llc::normalizeAngle(q.theta - u.theta)) <= M_PI / 4);
+          }
+        }
+        if (overlaps && ++overlapping == options.multi_robot.join.min_keyframes) t.first_overlap_m = path;
+        if (slam.joined(r) && k == joined_by[r]) t.joined_m = path;
+      }
+    }
+  }
+
+  const llc::MultiRobotCounters& c = slam.counters();
+  std::ostringstream report;
+  report << std::setprecision(4) << "robots=" << robots.size() << "\n"
+         << "robots_joined=" << c.robots_joined << "  (in robot 0's map frame, robot 0 included)\n"
+         << "cross_robot_loops=" << c.cross_robot_loops << "  (applied to the map, the joining ones included)\n"
+         << "cross_robot_aligned=" << c.cross_aligned << "\n"
+         << "cross_robot_validated=" << c.cross_validated << "  (shape-validated; those the context check let through were offered to a join, or to the map's gate)\n"
+         << "cross_robot_refused_by_context=" << c.cross_refused_by_context
+         << "  (shape-validated, then the keyframes around each end, by their own robots' odometry, fitted better elsewhere)\n"
+         << "cross_robot_refused_by_gate=" << c.cross_refused_by_gate << "\n"
+         << "map_keyframes=" << map.keyframes().size() << "\n"
+         << "map_loops_applied=" << applied_loops << "\n"
+         << "scans_skipped=" << skipped << "\n";
+  for (std::size_t r = 0; r < robots.size(); ++r) {
+    const std::string p = "robot_" + std::to_string(r) + "_";
+    report << p << "input=" << robots[r].source << " scans " << robots[r].input_index.front() << "-"
+           << robots[r].input_index.back() << "\n"
+           << p << "keyframes=" << slam.robot(r).keyframes().size() << "\n"
+           << p << "joined=" << (slam.joined(r) ? 1 : 0) << "\n";
+    if (r > 0 && slam.joined(r)) report << p << "joined_after_odometry_m=" << slam.joinedAtPath(r) << "\n";
+    if (!truth) continue;
+    report << p << "rms_error_m=" << robot_truth[r].rms_m << (slam.joined(r) ? "" : "  (in its own frame: not joined)") << "\n";
+    if (r == 0) continue;
+    report << p << "first_overlap_m=" << robot_truth[r].first_overlap_m << "  (its true path to its "
+           << options.multi_robot.join.min_keyframes
+           << "th keyframe within 1.5 m of one another robot made earlier, as many as a join needs; -1: never)\n";
+    if (slam.joined(r) && robot_truth[r].first_overlap_m >= 0.0)
+      report << p << "joined_after_overlap_m=" << robot_truth[r].joined_m - robot_truth[r].first_overlap_m
+             << "  (true path from that keyframe to the one that joined it; negative: joined from farther than 1.5 m)\n";
+    else if (slam.joined(r))
+      report << p << "joined_after_overlap_m=none  (joined, from places never within 1.5 m of another robot's)\n";
+  }
+  if (truth)
+    report << "rms_error_m=" << map_rms << "  (the map's keyframes, every joined robot, one alignment to the truth)\n"
+           << "wrong_loops_accepted=" << wrong_loops << "  (applied to the map, off the truth by over " << wrong_m << " m or "
+           << wrong_rad * 180.0 / M_PI << " deg)\n"
+           << "wrong_cross_robot_loops=" << wrong_cross << "\n"
+           << "wrong_joining_loops=" << wrong_joining << "  (of those, loops that joined a robot to the map)\n"
+           << wrong_lines.str();
+  else
+    report << "ground_truth=none (--evaluate or --drift compares against the inputs' poses)\n";
+  report << "seconds_cross_robot_search=" << c.seconds_search << "\n" << "seconds=" << seconds << "\n";
+  llc::writeFileAtomically(dir + "/report.txt", report.str());
+  std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,scans.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt}\n";
+  return 0;
+}
+
+}  // namespace llc_tool

@@ -1,0 +1,172 @@
+// MultiRobotSlam on a simulated city driven by two robots at once, each in an odometry frame
+// of its own with no relative prior: the second joins the first's map only once several of
+// its keyframes agree, with no wrong cross-robot loop, and the joined map lies on the truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "../test_util.hpp"
+#include "laser_loop_closure/core/geometry/trajectory_error.hpp"
+#include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
+
+namespace {
+
+struct TwoRobots {
+  llc::SimDrive drive = llc_test::simulatedDrive(600.0);
+  std::size_t split = 0;  ///< robot 0 drives frames [0, split), robot 1 [split, end)
+  llc::MultiRobotSlam slam{llc_test::defaultModel(), 2};
+  std::vector<llc::RobotStep> steps[2];
+  std::vector<std::size_t> frames[2];
+  TwoRobots() {
+    split = drive.frames.size() / 2;
+    const llc::Pose2 frame_of_robot_1{-250.0, 400.0, 2.5};  // its odometry frame: anywhere
+    for (std::size_t i = 0; i < split; ++i) {
+      for (std::size_t robot = 0; robot < 2; ++robot) {  // both drive at once
+        const std::size_t f = robot == 0 ? i : split + i;
+        if (f >= drive.frames.size()) continue;
+        const llc::Pose2 odometry = robot == 0 ? drive.frames[f].odometry : llc::compose(frame_of_robot_1, drive.frames[f].odometry);
+        steps[robot].push_back(slam.addScan(robot, llc_test::frameScan(drive, drive.frames[f]), f, &odometry));
+        frames[robot].push_back(f);
+      }
+    }
+  }
+  const llc::Pose2& truthOf(std::size_t robot, std::size_t keyframe) const {
+    return drive.frames[slam.robot(robot).keyframes()[keyframe].scan_index].truth;
+  }
+  /// The map's keyframe poses and their truths, in map order.
+  void mapAndTruth(std::vector<llc::Pose2>* map, std::vector<llc::Pose2>* truth) const {
+    for (std::size_t m = 0; m < slam.map().keyframes().size(); ++m) {
+      const llc::RobotKeyframe& k = slam.mapKeyframe(m);
+      map->push_back(slam.map().poses()[m]);
+      truth->push_back(truthOf(k.robot, k.keyframe));
+    }
+  }
+};
+
+const TwoRobots& twoRobots() {
+  static const TwoRobots run;
+  return run;
+}
+
+TEST(MultiRobotSlam, TheSecondRobotJoinsAndEveryCrossLoopIsRight) {
+  const TwoRobots& run = twoRobots();
+  ASSERT_TRUE(run.slam.joined(1)) << "robot 1 never joined";
+  std::size_t joined_at = 0;
+  for (std::size_t k = 0; k < run.steps[1].size(); ++k)
+    if (run.steps[1][k].joined_now) joined_at = k;
+  std::cout << "robot 1 joined at its scan " << joined_at << " (frame " << run.frames[1][joined_at] << "), after "
+            << run.slam.joinedAtPath(1) << " m; cross loops " << run.slam.counters().cross_robot_loops << "\n";
+  // Travel (by the truth) from the first keyframe of robot 1 that sees a place robot 0 had
+  // mapped by then (within 1 m) to the join.
+  const auto& keyframes1 = run.slam.robot(1).keyframes();
+  const auto& keyframes0 = run.slam.robot(0).keyframes();
+  double path = 0.0, path_at_overlap = -1.0, path_at_join = -1.0;
+  for (std::size_t k = 0; k < keyframes1.size(); ++k) {
+    const llc::Pose2& t = run.truthOf(1, k);
+    if (k > 0) path += std::hypot(t.x - run.truthOf(1, k - 1).x, t.y - run.truthOf(1, k - 1).y);
+    for (std::size_t j = 0; j < keyframes0.size() && path_at_overlap < 0.0; ++j) {
+      const llc::Pose2& u = run.truthOf(0, j);
+      if (keyframes0[j].stamp - keyframes0.front().stamp <= keyframes1[k].stamp - keyframes1.front().stamp &&
+          std::hypot(t.x - u.x, t.y - u.y) < 1.0)
+        path_at_overlap = path;
+    }
+    if (path_at_join < 0.0 && keyframes1[k].scan_index >= run.frames[1][joined_at])
+      path_at_join = path;
+  }
+  std::cout << "first overlap after " << path_at_overlap << " m of robot 1's path, joined after " << path_at_join << " m\n";
+  ASSERT_GE(path_at_overlap, 0.0);
+  EXPECT_LT(path_at_join - path_at_overlap, 5.0) << "joined long after the robots first saw the same place";
+  ASSERT_GE(run.slam.crossLoops().size(), 3u);
+  for (const llc::CrossRobotLoop& loop : run.slam.crossLoops()) {
+    if (!loop.record.applied) continue;
+    const llc::Pose2 truth = llc::between(run.truthOf(loop.from.robot, loop.from.keyframe), run.truthOf(loop.to.robot, loop.to.keyframe));
+    const llc::Pose2 e = llc::between(truth, loop.record.loop.pose);
+    EXPECT_LT(std::hypot(e.x, e.y), 0.5) << "a wrong cross-robot loop";
+    EXPECT_LT(std::abs(e.theta), 0.05);
+  }
+}
+
+TEST(MultiRobotSlam, TheJoinedMapLiesOnTheTruth) {
+  const TwoRobots& run = twoRobots();
+  std::vector<llc::Pose2> map, truth;
+  run.mapAndTruth(&map, &truth);
+  ASSERT_EQ(map.size(), run.slam.robot(0).keyframes().size() + run.slam.robot(1).keyframes().size());
+  const double rms = llc::alignedRmsError(map, truth);
+  std::cout << "joined map: " << map.size() << " keyframes, RMS " << rms << " m\n";
+  EXPECT_LT(rms, 0.5);
+}
+
+TEST(MultiRobotSlam, EveryScanOfAJoinedRobotIsPlacedInTheMapNearItsTruth) {
+  const TwoRobots& run = twoRobots();
+  std::vector<llc::Pose2> map, truth;
+  run.mapAndTruth(&map, &truth);
+  llc::Pose2 truth_from_map;
+  llc::alignedRmsError(map, truth, &truth_from_map);
+  for (std::size_t robot = 0; robot < 2; ++robot) {
+    const std::vector<llc::ScanPose> scans = run.slam.scanPoses(robot);
+    ASSERT_GT(scans.size(), run.slam.robot(robot).keyframes().size());
+    double worst = 0.0;
+    for (const llc::ScanPose& s : scans) {
+      const llc::Pose2 p = llc::compose(truth_from_map, s.pose);
+      const llc::Pose2& t = run.drive.frames[s.scan_index].truth;
+      worst = std::max(worst, std::hypot(p.x - t.x, p.y - t.y));
+    }
+    EXPECT_LT(worst, 0.5) << "robot " << robot;
+  }
+}
+
+TEST(MultiRobotSlam, ARobotThatNeverSeesTheMapNeverJoinsIt) {
+  // Robot 1 drives where robot 0 has not been (checked by the truth), so any join is a guess.
+  const llc::SimDrive& drive = twoRobots().drive;
+  const std::size_t end0 = 120, begin1 = 360, end1 = 480;
+  double nearest = 1e9;
+  for (std::size_t i = 0; i < end0; ++i)
+    for (std::size_t j = begin1; j < end1 && j < drive.frames.size(); ++j)
+      nearest = std::min(nearest, std::hypot(drive.frames[i].truth.x - drive.frames[j].truth.x,
+                                             drive.frames[i].truth.y - drive.frames[j].truth.y));
+  ASSERT_GT(nearest, 15.0) << "the two stretches meet: pick others";
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 2);
+  for (std::size_t i = 0; i < end0; ++i) slam.addScan(0, llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+  std::size_t validated = 0;
+  for (std::size_t j = begin1; j < end1 && j < drive.frames.size(); ++j)
+    validated += slam.addScan(1, llc_test::frameScan(drive, drive.frames[j]), j, &drive.frames[j].odometry).cross_validated;
+  EXPECT_FALSE(slam.joined(1)) << "joined by " << validated << " look-alike loops";
+  EXPECT_EQ(slam.map().keyframes().size(), slam.robot(0).keyframes().size()) << "an unjoined robot's keyframes reached the map";
+  EXPECT_EQ(slam.counters().robots_joined, 1u);
+  EXPECT_THROW(slam.mapIndex(1, 0), std::out_of_range);
+}
+
+TEST(MultiRobotSlam, BadInputIsRefusedOrSkippedNotFatal) {
+  EXPECT_THROW(llc::MultiRobotSlam(llc_test::defaultModel(), 0), std::invalid_argument);
+  llc::MultiRobotOptions bad;
+  bad.cross_candidates = 0;
+  EXPECT_THROW(llc::MultiRobotSlam(llc_test::defaultModel(), 2, {}, bad), std::invalid_argument);
+  bad = {};
+  bad.join.min_keyframes = 0;
+  EXPECT_THROW(llc::MultiRobotSlam(llc_test::defaultModel(), 2, {}, bad), std::invalid_argument);
+
+  const llc::SimDrive& drive = twoRobots().drive;
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 2);
+  EXPECT_THROW(slam.addScan(2, llc_test::frameScan(drive, drive.frames[0]), 0, &drive.frames[0].odometry), std::out_of_range);
+  for (std::size_t i = 0; i < 40; ++i) slam.addScan(0, llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+  const std::size_t map_keyframes = slam.map().keyframes().size();
+  // Robot 1: a scan with no stamp, one with NaN odometry, an empty one, then time going back.
+  llc::Scan nan_stamp = llc_test::frameScan(drive, drive.frames[50]);
+  nan_stamp.stamp = std::nan("");
+  EXPECT_FALSE(slam.addScan(1, nan_stamp, 50, &drive.frames[50].odometry).slam.skip_reason.empty());
+  const llc::Pose2 nan_pose{std::nan(""), 0.0, 0.0};
+  EXPECT_FALSE(slam.addScan(1, llc_test::frameScan(drive, drive.frames[51]), 51, &nan_pose).slam.skip_reason.empty());
+  llc::Scan empty;
+  empty.stamp = drive.frames[52].stamp;
+  EXPECT_NO_THROW(slam.addScan(1, empty, 52, &drive.frames[52].odometry));  // no returns at all: a scan like any (REP-117)
+  for (std::size_t i = 60; i < 70; ++i) slam.addScan(1, llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+  slam.addScan(1, llc_test::frameScan(drive, drive.frames[55]), 55, &drive.frames[55].odometry);  // older than its last
+  EXPECT_EQ(slam.map().keyframes().size(), map_keyframes + (slam.joined(1) ? slam.robot(1).keyframes().size() : 0));
+  // Robot 0 goes on as if nothing happened.
+  for (std::size_t i = 40; i < 60; ++i) slam.addScan(0, llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+  EXPECT_GT(slam.robot(0).keyframes().size(), map_keyframes - (slam.joined(1) ? slam.robot(1).keyframes().size() : 0));
+}
+
+}  // namespace
