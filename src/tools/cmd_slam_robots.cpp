@@ -109,12 +109,13 @@ struct RobotTruth {
 }  // namespace
 
 int runMultiRobotSlam(const Args& args) {
-  for (const char* flag : {"load-session", "save-session", "save-graph", "relations", "truth", "end-scan", "continue-odometry",
+  for (const char* flag : {"load-session", "save-graph", "relations", "truth", "end-scan", "continue-odometry",
                            "estimate-odometry-time-offset"})
     if (args.has(flag)) throw UsageError(std::string("--") + flag + " is for one robot (one input, no --split)");
   const std::string dir = args.required("out");
   const double wrong_m = args.number("wrong-loop-m", 1.0), wrong_rad = args.number("wrong-loop-deg", 5.73) * M_PI / 180.0;
   if (!(wrong_m > 0.0 && wrong_rad > 0.0)) throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");
+  if (args.has("save-session")) checkOutputFile("save-session", args.get("save-session", ""));
   const llc::SystemOptions options = systemOptions(args);
   std::vector<RobotInput> robots = loadRobots(args, options.slam);
   prepareOutputFolder("out", dir);
@@ -136,11 +137,12 @@ int runMultiRobotSlam(const Args& args) {
     const llc::RobotStep step = slam.addScan(r, s.scan, robots[r].input_index[i], robots[r].wheels ? &s.odometry : nullptr);
     skipped += !step.slam.skip_reason.empty();
     if (step.slam.keyframe) made_at[r].push_back(done);
-    if (step.joined_now) {
-      joined_by[r] = step.slam.keyframe_index;
+    for (std::size_t joined : step.joined_robots) {  // itself, or robots this robot's keyframe found
+      joined_by[joined] = slam.robot(joined).keyframes().size() - 1;
       if (!args.has("quiet"))
-        std::cerr << "robot " << r << " joined the map at its scan " << robots[r].input_index[i] << " after "
-                  << slam.joinedAtPath(r) << " m of its path\n";
+        std::cerr << "robot " << joined << " joined the map at its keyframe " << joined_by[joined] << " after "
+                  << slam.joinedAtPath(joined) << " m of its path" << (joined == r ? "" : " (found by robot " + std::to_string(r) + ")")
+                  << "\n";
     }
     ++done;
   }
@@ -223,6 +225,14 @@ int runMultiRobotSlam(const Args& args) {
     llc::renderMapPicture(grid, map.poses(), picture_loops).savePng(dir + "/map.png");
   } catch (const std::exception& e) {
     throw ToolError(std::string("map: ") + e.what());
+  }
+
+  if (args.has("save-session")) {  // the map: every joined robot, each keyframe's robot named
+    try {
+      llc::saveSession(slam.session(), args.get("save-session", ""));
+    } catch (const llc::SessionError& e) {
+      throw ToolError(e.what());
+    }
   }
 
   // Against the truth: the joined map in one alignment, each robot within it.

@@ -124,7 +124,8 @@ const std::vector<Command>& commands() {
        "      --seed 1); each robot its own odometry frame, no relative prior; --drift per robot (seed + robot);\n"
        "      [--simultaneous]   (fed as if every robot started at once; default: by stamp)\n"
        "      (trajectory.csv and scans.csv with robot and joined columns, loops.csv with robot_a/robot_b,\n"
-       "       one map of the joined robots, report.txt: robots, robots_joined, cross_robot_loops, per robot)"},
+       "       one map of the joined robots, report.txt: robots, robots_joined, cross_robot_loops, per robot;\n"
+       "       --save-session: the map with each keyframe's robot)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",

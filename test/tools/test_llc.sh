@@ -200,12 +200,13 @@ check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP
 # llc slam with several robots: the drive cut in two, each half its own drifting odometry in a
 # frame of its own; the second joins the first's map, with no wrong loop.
 check "slam, several robots: --split needs one input" 2 "give exactly one --log or --bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/sim/sim.log" --split 2 --out "$TMP/robots0"
-check "slam, several robots: sessions are for one robot" 2 "--save-session is for one robot" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --save-session "$TMP/robots.llcsession" --out "$TMP/robots0"
+check "slam, several robots: loading a session is for one robot" 2 "--load-session is for one robot" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --load-session "$TMP/robots.llcsession" --out "$TMP/robots0"
 check "slam, several robots: a bad multi_robot parameter" 2 "cross_candidates" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --multi_robot/cross_candidates 0 --out "$TMP/robots0"
 check "slam, several robots: a missing input" 1 "no such file" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/none.log" --out "$TMP/robots0"
-check "slam, several robots: joined, never wrong" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --split 2 --drift moderate --out '$TMP/robots' --quiet | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"robots\"] == 2 && v[\"robots_joined\"] == 2 && v[\"wrong_loops_accepted\"] == 0 && v[\"cross_robot_loops\"] >= 3 && v[\"rms_error_m\"] < 0.2 ? \"ok\" : \"not ok\")}'"
+check "slam, several robots: joined, never wrong" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --split 2 --drift moderate --out '$TMP/robots' --save-session '$TMP/robots.llcsession' --quiet | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"robots\"] == 2 && v[\"robots_joined\"] == 2 && v[\"wrong_loops_accepted\"] == 0 && v[\"cross_robot_loops\"] >= 3 && v[\"rms_error_m\"] < 0.2 ? \"ok\" : \"not ok\")}'"
 check "slam, several robots: trajectory.csv has a robot column, every keyframe joined" 0 "^ok$" -- awk -F, 'NR == 1 { if ($0 != "robot,index,stamp,x,y,theta,joined") bad++; next }
     { n[$1]++; if ($7 != 1) bad++ } END { print (!bad && n[0] > 50 && n[1] > 50 ? "ok" : "not ok") }' "$TMP/robots/trajectory.csv"
+check "slam, several robots: their session is a map llc localize finds itself on" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/robots.llcsession' --log '$TMP/sim/sim.log' --drift moderate --truth '$TMP/sim/sim.log' --start-scan 100 --end-scan 400 --out '$TMP/robots_loc' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"fixes\"] >= 1 && v[\"wrong_fixes\"] == 0 ? \"ok\" : \"not ok\")}'"
 
 # llc localize: the drive's log mapped, then found on that map from anywhere with drifted odometry.
 check "localize: --session is required" 2 "--session" -- "$LLC" localize --log "$TMP/sim/sim.log" --out "$TMP/loc0"

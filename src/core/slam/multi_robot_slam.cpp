@@ -65,6 +65,7 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
     state.chain.push_back(finite ? compose(state.chain.back(), motion) : state.chain.back());
     if (finite) state.path += std::hypot(motion.x, motion.y);
   }
+  state.paths.push_back(state.path);
   state.steps.push_back(step.slam.odometry);
   for (const LoopClosure& loop : step.slam.loops.aligned)
     if (loop.accepted) state.own_loops.push_back(loop);
@@ -82,24 +83,24 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
       step.cross_applied += record.applied;
       if (!record.applied && record.refusal == LoopRefusal::kBackEndGate) ++counters_.cross_refused_by_gate;
     }
+    searchUnjoined(robot, keyframe, step);
   } else {
     std::vector<JoinHypothesis> hypotheses;
     for (const auto& [other, loop] : found) {
-      JoinHypothesis h;
-      h.keyframe = keyframe;
-      h.path = state.path;
-      h.trajectory_pose = state.chain[keyframe];
-      h.map_keyframe = mapIndex(other, loop.from);
-      h.map_pose = compose(map_.poses()[h.map_keyframe], loop.pose);
-      h.covariance = loop.covariance;
-      hypotheses.push_back(h);
-      LoopClosure offered = loop;
-      offered.from = h.map_keyframe;  // kept by map index: what the join's hypotheses name
-      state.joining_loops.push_back(offered);
+      LoopClosure in_map = loop;
+      in_map.from = mapIndex(other, loop.from);  // kept by map index: what the join's hypotheses name
+      hypotheses.push_back(joinHypothesis(robot, in_map));
     }
     step.join = joins_[robot].offer(hypotheses);
-    if (step.join.joined) joinRobot(robot, step.join, step);
+    if (step.join.joined) {
+      joinRobot(robot, step.join, step);
+      step.joined_now = true;
+      step.joined_robots.push_back(robot);
+    }
   }
+  counters_.cross_aligned += step.cross_aligned;
+  counters_.cross_validated += step.cross_validated;
+  counters_.cross_refused_by_context += step.cross_refused_by_context;
   counters_.seconds_search += secondsSince(start);
   return step;
 }
@@ -112,12 +113,7 @@ std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(st
   const PreparedScan& prepared = own.prepared(keyframe);
   // Each keyframe's context from its own robot's odometry chain (a loop between robots is
   // checked against both, as a loop within one run is: a corridor a door along fits worse).
-  auto contextOf = [](const SlamFrontEnd& front) -> KeyframeContext {
-    return [&front](std::size_t index, std::size_t before, double distance, double spacing) {
-      return front.context(index, before, distance, spacing);
-    };
-  };
-  const KeyframeContext own_context = contextOf(robots_[robot]->frontEnd());
+  const KeyframeContext own_context = contextOf(robot);
   for (std::size_t other = 0; other < robots_.size(); ++other) {
     if (other == robot || !state_[other].joined || robots_[other]->detector().size() == 0) continue;
     const LoopDetectionResult result = robots_[other]->detector().detectScan(
@@ -130,7 +126,7 @@ std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(st
       if (loop.from >= state_[other].map_index.size()) continue;
       ++step.cross_validated;
       if (store.options().context.enabled) {
-        store.checkContextWith(loop, store.size(), contextOf(robots_[other]->frontEnd()), own, own_context);
+        store.checkContextWith(loop, store.size(), contextOf(other), own, own_context);
         if (!loop.accepted) {
           ++step.cross_refused_by_context;
           continue;
@@ -139,10 +135,63 @@ std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(st
       found.emplace_back(other, loop);
     }
   }
-  counters_.cross_aligned += step.cross_aligned;
-  counters_.cross_validated += step.cross_validated;
-  counters_.cross_refused_by_context += step.cross_refused_by_context;
   return found;
+}
+
+KeyframeContext MultiRobotSlam::contextOf(std::size_t robot) const {
+  const SlamFrontEnd& front = robots_[robot]->frontEnd();
+  return [&front](std::size_t index, std::size_t before, double distance, double spacing) {
+    return front.context(index, before, distance, spacing);
+  };
+}
+
+JoinHypothesis MultiRobotSlam::joinHypothesis(std::size_t robot, const LoopClosure& loop) {
+  RobotState& state = state_[robot];
+  JoinHypothesis h;
+  h.keyframe = loop.to;
+  h.path = state.paths.at(loop.to);
+  h.trajectory_pose = state.chain.at(loop.to);
+  h.map_keyframe = loop.from;
+  h.map_pose = compose(map_.poses()[loop.from], loop.pose);
+  h.covariance = loop.covariance;
+  state.joining_loops.push_back(loop);
+  return h;
+}
+
+void MultiRobotSlam::searchUnjoined(std::size_t robot, std::size_t keyframe, RobotStep& step) {
+  const LoopDetector& own = robots_[robot]->detector();
+  const std::vector<double> features = own.features(keyframe);
+  const PreparedScan& prepared = own.prepared(keyframe);
+  for (std::size_t other = 0; other < robots_.size(); ++other) {
+    if (other == robot || state_[other].joined || robots_[other]->detector().size() == 0) continue;
+    const LoopDetector& store = robots_[other]->detector();
+    const LoopDetectionResult result =
+        store.detectScan(features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
+    step.cross_aligned += result.aligned.size();
+    std::vector<JoinHypothesis> hypotheses;
+    for (const LoopClosure& found : result.aligned) {
+      if (!found.accepted) continue;
+      ++step.cross_validated;
+      // The same pair the other way round: the other robot's keyframe seen from this one's,
+      // as its own search would have found it (a loop, its covariance, in the join's terms).
+      LoopClosure loop = own.verifyScan(keyframe, store.prepared(found.from), found.from, found.score);
+      if (!loop.accepted) continue;
+      if (own.options().context.enabled) {
+        own.checkContextWith(loop, own.size(), contextOf(robot), store, contextOf(other));
+        if (!loop.accepted) {
+          ++step.cross_refused_by_context;
+          continue;
+        }
+      }
+      loop.from = mapIndex(robot, keyframe);
+      hypotheses.push_back(joinHypothesis(other, loop));
+    }
+    if (hypotheses.empty()) continue;
+    const TrajectoryJoinResult join = joins_[other].offer(hypotheses);
+    if (!join.joined) continue;
+    joinRobot(other, join, step);
+    step.joined_robots.push_back(other);
+  }
 }
 
 void MultiRobotSlam::enterKeyframe(std::size_t robot, std::size_t keyframe) {
@@ -203,8 +252,20 @@ void MultiRobotSlam::joinRobot(std::size_t robot, const TrajectoryJoinResult& jo
   }
   state.joining_loops.clear();
   joins_[robot].clear();
-  step.joined_now = true;
   ++counters_.robots_joined;
+}
+
+SlamSession MultiRobotSlam::session() const {
+  std::vector<std::vector<double>> features;
+  SlamSession session;
+  for (const RobotKeyframe& k : map_keyframes_) {
+    features.push_back(robots_[k.robot]->detector().features(k.keyframe));
+    session.robots.push_back(std::uint32_t(k.robot));
+  }
+  std::vector<std::uint32_t> robots = std::move(session.robots);
+  session = sessionOf(map_, features);
+  session.robots = std::move(robots);
+  return session;
 }
 
 std::vector<ScanPose> MultiRobotSlam::scanPoses(std::size_t robot) const {

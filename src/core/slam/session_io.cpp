@@ -144,6 +144,8 @@ std::string payload(const SlamSession& s) {
   for (const LoopRecord& r : s.loops) w.flag(r.by_consensus);
   // Version 3: the loop's and the record's refusal codes, per loop record, after them all.
   for (const LoopRecord& r : s.loops) w.raw(std::uint8_t(r.loop.refusal)), w.raw(std::uint8_t(r.refusal));
+  // Version 4: each keyframe's robot, a uint32, after everything.
+  for (std::size_t k = 0; k < s.keyframes.size(); ++k) w.raw(s.robots.empty() ? std::uint32_t(0) : s.robots[k]);
   return std::move(w.bytes());
 }
 
@@ -195,6 +197,10 @@ SlamSession parse(Reader& r, std::uint32_t version) {
   } else {
     for (LoopRecord& rec : s.loops) rec.loop.refusal = refusalWrittenIn(rec.loop.reject_reason), rec.refusal = refusalWrittenIn(rec.reject_reason);
   }
+  if (version >= 4) {
+    s.robots.resize(s.keyframes.size());
+    for (std::uint32_t& robot : s.robots) robot = r.raw<std::uint32_t>();
+  }
   if (!r.done()) r.fail("bytes left over");
   return s;
 }
@@ -223,6 +229,8 @@ std::string SlamSession::validate() const {
     if (!isFinite(e.measurement) || !e.information.allFinite()) return which + " is not finite";
   }
   if (n > 0 && odometry != n - 1) return "only " + std::to_string(odometry + 1) + " of " + std::to_string(n) + " poses are linked";
+  if (!robots.empty() && robots.size() != n)
+    return std::to_string(n) + " keyframes but " + std::to_string(robots.size()) + " robots named";
   for (std::size_t i = 0; i < loops.size(); ++i) {
     if (loops[i].loop.from >= n || loops[i].loop.to >= n) return "loop " + std::to_string(i) + " names an unknown keyframe";
     if (loops[i].by_consensus && !loops[i].applied)

@@ -13,6 +13,20 @@
 
 namespace {
 
+/// The truth of a robot's keyframe (its scan index is the drive's frame).
+const llc::Pose2& truthOf(const llc::MultiRobotSlam& slam, const llc::SimDrive& drive, const llc::RobotKeyframe& k) {
+  return drive.frames[slam.robot(k.robot).keyframes()[k.keyframe].scan_index].truth;
+}
+
+/// The map's keyframe poses and their truths, in map order.
+void mapAndTruth(const llc::MultiRobotSlam& slam, const llc::SimDrive& drive, std::vector<llc::Pose2>* map,
+                 std::vector<llc::Pose2>* truth) {
+  for (std::size_t m = 0; m < slam.map().keyframes().size(); ++m) {
+    map->push_back(slam.map().poses()[m]);
+    truth->push_back(truthOf(slam, drive, slam.mapKeyframe(m)));
+  }
+}
+
 struct TwoRobots {
   llc::SimDrive drive = llc_test::simulatedDrive(600.0);
   std::size_t split = 0;  ///< robot 0 drives frames [0, split), robot 1 [split, end)
@@ -33,15 +47,7 @@ struct TwoRobots {
     }
   }
   const llc::Pose2& truthOf(std::size_t robot, std::size_t keyframe) const {
-    return drive.frames[slam.robot(robot).keyframes()[keyframe].scan_index].truth;
-  }
-  /// The map's keyframe poses and their truths, in map order.
-  void mapAndTruth(std::vector<llc::Pose2>* map, std::vector<llc::Pose2>* truth) const {
-    for (std::size_t m = 0; m < slam.map().keyframes().size(); ++m) {
-      const llc::RobotKeyframe& k = slam.mapKeyframe(m);
-      map->push_back(slam.map().poses()[m]);
-      truth->push_back(truthOf(k.robot, k.keyframe));
-    }
+    return ::truthOf(slam, drive, {robot, keyframe});
   }
 };
 
@@ -91,17 +97,25 @@ TEST(MultiRobotSlam, TheSecondRobotJoinsAndEveryCrossLoopIsRight) {
 TEST(MultiRobotSlam, TheJoinedMapLiesOnTheTruth) {
   const TwoRobots& run = twoRobots();
   std::vector<llc::Pose2> map, truth;
-  run.mapAndTruth(&map, &truth);
+  mapAndTruth(run.slam, run.drive, &map, &truth);
   ASSERT_EQ(map.size(), run.slam.robot(0).keyframes().size() + run.slam.robot(1).keyframes().size());
   const double rms = llc::alignedRmsError(map, truth);
   std::cout << "joined map: " << map.size() << " keyframes, RMS " << rms << " m\n";
   EXPECT_LT(rms, 0.5);
+  // Its session names each keyframe's robot and restores as any map does.
+  const llc::SlamSession session = run.slam.session();
+  EXPECT_EQ(session.validate(), "");
+  ASSERT_EQ(session.robots.size(), map.size());
+  for (std::size_t m = 0; m < map.size(); ++m) EXPECT_EQ(session.robots[m], run.slam.mapKeyframe(m).robot) << m;
+  llc::SlamPipeline restored(llc_test::defaultModel());
+  EXPECT_EQ(restored.restore(session, false), "");
+  EXPECT_EQ(restored.keyframes().size(), map.size());
 }
 
 TEST(MultiRobotSlam, EveryScanOfAJoinedRobotIsPlacedInTheMapNearItsTruth) {
   const TwoRobots& run = twoRobots();
   std::vector<llc::Pose2> map, truth;
-  run.mapAndTruth(&map, &truth);
+  mapAndTruth(run.slam, run.drive, &map, &truth);
   llc::Pose2 truth_from_map;
   llc::alignedRmsError(map, truth, &truth_from_map);
   for (std::size_t robot = 0; robot < 2; ++robot) {
@@ -115,6 +129,44 @@ TEST(MultiRobotSlam, EveryScanOfAJoinedRobotIsPlacedInTheMapNearItsTruth) {
     }
     EXPECT_LT(worst, 0.5) << "robot " << robot;
   }
+}
+
+TEST(MultiRobotSlam, AJoinedRobotFindsOneThatDroveThereBefore) {
+  // Robot 1 drives the second half first, alone; then robot 0 drives the first half, whose
+  // streets robot 1 has seen: robot 0's keyframes find robot 1's and join it.
+  const TwoRobots& run = twoRobots();
+  const llc::SimDrive& drive = run.drive;
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 2);
+  const llc::Pose2 frame_of_robot_1{40.0, -700.0, -1.0};
+  for (std::size_t f = run.split; f < drive.frames.size(); ++f) {
+    const llc::Pose2 odometry = llc::compose(frame_of_robot_1, drive.frames[f].odometry);
+    slam.addScan(1, llc_test::frameScan(drive, drive.frames[f]), f, &odometry);
+  }
+  ASSERT_FALSE(slam.joined(1)) << "joined a map that was not there";
+  std::size_t joined_at = 0;
+  for (std::size_t f = 0; f < run.split; ++f) {
+    const llc::RobotStep step = slam.addScan(0, llc_test::frameScan(drive, drive.frames[f]), f, &drive.frames[f].odometry);
+    if (!step.joined_robots.empty()) {
+      EXPECT_EQ(step.joined_robots, std::vector<std::size_t>{1});
+      EXPECT_FALSE(step.joined_now) << "robot 0 is in the map from the start";
+      joined_at = f;
+    }
+  }
+  ASSERT_TRUE(slam.joined(1)) << "robot 0 drove past robot 1's streets and never joined it";
+  std::cout << "robot 1 joined by robot 0's frame " << joined_at << "\n";
+  std::size_t applied = 0;
+  for (const llc::CrossRobotLoop& loop : slam.crossLoops()) {
+    if (!loop.record.applied) continue;
+    ++applied;
+    const llc::Pose2 e = llc::between(llc::between(truthOf(slam, drive, loop.from), truthOf(slam, drive, loop.to)),
+                                      loop.record.loop.pose);
+    EXPECT_LT(std::hypot(e.x, e.y), 0.5) << "a wrong cross-robot loop";
+  }
+  EXPECT_GE(applied, 3u);
+  std::vector<llc::Pose2> map, truth;
+  mapAndTruth(slam, drive, &map, &truth);
+  EXPECT_EQ(map.size(), slam.robot(0).keyframes().size() + slam.robot(1).keyframes().size());
+  EXPECT_LT(llc::alignedRmsError(map, truth), 0.5);
 }
 
 TEST(MultiRobotSlam, ARobotThatNeverSeesTheMapNeverJoinsIt) {

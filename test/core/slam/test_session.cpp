@@ -104,10 +104,11 @@ std::string rawBytes(T value) {
   return std::string(reinterpret_cast<const char*>(&value), sizeof value);
 }
 
-TEST(SessionFile, VersionsOneAndTwoStillLoadTheirRefusalsReadFromTheReasons) {
-  // Version 2 is version 3 without the two refusal codes per loop record, version 1 also without
-  // the consensus flag per record: built from a version-3 save as the layout in
-  // docs/file_formats.md says (magic, version, body length, body, checksum).
+TEST(SessionFile, VersionsOneToThreeStillLoadTheirRefusalsReadFromTheReasons) {
+  // Version 3 is version 4 without each keyframe's robot, version 2 also without the two refusal
+  // codes per loop record, version 1 also without the consensus flag per record: built from a
+  // version-4 save as the layout in docs/file_formats.md says (magic, version, body length,
+  // body, checksum).
   llc_test::TempDir dir;
   llc::SlamSession saved = handSession();
   // One more refused loop, by the aligner: its reason's first words say which stage, as the
@@ -117,44 +118,59 @@ TEST(SessionFile, VersionsOneAndTwoStillLoadTheirRefusalsReadFromTheReasons) {
   validation.loop.reject_reason = validation.reject_reason = "validation: inlier share 0.41 below 0.9";
   validation.refusal = llc::LoopRefusal::kValidation, validation.innovation_chi2 = 0.0;
   saved.loops.push_back(validation);
-  llc::saveSession(saved, dir.file("v3.llcsession"));
-  const std::string v3 = llc_test::readText(dir.file("v3.llcsession"));
-  ASSERT_EQ(v3.substr(0, 12), "LLC-SESSION\n");
-  ASSERT_EQ(v3.compare(12, 4, rawBytes(std::uint32_t(3))), 0);
+  llc::saveSession(saved, dir.file("v4.llcsession"));
+  const std::string v4 = llc_test::readText(dir.file("v4.llcsession"));
+  ASSERT_EQ(v4.substr(0, 12), "LLC-SESSION\n");
+  ASSERT_EQ(v4.compare(12, 4, rawBytes(std::uint32_t(4))), 0);
   std::uint64_t length = 0;
-  std::memcpy(&length, v3.data() + 16, sizeof length);
-  ASSERT_EQ(v3.size(), 24 + length + 8);
-  const std::size_t loops = saved.loops.size();
-  for (std::uint32_t version : {1u, 2u}) {
-    const std::string body = v3.substr(24, length - loops * (version == 2 ? 2 : 3));
-    const std::string old = v3.substr(0, 12) + rawBytes(version) + rawBytes(std::uint64_t(body.size())) + body + rawBytes(fnv1aOf(body));
+  std::memcpy(&length, v4.data() + 16, sizeof length);
+  ASSERT_EQ(v4.size(), 24 + length + 8);
+  const std::size_t loops = saved.loops.size(), robots = 4 * saved.keyframes.size();
+  for (std::uint32_t version : {1u, 2u, 3u}) {
+    const std::string body = v4.substr(24, length - robots - loops * (version == 3 ? 0 : version == 2 ? 2 : 3));
+    const std::string old = v4.substr(0, 12) + rawBytes(version) + rawBytes(std::uint64_t(body.size())) + body + rawBytes(fnv1aOf(body));
     const std::string path = dir.file("v" + std::to_string(version) + ".llcsession");
     std::ofstream(path, std::ios::binary) << old;
     const llc::SlamSession loaded = llc::loadSession(path);
     ASSERT_EQ(loaded.loops.size(), 3u);
     EXPECT_TRUE(loaded.loops[0].applied);
-    EXPECT_EQ(loaded.loops[0].by_consensus, version == 2) << "version 1 does not say: not by consensus";
+    EXPECT_EQ(loaded.loops[0].by_consensus, version >= 2) << "version 1 does not say: not by consensus";
+    EXPECT_TRUE(loaded.robots.empty()) << "before version 4 every keyframe is robot 0's";
     EXPECT_EQ(loaded.loops[1].reject_reason, saved.loops[1].reject_reason);
     EXPECT_EQ(loaded.loops[0].refusal, llc::LoopRefusal::kNone);
     EXPECT_EQ(loaded.loops[1].refusal, llc::LoopRefusal::kBackEndGate);
     EXPECT_EQ(loaded.loops[2].refusal, llc::LoopRefusal::kValidation);
     EXPECT_EQ(loaded.loops[2].loop.refusal, llc::LoopRefusal::kValidation);
     EXPECT_EQ(loaded.keyframes.size(), 3u);
-    // Version 3's codes in an older file would be bytes left over.
-    const std::string with_codes = v3.substr(0, 12) + rawBytes(version) + v3.substr(16);
+    // A newer body in an older file: bytes left over.
+    const std::string with_codes = v4.substr(0, 12) + rawBytes(version) + v4.substr(16);
     std::ofstream(path, std::ios::binary) << with_codes;
     EXPECT_THROW(llc::loadSession(path), llc::SessionError);
   }
   // A refusal code this build does not know is refused, with the byte it is at.
-  std::string body = v3.substr(24, length);
-  body[body.size() - 1] = char(llc::kLoopRefusalKinds);
-  std::ofstream(dir.file("code.llcsession"), std::ios::binary) << v3.substr(0, 24) + body + rawBytes(fnv1aOf(body));
+  std::string body = v4.substr(24, length);
+  body[body.size() - 1 - robots] = char(llc::kLoopRefusalKinds);
+  std::ofstream(dir.file("code.llcsession"), std::ios::binary) << v4.substr(0, 24) + body + rawBytes(fnv1aOf(body));
   try {
     llc::loadSession(dir.file("code.llcsession"));
     ADD_FAILURE() << "an unknown refusal code loaded";
   } catch (const llc::SessionError& e) {
     EXPECT_NE(std::string(e.what()).find("a refusal code of 10"), std::string::npos) << e.what();
   }
+}
+
+TEST(SessionFile, EachKeyframesRobotSurvivesARoundTrip) {
+  llc_test::TempDir dir;
+  llc::SlamSession saved = handSession();
+  saved.robots = {0, 2, 1};
+  llc::saveSession(saved, dir.file("robots.llcsession"));
+  EXPECT_EQ(llc::loadSession(dir.file("robots.llcsession")).robots, saved.robots);
+  saved.robots = {0, 1};  // not one per keyframe
+  EXPECT_NE(saved.validate().find("robots named"), std::string::npos) << saved.validate();
+  EXPECT_THROW(llc::saveSession(saved, dir.file("bad.llcsession")), llc::SessionError);
+  saved.robots.clear();  // one robot: written as robot 0 each
+  llc::saveSession(saved, dir.file("one.llcsession"));
+  EXPECT_EQ(llc::loadSession(dir.file("one.llcsession")).robots, std::vector<std::uint32_t>(3, 0));
 }
 
 TEST(SessionFile, RefusesMissingForeignTruncatedCorruptAndInconsistentFiles) {

@@ -4,7 +4,9 @@
 // new keyframe against the keyframes of the robots in it with no pose prior (aligned,
 // shape-validated and context-checked, each end's context from its own robot's odometry), and
 // TrajectoryJoin joins it once the loops of several of its keyframes agree (the same rule as
-// localisation: one look-alike never places a robot). Until then it maps in its own frame and
+// localisation: one look-alike never places a robot); a robot in the map searches the keyframes
+// of those not yet in it the same way, so one that drove somewhere first is joined when a
+// mapped robot passes there later. Until then it maps in its own frame and
 // nothing of it touches the map. Once joined, its keyframes, odometry and own loops enter the
 // map's graph (one back end, one chain per robot), and its cross-robot loops pass that back
 // end's chi-square gate like any loop.
@@ -14,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 #include "laser_loop_closure/core/slam/trajectory_join.hpp"
 
@@ -50,6 +53,9 @@ struct RobotStep {
   std::size_t cross_refused_by_context = 0;  ///< of those, refused by the context check (loops/context), each robot's from its own chain
   std::size_t cross_applied = 0;     ///< of those, applied to the map (joined robots)
   bool joined_now = false;           ///< this keyframe joined the robot to the map
+  /// Robots this keyframe joined to the map: itself (joined_now), or robots not yet in it
+  /// whose keyframes this joined robot's keyframe found, once enough of theirs agreed.
+  std::vector<std::size_t> joined_robots;
   TrajectoryJoinResult join;         ///< when a keyframe of a robot not yet joined: whether it joined, or why not
 };
 
@@ -89,6 +95,10 @@ class MultiRobotSlam {
   std::vector<ScanPose> scanPoses(std::size_t robot) const;
   const std::vector<CrossRobotLoop>& crossLoops() const { return cross_loops_; }
   const MultiRobotCounters& counters() const { return counters_; }
+  /// The map as a session (its keyframes, features, graph and loops, and each keyframe's robot
+  /// in SlamSession::robots): what `llc localize` and `llc slam --load-session` take. Robots
+  /// not yet joined are not in it.
+  SlamSession session() const;
   /// m of path by the robot's own odometry when it joined (only when joined; robot 0: 0).
   double joinedAtPath(std::size_t robot) const { return state_.at(robot).joined_at_path; }
   const MultiRobotOptions& options() const { return options_; }
@@ -98,6 +108,7 @@ class MultiRobotSlam {
   struct RobotState {
     bool joined = false;
     double path = 0.0;                   ///< m; its own odometry path length
+    std::vector<double> paths;           ///< that length at each keyframe
     double joined_at_path = 0.0;
     std::vector<Pose2> chain;            ///< each keyframe in its own odometry frame (the front end's steps composed)
     std::vector<OdometryStep> steps;     ///< each keyframe's step from the one before (the first's unused)
@@ -109,12 +120,21 @@ class MultiRobotSlam {
   /// The robot's keyframe against every other joined robot's keyframes: the shape-validated
   /// loops (from = the other robot's keyframe in its own pipeline, to = this keyframe).
   std::vector<std::pair<std::size_t, LoopClosure>> searchOthers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// A joined robot's keyframe against the keyframes of every robot not yet in the map: each
+  /// loop found is aligned again the other way round (the other robot's keyframe seen from
+  /// this one's), context-checked, and offered to that robot's join.
+  void searchUnjoined(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// A shape-validated, context-checked loop from map keyframe loop.from to keyframe loop.to
+  /// of a robot not yet joined: offered to its join as a hypothesis (returned).
+  JoinHypothesis joinHypothesis(std::size_t robot, const LoopClosure& loop);
   /// Enters keyframe `keyframe` of a joined robot into the map, linked from its previous one.
   void enterKeyframe(std::size_t robot, std::size_t keyframe);
   /// A loop between two keyframes that are both in the map (own or cross-robot) to its back end.
   LoopRecord applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot);
   /// Robot `robot` joins: its keyframes so far, its own loops and the loops that joined it.
   void joinRobot(std::size_t robot, const TrajectoryJoinResult& join, RobotStep& step);
+  /// The context check's view of a robot's keyframes (its front end's odometry chain).
+  KeyframeContext contextOf(std::size_t robot) const;
 
   MultiRobotOptions options_;
   std::vector<std::unique_ptr<SlamPipeline>> robots_;

@@ -18,7 +18,8 @@ class SlamBackEnd;
 /// Version 2 added each loop record's by_consensus; version-1 files still load (false).
 /// Version 3 added each loop's and loop record's refusal as a code (LoopRefusal); older files
 /// kept it only in the reason's text, which is read once for them at load.
-constexpr std::uint32_t kSessionVersion = 3;
+/// Version 4 added each keyframe's robot (SlamSession::robots); older files load as robot 0's.
+constexpr std::uint32_t kSessionVersion = 4;
 constexpr std::uint32_t kOldestSessionVersion = 1;
 
 /// Why a session file was refused; what() names the file and the problem.

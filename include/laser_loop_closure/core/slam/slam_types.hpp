@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -154,6 +155,9 @@ struct SlamSession {
   std::vector<Pose2> poses;                   ///< optimised, one per keyframe
   std::vector<PoseEdge> constraints;          ///< the ESDF's, in the order applied
   std::vector<LoopRecord> loops;              ///< every loop that reached the back end
+  /// Per keyframe, the robot that made it (several robots' map, MultiRobotSlam: 0 is the map
+  /// frame's robot); empty: every keyframe robot 0's (one robot, or a file before version 4).
+  std::vector<std::uint32_t> robots;
   /// Empty, or why the pieces do not fit together (counts, indices, non-finite values).
   [[nodiscard]] std::string validate() const;
 };
