@@ -65,3 +65,24 @@ llc_seed_list() {
   [[ "$1" =~ ^[0-9]+(,[0-9]+)*$ ]] || { echo "--seeds: a comma-separated list of integers, not '$1'" >&2; echo "$2" >&2; exit 2; }
   IFS=, read -r -a seed_list <<<"$1"
 }
+
+# Leave-one-log-out models (scripts/drifted_logs, scripts/localization, scripts/multi_robot):
+# the labelled pairs of every log given (llc pairs, into DIR/pairs/NAME.csv), then for each log
+# a model trained on the pairs of the others only (llc train, defaults: DIR/models/NAME.yaml).
+# NAME: the log's file name without -corrected.log.gz.
+#   llc_log_out_models DIR LOG...
+llc_log_out_models() {
+  local dir="$1" log held
+  shift
+  mkdir -p "$dir/pairs" "$dir/models"
+  for log in "$@"; do
+    "$LLC_BIN/llc" pairs --log "$log" --out "$dir/pairs/$(basename "$log" -corrected.log.gz).csv" >/dev/null
+  done
+  for held in "$@"; do
+    local args=()
+    for log in "$@"; do
+      [ "$log" = "$held" ] || args+=(--data "$log:$dir/pairs/$(basename "$log" -corrected.log.gz).csv")
+    done
+    "$LLC_BIN/llc" train "${args[@]}" --model "$dir/models/$(basename "$held" -corrected.log.gz).yaml" >/dev/null
+  done
+}
