@@ -291,6 +291,7 @@ int runMultiRobotSlam(const Args& args) {
          << "robots_joined=" << c.robots_joined << "  (in robot 0's map frame, robot 0 included)\n"
          << "cross_robot_loops=" << c.cross_robot_loops << "  (applied to the map, the joining ones included)\n"
          << "cross_robot_aligned=" << c.cross_aligned << "\n"
+         << "cross_robot_not_aligned=" << c.cross_not_aligned << "  (candidates of a joined robot the map's place gate kept from alignment)\n"
          << "cross_robot_validated=" << c.cross_validated << "  (shape-validated; those the context check let through were offered to a join, or to the map's gate)\n"
          << "cross_robot_refused_by_context=" << c.cross_refused_by_context
          << "  (shape-validated, then the keyframes around each end, by their own robots' odometry, fitted better elsewhere)\n"
@@ -308,9 +309,9 @@ int runMultiRobotSlam(const Args& args) {
     if (!truth) continue;
     report << p << "rms_error_m=" << robot_truth[r].rms_m << (slam.joined(r) ? "" : "  (in its own frame: not joined)") << "\n";
     if (r == 0) continue;
-    report << p << "first_overlap_m=" << robot_truth[r].first_overlap_m << "  (its true path to its "
-           << options.multi_robot.join.min_keyframes
-           << "th keyframe within 1.5 m of one another robot made earlier, as many as a join needs; -1: never)\n";
+    report << p << "first_overlap_m=" << robot_truth[r].first_overlap_m
+           << "  (its true path until it has made multi_robot/join/min_keyframes = " << options.multi_robot.join.min_keyframes
+           << " keyframes within 1.5 m of one another robot made earlier, as many as a join needs; -1: never)\n";
     if (slam.joined(r) && robot_truth[r].first_overlap_m >= 0.0)
       report << p << "joined_after_overlap_m=" << robot_truth[r].joined_m - robot_truth[r].first_overlap_m
              << "  (true path from that keyframe to the one that joined it; negative: joined from farther than 1.5 m)\n";

@@ -148,7 +148,8 @@ LoopClosure LoopDetector::verifyScan(std::size_t from, const PreparedScan& scan,
 }
 
 LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
-                                             std::size_t max_candidates, double threshold, std::size_t threads) const {
+                                             std::size_t max_candidates, double threshold, std::size_t threads,
+                                             const CandidateCheck& check) const {
   const auto start = std::chrono::steady_clock::now();
   if (features.size() != store_.featureCount())
     throw std::invalid_argument("detectScan: expected " + std::to_string(store_.featureCount()) + " features, got " +
@@ -164,6 +165,18 @@ LoopDetectionResult LoopDetector::detectScan(const std::vector<double>& features
   std::vector<std::size_t> from;
   std::vector<double> scores;
   for (const LoopCandidate& candidate : candidates) {
+    if (check) {
+      const auto checking = std::chrono::steady_clock::now();
+      const LoopVerdict verdict = check(candidate.keyframe, to);
+      result.check_seconds += secondsSince(checking);
+      if (verdict.refusal != LoopRefusal::kNone) {
+        LoopClosure refused;
+        refused.from = candidate.keyframe, refused.to = to, refused.score = candidate.score;
+        refused.refusal = verdict.refusal, refused.reject_reason = verdict.reason;
+        result.not_aligned.push_back(std::move(refused));
+        continue;
+      }
+    }
     from.push_back(candidate.keyframe);
     scores.push_back(candidate.score);
   }

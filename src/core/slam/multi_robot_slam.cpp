@@ -28,7 +28,7 @@ std::string MultiRobotOptions::validate() const {
 
 MultiRobotSlam::MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam,
                                const MultiRobotOptions& options)
-    : options_(checked(options)), map_(slam.esdf, slam.gate_loops, slam.consensus) {
+    : options_(checked(options)), place_gate_(slam.place_gate), map_(slam.esdf, slam.gate_loops, slam.consensus) {
   if (robots == 0) throw std::invalid_argument("multi-robot: at least one robot");
   for (std::size_t r = 0; r < robots; ++r) {
     robots_.push_back(std::make_unique<SlamPipeline>(model, slam));
@@ -99,6 +99,7 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
     }
   }
   counters_.cross_aligned += step.cross_aligned;
+  counters_.cross_not_aligned += step.cross_not_aligned;
   counters_.cross_validated += step.cross_validated;
   counters_.cross_refused_by_context += step.cross_refused_by_context;
   counters_.seconds_search += secondsSince(start);
@@ -116,9 +117,20 @@ std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(st
   const KeyframeContext own_context = contextOf(robot);
   for (std::size_t other = 0; other < robots_.size(); ++other) {
     if (other == robot || !state_[other].joined || robots_[other]->detector().size() == 0) continue;
+    // A robot already in the map asks the map's place gate first, as mapping does: the map's
+    // marginals say whether the two keyframes can be at one place (one not yet joined has no
+    // relative prior to ask).
+    CandidateCheck place_gate;
+    if (state_[robot].joined && place_gate_.enabled) {
+      place_gate = [this, robot, other](std::size_t from, std::size_t to) -> LoopVerdict {
+        if (from >= state_[other].map_index.size()) return {};  // not in the map yet: aligned ungated
+        return placeGateVerdict(place_gate_, map_.placeChi2(mapIndex(other, from), mapIndex(robot, to), place_gate_.radius));
+      };
+    }
     const LoopDetectionResult result = robots_[other]->detector().detectScan(
-        features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
+        features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads, place_gate);
     step.cross_aligned += result.aligned.size();
+    step.cross_not_aligned += result.not_aligned.size();
     const LoopDetector& store = robots_[other]->detector();
     for (LoopClosure loop : result.aligned) {
       if (!loop.accepted) continue;

@@ -85,6 +85,7 @@ TEST(MultiRobotSlam, TheSecondRobotJoinsAndEveryCrossLoopIsRight) {
   ASSERT_GE(path_at_overlap, 0.0);
   EXPECT_LT(path_at_join - path_at_overlap, 5.0) << "joined long after the robots first saw the same place";
   ASSERT_GE(run.slam.crossLoops().size(), 3u);
+  EXPECT_GT(run.slam.counters().cross_not_aligned, 0u) << "a joined robot's candidates never met the map's place gate";
   for (const llc::CrossRobotLoop& loop : run.slam.crossLoops()) {
     if (!loop.record.applied) continue;
     const llc::Pose2 truth = llc::between(run.truthOf(loop.from.robot, loop.from.keyframe), run.truthOf(loop.to.robot, loop.to.keyframe));

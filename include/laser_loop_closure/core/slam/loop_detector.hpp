@@ -124,9 +124,11 @@ class LoopDetector {
   /// no context check). The loops read from = the stored keyframe, to = `to` (the caller's
   /// name for the scan). Throws std::invalid_argument for features of another length.
   /// `threshold` > 0 takes the place of the K candidates must reach; `threads` > 1 aligns the
-  /// candidates on that many threads (the same loops, in the same order).
+  /// candidates on that many threads (the same loops, in the same order). `check` (when given)
+  /// is asked before each candidate is aligned; one it refuses goes to not_aligned, its slot empty.
   LoopDetectionResult detectScan(const std::vector<double>& features, const PreparedScan& scan, std::size_t to,
-                                 std::size_t max_candidates, double threshold = 0.0, std::size_t threads = 1) const;
+                                 std::size_t max_candidates, double threshold = 0.0, std::size_t threads = 1,
+                                 const CandidateCheck& check = {}) const;
   /// verifyScan() of each stored keyframe in `from` (scores 0) with the scan, on `threads`
   /// threads; the loops in the order of `from`. What detectScan aligns its candidates with, and
   /// what a localiser given a pose hint aligns the keyframes near it with.

@@ -8,8 +8,8 @@
 // of those not yet in it the same way, so one that drove somewhere first is joined when a
 // mapped robot passes there later. Until then it maps in its own frame and
 // nothing of it touches the map. Once joined, its keyframes, odometry and own loops enter the
-// map's graph (one back end, one chain per robot), and its cross-robot loops pass that back
-// end's chi-square gate like any loop.
+// map's graph (one back end, one chain per robot), and its cross-robot candidates meet the map's
+// place gate and its loops the map's chi-square gate, like any loop.
 #pragma once
 
 #include <cstddef>
@@ -49,6 +49,7 @@ struct CrossRobotLoop {
 struct RobotStep {
   SlamStepResult slam;               ///< in the robot's own pipeline
   std::size_t cross_aligned = 0;     ///< when a keyframe: other robots' keyframes aligned with it
+  std::size_t cross_not_aligned = 0;  ///< candidates the map's place gate kept from alignment (a joined robot's)
   std::size_t cross_validated = 0;   ///< of those, shape-validated
   std::size_t cross_refused_by_context = 0;  ///< of those, refused by the context check (loops/context), each robot's from its own chain
   std::size_t cross_applied = 0;     ///< of those, applied to the map (joined robots)
@@ -62,6 +63,7 @@ struct RobotStep {
 struct MultiRobotCounters {
   std::size_t robots_joined = 0;         ///< robot 0 included
   std::size_t cross_aligned = 0, cross_validated = 0;
+  std::size_t cross_not_aligned = 0;  ///< candidates of joined robots the map's place gate kept from alignment
   std::size_t cross_refused_by_context = 0;  ///< shape-validated, then refused by the context check
   std::size_t cross_robot_loops = 0;     ///< applied to the map (the joining ones included)
   std::size_t cross_refused_by_gate = 0;  ///< shape-validated between joined robots, refused by the map's gate
@@ -137,6 +139,7 @@ class MultiRobotSlam {
   KeyframeContext contextOf(std::size_t robot) const;
 
   MultiRobotOptions options_;
+  PlaceGateOptions place_gate_;  ///< the pipeline's, asked before a joined robot's cross-robot candidate is aligned
   std::vector<std::unique_ptr<SlamPipeline>> robots_;
   std::vector<RobotState> state_;
   std::vector<TrajectoryJoin> joins_;
