@@ -290,6 +290,7 @@ int runMultiRobotSlam(const Args& args) {
   report << std::setprecision(4) << "robots=" << robots.size() << "\n"
          << "robots_joined=" << c.robots_joined << "  (in robot 0's map frame, robot 0 included)\n"
          << "cross_robot_loops=" << c.cross_robot_loops << "  (applied to the map, the joining ones included)\n"
+         << "robot_links=" << c.robot_links << "  (pairs of robots, neither in the map, whose loops agreed: one follows the other in)\n"
          << "cross_robot_aligned=" << c.cross_aligned << "\n"
          << "cross_robot_not_aligned=" << c.cross_not_aligned << "  (candidates of a joined robot the map's place gate kept from alignment)\n"
          << "cross_robot_validated=" << c.cross_validated << "  (shape-validated; those the context check let through were offered to a join, or to the map's gate)\n"

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 
 namespace llc {
@@ -93,9 +94,11 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
     }
     step.join = joins_[robot].offer(hypotheses);
     if (step.join.joined) {
-      joinRobot(robot, step.join, step);
       step.joined_now = true;
       step.joined_robots.push_back(robot);
+      joinRobot(robot, step.join.map_from_trajectory, step.join.newest.map_keyframe, loopsOfJoin(robot, step.join), step);
+    } else {
+      searchPeers(robot, keyframe, step);
     }
   }
   counters_.cross_aligned += step.cross_aligned;
@@ -201,8 +204,101 @@ void MultiRobotSlam::searchUnjoined(std::size_t robot, std::size_t keyframe, Rob
     if (hypotheses.empty()) continue;
     const TrajectoryJoinResult join = joins_[other].offer(hypotheses);
     if (!join.joined) continue;
-    joinRobot(other, join, step);
     step.joined_robots.push_back(other);
+    joinRobot(other, join.map_from_trajectory, join.newest.map_keyframe, loopsOfJoin(other, join), step);
+  }
+}
+
+void MultiRobotSlam::searchPeers(std::size_t robot, std::size_t keyframe, RobotStep& step) {
+  const LoopDetector& own = robots_[robot]->detector();
+  const std::vector<double> features = own.features(keyframe);
+  const PreparedScan& prepared = own.prepared(keyframe);
+  auto linked = [this](std::size_t a, std::size_t b) {
+    for (const Link& link : links_)
+      if ((link.a == a && link.b == b) || (link.a == b && link.b == a)) return true;
+    return false;
+  };
+  for (std::size_t other = 0; other < robots_.size(); ++other) {
+    if (other == robot || state_[other].joined || robots_[other]->detector().size() == 0 || linked(robot, other)) continue;
+    const LoopDetector& store = robots_[other]->detector();
+    const LoopDetectionResult result =
+        store.detectScan(features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
+    step.cross_aligned += result.aligned.size();
+    const std::pair<std::size_t, std::size_t> pair{robot, other};
+    std::vector<JoinHypothesis> hypotheses;
+    for (LoopClosure loop : result.aligned) {
+      if (!loop.accepted) continue;
+      ++step.cross_validated;
+      if (store.options().context.enabled) {
+        store.checkContextWith(loop, store.size(), contextOf(other), own, contextOf(robot));
+        if (!loop.accepted) {
+          ++step.cross_refused_by_context;
+          continue;
+        }
+      }
+      // Where the other robot's odometry chain puts this keyframe: a place in its own frame.
+      JoinHypothesis h;
+      h.keyframe = keyframe;
+      h.path = state_[robot].path;
+      h.trajectory_pose = state_[robot].chain[keyframe];
+      h.map_keyframe = loop.from;
+      h.map_pose = compose(state_[other].chain.at(loop.from), loop.pose);
+      h.covariance = loop.covariance;
+      hypotheses.push_back(h);
+      peer_loops_[pair].push_back(loop);
+    }
+    if (hypotheses.empty()) continue;
+    auto join = peer_joins_.try_emplace(pair, options_.join).first;
+    const TrajectoryJoinResult result_of_join = join->second.offer(hypotheses);
+    if (!result_of_join.joined) continue;
+    Link link{other, robot, {}};
+    for (std::size_t index : result_of_join.support) {
+      const JoinHypothesis& h = join->second.hypotheses().at(index);
+      for (const LoopClosure& loop : peer_loops_[pair])
+        if (loop.to == h.keyframe && loop.from == h.map_keyframe) {
+          link.loops.push_back({other, robot, loop});
+          break;
+        }
+    }
+    links_.push_back(std::move(link));
+    ++counters_.robot_links;
+    peer_joins_.erase(pair);
+    peer_loops_.erase(pair);
+  }
+}
+
+std::vector<MultiRobotSlam::RobotLoop> MultiRobotSlam::loopsOfJoin(std::size_t robot, const TrajectoryJoinResult& join) const {
+  std::vector<RobotLoop> loops;
+  const std::vector<JoinHypothesis>& offered = joins_[robot].hypotheses();
+  for (std::size_t index : join.support) {
+    const JoinHypothesis& h = offered.at(index);
+    for (const LoopClosure& loop : state_[robot].joining_loops) {
+      if (loop.to != h.keyframe || loop.from != h.map_keyframe) continue;
+      const RobotKeyframe& other = map_keyframes_.at(loop.from);
+      LoopClosure own_indices = loop;
+      own_indices.from = other.keyframe;
+      loops.push_back({other.robot, robot, own_indices});
+      break;
+    }
+  }
+  return loops;
+}
+
+void MultiRobotSlam::joinLinked(std::size_t robot, RobotStep& step) {
+  for (std::size_t i = 0; i < links_.size(); ++i) {
+    const Link& link = links_[i];  // joinRobot makes no links: the reference stays valid
+    if ((link.a != robot && link.b != robot) || link.loops.empty()) continue;
+    const std::size_t other = link.a == robot ? link.b : link.a;
+    if (state_[other].joined) continue;
+    // The newest loop of the link places the other robot's keyframe by this one's map pose.
+    const RobotLoop& newest = link.loops.back();
+    const bool from_joined = newest.from_robot == robot;
+    const std::size_t anchor = mapIndex(robot, from_joined ? newest.loop.from : newest.loop.to);
+    const std::size_t its_keyframe = from_joined ? newest.loop.to : newest.loop.from;
+    const Pose2 its_pose = from_joined ? compose(map_.poses()[anchor], newest.loop.pose)
+                                       : compose(map_.poses()[anchor], inverse(newest.loop.pose));
+    step.joined_robots.push_back(other);
+    joinRobot(other, compose(its_pose, inverse(state_[other].chain.at(its_keyframe))), anchor, link.loops, step);
   }
 }
 
@@ -220,25 +316,24 @@ void MultiRobotSlam::enterKeyframe(std::size_t robot, std::size_t keyframe) {
   map_keyframes_.push_back({robot, keyframe});
 }
 
-LoopRecord MultiRobotSlam::applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot) {
+LoopRecord MultiRobotSlam::applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot, bool joining) {
   LoopClosure in_map = loop;
   in_map.from = mapIndex(from_robot, loop.from);
   in_map.to = mapIndex(to_robot, loop.to);
   const LoopRecord record = map_.addLoop(in_map);
   if (from_robot != to_robot) {
-    cross_loops_.push_back({{from_robot, loop.from}, {to_robot, loop.to}, record, false});
+    cross_loops_.push_back({{from_robot, loop.from}, {to_robot, loop.to}, record, joining});
     counters_.cross_robot_loops += record.applied;
   }
   return record;
 }
 
-void MultiRobotSlam::joinRobot(std::size_t robot, const TrajectoryJoinResult& join, RobotStep& step) {
+void MultiRobotSlam::joinRobot(std::size_t robot, const Pose2& map_from_trajectory, std::size_t anchor,
+                               const std::vector<RobotLoop>& loops, RobotStep& step) {
   RobotState& state = state_[robot];
-  const std::vector<JoinHypothesis>& offered = joins_[robot].hypotheses();
   // The first keyframe: where the join's frame puts it, loosely linked to the map keyframe of
   // the newest joining loop (the loops below place it; the link only gives it a mean).
-  const std::size_t anchor = join.newest.map_keyframe;
-  const Pose2 first_in_map = compose(join.map_from_trajectory, state.chain[0]);
+  const Pose2 first_in_map = compose(map_from_trajectory, state.chain[0]);
   map_.addKeyframeFrom(anchor, robots_[robot]->keyframes().at(0), between(map_.poses()[anchor], first_in_map),
                        looseLinkCovariance());
   state.joined = true;
@@ -247,24 +342,19 @@ void MultiRobotSlam::joinRobot(std::size_t robot, const TrajectoryJoinResult& jo
   map_keyframes_.push_back({robot, 0});
   for (std::size_t k = 1; k < state.chain.size(); ++k) enterKeyframe(robot, k);
   for (const LoopClosure& loop : state.own_loops) applyToMap(robot, loop, robot);
-  // The loops that joined it: one per supporting keyframe, as the join kept them.
-  for (std::size_t index : join.support) {
-    const JoinHypothesis& h = offered.at(index);
-    for (const LoopClosure& loop : state.joining_loops) {
-      if (loop.to != h.keyframe || loop.from != h.map_keyframe) continue;
-      LoopClosure in_map = loop;
-      in_map.to = state.map_index.at(loop.to);
-      const LoopRecord record = map_.addLoop(in_map);
-      const RobotKeyframe& other = map_keyframes_.at(loop.from);
-      cross_loops_.push_back({other, {robot, loop.to}, record, true});
-      counters_.cross_robot_loops += record.applied;
-      step.cross_applied += record.applied;
-      break;
-    }
+  // The loops that joined it (one per supporting keyframe), once both ends are in the map.
+  for (const RobotLoop& joining : loops) {
+    if (!joined(joining.from_robot) || !joined(joining.to_robot)) continue;
+    step.cross_applied += applyToMap(joining.from_robot, joining.loop, joining.to_robot, true).applied;
   }
   state.joining_loops.clear();
   joins_[robot].clear();
+  for (auto it = peer_joins_.begin(); it != peer_joins_.end();)  // its pairs now search the map instead
+    it = it->first.first == robot || it->first.second == robot ? peer_joins_.erase(it) : std::next(it);
+  for (auto it = peer_loops_.begin(); it != peer_loops_.end();)
+    it = it->first.first == robot || it->first.second == robot ? peer_loops_.erase(it) : std::next(it);
   ++counters_.robots_joined;
+  joinLinked(robot, step);
 }
 
 SlamSession MultiRobotSlam::session() const {

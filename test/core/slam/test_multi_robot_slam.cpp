@@ -170,6 +170,62 @@ TEST(MultiRobotSlam, AJoinedRobotFindsOneThatDroveThereBefore) {
   EXPECT_LT(llc::alignedRmsError(map, truth), 0.5);
 }
 
+TEST(MultiRobotSlam, TwoRobotsThatMeetAwayFromTheMapJoinItTogether) {
+  // Robots 1 and 2 share streets that robot 0 never drives; robot 1 also drives streets robot 0
+  // comes to later, robot 2 does not (checked by the truth). Robots 1 and 2 link; when robot 0
+  // finds robot 1, robot 2 can only follow through that link.
+  const llc::SimDrive& drive = twoRobots().drive;
+  // Robot 0 drives [0, end0); robot 2 the first 150 frames after end0 + 40 that stay 15 m from
+  // all of robot 0's; robot 1 from 60 frames before end0 to 80 frames into robot 2's.
+  auto nearest = [&](std::size_t a0, std::size_t a1, std::size_t b0, std::size_t b1) {
+    double d = 1e9;
+    for (std::size_t i = a0; i < a1; i += 2)
+      for (std::size_t j = b0; j < b1; j += 2)
+        d = std::min(d, std::hypot(drive.frames[i].truth.x - drive.frames[j].truth.x, drive.frames[i].truth.y - drive.frames[j].truth.y));
+    return d;
+  };
+  const std::size_t end0 = 350;
+  std::size_t begin2 = end0 + 40;
+  while (begin2 + 150 <= drive.frames.size() && nearest(0, end0, begin2, begin2 + 150) <= 15.0) begin2 += 10;
+  ASSERT_LE(begin2 + 150, drive.frames.size()) << "no stretch of the drive away from robot 0's";
+  const std::size_t end2 = begin2 + 150, begin1 = end0 - 60, end1 = begin2 + 80;
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 3);
+  for (std::size_t f = 0; f < 120; ++f) slam.addScan(0, llc_test::frameScan(drive, drive.frames[f]), f, &drive.frames[f].odometry);
+  const llc::Pose2 frame_1{300.0, 20.0, 0.5}, frame_2{-80.0, 900.0, -2.0};
+  for (std::size_t f = begin1; f < end1; ++f) {
+    const llc::Pose2 odometry = llc::compose(frame_1, drive.frames[f].odometry);
+    slam.addScan(1, llc_test::frameScan(drive, drive.frames[f]), f, &odometry);
+  }
+  for (std::size_t f = begin2; f < end2; ++f) {
+    const llc::Pose2 odometry = llc::compose(frame_2, drive.frames[f].odometry);
+    slam.addScan(2, llc_test::frameScan(drive, drive.frames[f]), f, &odometry);
+  }
+  ASSERT_FALSE(slam.joined(1));
+  ASSERT_FALSE(slam.joined(2));
+  EXPECT_GE(slam.counters().robot_links, 1u) << "robots 1 and 2 drove the same streets and never agreed";
+  EXPECT_EQ(slam.map().keyframes().size(), slam.robot(0).keyframes().size()) << "a linked pair touched the map";
+  std::size_t together = 0;
+  for (std::size_t f = 120; f < end0; ++f) {  // robot 0 drives on, into robot 1's streets only
+    const llc::RobotStep step = slam.addScan(0, llc_test::frameScan(drive, drive.frames[f]), f, &drive.frames[f].odometry);
+    together += step.joined_robots.size() == 2;
+  }
+  ASSERT_TRUE(slam.joined(1) && slam.joined(2)) << "joined: " << slam.joined(1) << slam.joined(2);
+  EXPECT_EQ(together, 1u) << "robot 2 did not follow robot 1 in";
+  std::size_t links_applied = 0;
+  for (const llc::CrossRobotLoop& loop : slam.crossLoops()) {
+    if (!loop.record.applied) continue;
+    links_applied += loop.joining && loop.from.robot != 0 && loop.to.robot != 0;
+    const llc::Pose2 e = llc::between(llc::between(truthOf(slam, drive, loop.from), truthOf(slam, drive, loop.to)),
+                                      loop.record.loop.pose);
+    EXPECT_LT(std::hypot(e.x, e.y), 0.5) << "a wrong cross-robot loop, robot " << loop.from.robot << " -> " << loop.to.robot;
+  }
+  EXPECT_GE(links_applied, 3u) << "the link's loops did not reach the map";
+  std::vector<llc::Pose2> map, truth;
+  mapAndTruth(slam, drive, &map, &truth);
+  EXPECT_EQ(map.size(), slam.robot(0).keyframes().size() + slam.robot(1).keyframes().size() + slam.robot(2).keyframes().size());
+  EXPECT_LT(llc::alignedRmsError(map, truth), 0.5);
+}
+
 TEST(MultiRobotSlam, ARobotThatNeverSeesTheMapNeverJoinsIt) {
   // Robot 1 drives where robot 0 has not been (checked by the truth), so any join is a guess.
   const llc::SimDrive& drive = twoRobots().drive;

@@ -6,14 +6,17 @@
 // TrajectoryJoin joins it once the loops of several of its keyframes agree (the same rule as
 // localisation: one look-alike never places a robot); a robot in the map searches the keyframes
 // of those not yet in it the same way, so one that drove somewhere first is joined when a
-// mapped robot passes there later. Until then it maps in its own frame and
-// nothing of it touches the map. Once joined, its keyframes, odometry and own loops enter the
+// mapped robot passes there later. Two robots not yet in the map that agree on each other are
+// linked, and follow each other in. Until then a robot maps in its own frame and nothing of it
+// touches the map. Once joined, its keyframes, odometry and own loops enter the
 // map's graph (one back end, one chain per robot), and its cross-robot candidates meet the map's
 // place gate and its loops the map's chi-square gate, like any loop.
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "laser_loop_closure/core/slam/session_io.hpp"
@@ -66,6 +69,8 @@ struct MultiRobotCounters {
   std::size_t cross_not_aligned = 0;  ///< candidates of joined robots the map's place gate kept from alignment
   std::size_t cross_refused_by_context = 0;  ///< shape-validated, then refused by the context check
   std::size_t cross_robot_loops = 0;     ///< applied to the map (the joining ones included)
+  /// Pairs of robots, neither in the map, whose loops agreed: when one joins, the other follows.
+  std::size_t robot_links = 0;
   std::size_t cross_refused_by_gate = 0;  ///< shape-validated between joined robots, refused by the map's gate
   double seconds_search = 0.0;           ///< in the cross-robot search
 };
@@ -122,6 +127,25 @@ class MultiRobotSlam {
   /// The robot's keyframe against every other joined robot's keyframes: the shape-validated
   /// loops (from = the other robot's keyframe in its own pipeline, to = this keyframe).
   std::vector<std::pair<std::size_t, LoopClosure>> searchOthers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// A loop between two robots' keyframes, each index its own robot's.
+  struct RobotLoop {
+    std::size_t from_robot = 0, to_robot = 0;
+    LoopClosure loop;
+  };
+  /// Two robots, neither in the map when their loops agreed (TrajectoryJoin of one's frame in
+  /// the other's): the loops that agreed. When one of them joins, the other follows through them.
+  struct Link {
+    std::size_t a = 0, b = 0;
+    std::vector<RobotLoop> loops;
+  };
+  /// A robot not yet in the map: its keyframe against the keyframes of every other robot not
+  /// yet in it; the loops of each pair meet a TrajectoryJoin of their own, and agreeing ones
+  /// make a Link.
+  void searchPeers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// The joining loops of a join to the map (its supporting hypotheses' loops), each robot's indices.
+  std::vector<RobotLoop> loopsOfJoin(std::size_t robot, const TrajectoryJoinResult& join) const;
+  /// Every robot linked to `robot` (now joined) and not in the map joins through its link.
+  void joinLinked(std::size_t robot, RobotStep& step);
   /// A joined robot's keyframe against the keyframes of every robot not yet in the map: each
   /// loop found is aligned again the other way round (the other robot's keyframe seen from
   /// this one's), context-checked, and offered to that robot's join.
@@ -132,9 +156,12 @@ class MultiRobotSlam {
   /// Enters keyframe `keyframe` of a joined robot into the map, linked from its previous one.
   void enterKeyframe(std::size_t robot, std::size_t keyframe);
   /// A loop between two keyframes that are both in the map (own or cross-robot) to its back end.
-  LoopRecord applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot);
-  /// Robot `robot` joins: its keyframes so far, its own loops and the loops that joined it.
-  void joinRobot(std::size_t robot, const TrajectoryJoinResult& join, RobotStep& step);
+  LoopRecord applyToMap(std::size_t from_robot, const LoopClosure& loop, std::size_t to_robot, bool joining = false);
+  /// Robot `robot` joins: its keyframes so far (the first where map_from_trajectory puts it,
+  /// loosely linked to map keyframe `anchor`), its own loops and the loops that joined it; then
+  /// the robots linked to it.
+  void joinRobot(std::size_t robot, const Pose2& map_from_trajectory, std::size_t anchor, const std::vector<RobotLoop>& loops,
+                 RobotStep& step);
   /// The context check's view of a robot's keyframes (its front end's odometry chain).
   KeyframeContext contextOf(std::size_t robot) const;
 
@@ -147,6 +174,11 @@ class MultiRobotSlam {
   std::vector<RobotKeyframe> map_keyframes_;
   std::vector<CrossRobotLoop> cross_loops_;
   MultiRobotCounters counters_;
+  /// Robots neither in the map: (u, v) -> u's frame in v's odometry frame, and the loops offered
+  /// to it (from = v's keyframe, to = u's); erased once the pair is linked.
+  std::map<std::pair<std::size_t, std::size_t>, TrajectoryJoin> peer_joins_;
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<LoopClosure>> peer_loops_;
+  std::vector<Link> links_;
 };
 
 }  // namespace llc
