@@ -262,16 +262,7 @@ void writeOutputs(const llc::SlamPipeline& slam, const llc::OccupancyGridOptions
   trajectory.commit();
   scan_poses.commit();
   loops.commit();
-  std::vector<const llc::Scan*> scans;
-  for (const llc::Keyframe& k : keyframes) scans.push_back(&k.scan);
-  llc::OccupancyGrid grid;
-  try {
-    grid = llc::buildOccupancyGrid(scans, poses, map_options);
-    llc::saveMapFiles(grid, dir + "/map", map_options);
-    llc::renderMapPicture(grid, poses, picture_loops).savePng(dir + "/map.png");
-  } catch (const std::exception& e) {
-    throw ToolError(std::string("map: ") + e.what());
-  }
+  writeMapFiles(keyframes, poses, picture_loops, map_options, dir);
 }
 
 /// report.txt's lines of a bag's odometry time offset estimate (the nodelets' estimate_odometry_time_offset).

@@ -106,6 +106,70 @@ struct RobotTruth {
   double joined_m = -1.0;         ///< truth path to the keyframe that joined it
 };
 
+/// The true path of robot r until it has made `needed` keyframes within 1.5 m of a keyframe
+/// another robot made earlier in the feed (turned by less than 45 degrees unless 360-degree
+/// scans): the earliest a join could be right; -1 when never.
+double firstOverlapPath(const llc::MultiRobotSlam& slam, std::size_t r, const std::vector<std::vector<llc::Pose2>>& truths,
+                        const std::vector<std::vector<std::size_t>>& made_at, std::size_t needed) {
+  const auto& keyframes = slam.robot(r).keyframes();
+  double path = 0.0;
+  std::size_t overlapping = 0;
+  auto seesMapped = [&](std::size_t k) {
+    const llc::Pose2& q = truths[r][k];
+    for (std::size_t o = 0; o < truths.size(); ++o) {
+      if (o == r) continue;
+      for (std::size_t j = 0; j < made_at[o].size() && made_at[o][j] < made_at[r][k]; ++j) {
+        const llc::Pose2& u = truths[o][j];
+        if (std::hypot(q.x - u.x, q.y - u.y) <= 1.5 &&
+            (keyframes[k].scan.full_circle || std::abs(llc::normalizeAngle(q.theta - u.theta)) <= M_PI / 4))
+          return true;
+      }
+    }
+    return false;
+  };
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    if (k > 0) path += std::hypot(truths[r][k].x - truths[r][k - 1].x, truths[r][k].y - truths[r][k - 1].y);
+    if (seesMapped(k) && ++overlapping == needed) return path;
+  }
+  return -1.0;
+}
+
+/// Every robot against its truth: the joined map laid onto it in one alignment (its RMS in
+/// *map_rms), each joined robot's RMS within that alignment, an unjoined one's in its own.
+std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const std::vector<std::vector<llc::Pose2>>& truths,
+                                          const std::vector<std::vector<std::size_t>>& made_at,
+                                          const std::vector<std::size_t>& joined_by, std::size_t min_keyframes, double* map_rms) {
+  const llc::SlamBackEnd& map = slam.map();
+  std::vector<llc::Pose2> reference;
+  for (std::size_t m = 0; m < map.keyframes().size(); ++m)
+    reference.push_back(truths[slam.mapKeyframe(m).robot][slam.mapKeyframe(m).keyframe]);
+  llc::Pose2 alignment;
+  *map_rms = llc::alignedRmsError(map.poses(), reference, &alignment);
+  std::vector<RobotTruth> judged(truths.size());
+  for (std::size_t r = 0; r < truths.size(); ++r) {
+    RobotTruth& t = judged[r];
+    const std::size_t keyframes = truths[r].size();
+    if (slam.joined(r)) {
+      double sum = 0.0;
+      for (std::size_t k = 0; k < keyframes; ++k) {
+        const llc::Pose2 p = llc::compose(alignment, map.poses()[slam.mapIndex(r, k)]);
+        sum += (p.x - truths[r][k].x) * (p.x - truths[r][k].x) + (p.y - truths[r][k].y) * (p.y - truths[r][k].y);
+      }
+      t.rms_m = keyframes == 0 ? 0.0 : std::sqrt(sum / double(keyframes));
+    } else {
+      t.rms_m = llc::alignedRmsError(slam.robot(r).poses(), truths[r]);
+    }
+    if (r == 0) continue;
+    t.first_overlap_m = firstOverlapPath(slam, r, truths, made_at, min_keyframes);
+    if (slam.joined(r)) {
+      t.joined_m = 0.0;
+      for (std::size_t k = 1; k <= joined_by[r] && k < keyframes; ++k)
+        t.joined_m += std::hypot(truths[r][k].x - truths[r][k - 1].x, truths[r][k].y - truths[r][k - 1].y);
+    }
+  }
+  return judged;
+}
+
 }  // namespace
 
 int runMultiRobotSlam(const Args& args) {
@@ -148,13 +212,13 @@ int runMultiRobotSlam(const Args& args) {
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  // The truth of keyframe k of robot r.
-  auto truthOf = [&](std::size_t r, std::size_t k) -> const llc::Pose2& {
-    const std::size_t scan = slam.robot(r).keyframes()[k].scan_index;
+  // Each robot's keyframes' truths (a keyframe's scan index names its scan in the input file).
+  std::vector<std::vector<llc::Pose2>> truths(robots.size());
+  for (std::size_t r = 0; r < robots.size(); ++r) {
     const auto& index = robots[r].input_index;
-    const std::size_t i = std::size_t(std::lower_bound(index.begin(), index.end(), scan) - index.begin());
-    return robots[r].sequence.scans[i].truth;
-  };
+    for (const llc::Keyframe& k : slam.robot(r).keyframes())
+      truths[r].push_back(robots[r].sequence.scans[std::size_t(std::lower_bound(index.begin(), index.end(), k.scan_index) - index.begin())].truth);
+  }
   const bool truth = std::all_of(robots.begin(), robots.end(), [](const RobotInput& r) { return r.has_truth; });
 
   // Outputs: the map's keyframes (joined robots, map frame), then the unjoined robots' own.
@@ -204,7 +268,7 @@ int runMultiRobotSlam(const Args& args) {
     if (!record.applied) continue;
     ++applied_loops;
     if (!truth) continue;
-    const llc::Pose2 e = llc::between(llc::between(truthOf(a.robot, a.keyframe), truthOf(b.robot, b.keyframe)), record.loop.pose);
+    const llc::Pose2 e = llc::between(llc::between(truths[a.robot][a.keyframe], truths[b.robot][b.keyframe]), record.loop.pose);
     if (std::hypot(e.x, e.y) > wrong_m || std::abs(e.theta) > wrong_rad) {
       const bool joined_by_it = joining.count({record.loop.from, record.loop.to}) > 0;
       ++wrong_loops;
@@ -217,15 +281,7 @@ int runMultiRobotSlam(const Args& args) {
     }
   }
   loops.commit();
-  std::vector<const llc::Scan*> map_scans;
-  for (const llc::Keyframe& k : map.keyframes()) map_scans.push_back(&k.scan);
-  try {
-    const llc::OccupancyGrid grid = llc::buildOccupancyGrid(map_scans, map.poses(), options.map);
-    llc::saveMapFiles(grid, dir + "/map", options.map);
-    llc::renderMapPicture(grid, map.poses(), picture_loops).savePng(dir + "/map.png");
-  } catch (const std::exception& e) {
-    throw ToolError(std::string("map: ") + e.what());
-  }
+  writeMapFiles(map.keyframes(), map.poses(), picture_loops, options.map, dir);
 
   if (args.has("save-session")) {  // the map: every joined robot, each keyframe's robot named
     try {
@@ -235,55 +291,10 @@ int runMultiRobotSlam(const Args& args) {
     }
   }
 
-  // Against the truth: the joined map in one alignment, each robot within it.
-  std::vector<RobotTruth> robot_truth(robots.size());
   double map_rms = std::numeric_limits<double>::quiet_NaN();
-  if (truth) {
-    std::vector<llc::Pose2> estimate, reference;
-    for (std::size_t m = 0; m < map.keyframes().size(); ++m) {
-      estimate.push_back(map.poses()[m]);
-      reference.push_back(truthOf(slam.mapKeyframe(m).robot, slam.mapKeyframe(m).keyframe));
-    }
-    llc::Pose2 alignment;
-    map_rms = llc::alignedRmsError(estimate, reference, &alignment);
-    for (std::size_t r = 0; r < robots.size(); ++r) {
-      RobotTruth& t = robot_truth[r];
-      const auto& keyframes = slam.robot(r).keyframes();
-      if (slam.joined(r)) {
-        double sum = 0.0;
-        for (std::size_t k = 0; k < keyframes.size(); ++k) {
-          const llc::Pose2 p = llc::compose(alignment, map.poses()[slam.mapIndex(r, k)]);
-          const llc::Pose2& q = truthOf(r, k);
-          sum += (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y);
-        }
-        t.rms_m = keyframes.empty() ? 0.0 : std::sqrt(sum / double(keyframes.size()));
-      } else {
-        std::vector<llc::Pose2> own(slam.robot(r).poses()), own_truth;
-        for (std::size_t k = 0; k < keyframes.size(); ++k) own_truth.push_back(truthOf(r, k));
-        t.rms_m = llc::alignedRmsError(own, own_truth);
-      }
-      if (r == 0) continue;
-      // A join needs min_keyframes keyframes that see mapped places: the path at the
-      // min_keyframes-th one is the earliest a join could be right.
-      double path = 0.0;
-      std::size_t overlapping = 0;
-      for (std::size_t k = 0; k < keyframes.size(); ++k) {
-        const llc::Pose2& q = truthOf(r, k);
-        if (k > 0) path += std::hypot(q.x - truthOf(r, k - 1).x, q.y - truthOf(r, k - 1).y);
-        bool overlaps = false;
-        for (std::size_t o = 0; o < robots.size() && !overlaps && t.first_overlap_m < 0.0; ++o) {
-          if (o == r) continue;
-          for (std::size_t j = 0; j < made_at[o].size() && made_at[o][j] < made_at[r][k] && !overlaps; ++j) {
-            const llc::Pose2& u = truthOf(o, j);
-            overlaps = std::hypot(q.x - u.x, q.y - u.y) <= 1.5 &&
-                       (keyframes[k].scan.full_circle || std::abs(llc::normalizeAngle(q.theta - u.theta)) <= M_PI / 4);
-          }
-        }
-        if (overlaps && ++overlapping == options.multi_robot.join.min_keyframes) t.first_overlap_m = path;
-        if (slam.joined(r) && k == joined_by[r]) t.joined_m = path;
-      }
-    }
-  }
+  const std::vector<RobotTruth> robot_truth =
+      truth ? judgeAgainstTruth(slam, truths, made_at, joined_by, options.multi_robot.join.min_keyframes, &map_rms)
+            : std::vector<RobotTruth>(robots.size());
 
   const llc::MultiRobotCounters& c = slam.counters();
   std::ostringstream report;

@@ -301,4 +301,17 @@ std::optional<llc::OdometryDrift> odometryDrift(const Args& args) {
   return drift;
 }
 
+void writeMapFiles(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
+                   const std::vector<llc::PictureLoop>& loops, const llc::OccupancyGridOptions& options, const std::string& dir) {
+  std::vector<const llc::Scan*> scans;
+  for (const llc::Keyframe& k : keyframes) scans.push_back(&k.scan);
+  try {
+    const llc::OccupancyGrid grid = llc::buildOccupancyGrid(scans, poses, options);
+    llc::saveMapFiles(grid, dir + "/map", options);
+    llc::renderMapPicture(grid, poses, loops).savePng(dir + "/map.png");
+  } catch (const std::exception& e) {
+    throw ToolError(std::string("map: ") + e.what());
+  }
+}
+
 }  // namespace llc_tool

@@ -15,6 +15,7 @@
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
 #include "laser_loop_closure/core/classifier/pair_labeling.hpp"
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/map/map_picture.hpp"
 #include "laser_loop_closure/ros/io/drive_input.hpp"
 
 namespace llc_tool {
@@ -111,5 +112,10 @@ extern const std::vector<std::string> kDriftFlags;
 /// from moderate): the odometry degraded before use, for logs whose odometry is perfect.
 /// Nothing when no drift flag is given.
 std::optional<llc::OdometryDrift> odometryDrift(const Args& args);
+
+/// DIR/map.pgm, map.yaml and map.png (the loops drawn) of keyframes' scans at their poses;
+/// ToolError ("map: ...") when the grid cannot be made or written.
+void writeMapFiles(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
+                   const std::vector<llc::PictureLoop>& loops, const llc::OccupancyGridOptions& options, const std::string& dir);
 
 }  // namespace llc_tool

@@ -18,6 +18,22 @@ const MultiRobotOptions& checked(const MultiRobotOptions& options) {
   return options;
 }
 
+/// The offered loops behind a join's supporting hypotheses, in support order (a hypothesis
+/// names its loop by the keyframe it joins and the keyframe it reached).
+std::vector<LoopClosure> supportingLoops(const TrajectoryJoin& join, const TrajectoryJoinResult& result,
+                                         const std::vector<LoopClosure>& offered) {
+  std::vector<LoopClosure> loops;
+  for (std::size_t index : result.support) {
+    const JoinHypothesis& h = join.hypotheses().at(index);
+    for (const LoopClosure& loop : offered)
+      if (loop.to == h.keyframe && loop.from == h.map_keyframe) {
+        loops.push_back(loop);
+        break;
+      }
+  }
+  return loops;
+}
+
 }  // namespace
 
 std::string MultiRobotOptions::validate() const {
@@ -77,14 +93,16 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
       if (loop.accepted) applyToMap(robot, loop, robot);
   }
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<std::pair<std::size_t, LoopClosure>> found = searchOthers(robot, keyframe, step);
+  const LoopDetector& own = pipeline.detector();
+  const Query query{own.features(keyframe), &own.prepared(keyframe), keyframe};
+  const std::vector<std::pair<std::size_t, LoopClosure>> found = searchOthers(robot, query, step);
   if (state.joined) {
     for (const auto& [other, loop] : found) {
       const LoopRecord record = applyToMap(other, loop, robot);
       step.cross_applied += record.applied;
       if (!record.applied && record.refusal == LoopRefusal::kBackEndGate) ++counters_.cross_refused_by_gate;
     }
-    searchUnjoined(robot, keyframe, step);
+    searchUnjoined(robot, query, step);
   } else {
     std::vector<JoinHypothesis> hypotheses;
     for (const auto& [other, loop] : found) {
@@ -98,7 +116,7 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
       step.joined_robots.push_back(robot);
       joinRobot(robot, step.join.map_from_trajectory, step.join.newest.map_keyframe, loopsOfJoin(robot, step.join), step);
     } else {
-      searchPeers(robot, keyframe, step);
+      searchPeers(robot, query, step);
     }
   }
   counters_.cross_aligned += step.cross_aligned;
@@ -109,46 +127,46 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
   return step;
 }
 
-std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(std::size_t robot, std::size_t keyframe,
+std::vector<LoopClosure> MultiRobotSlam::validatedLoops(const Query& query, std::size_t other, const CandidateCheck& check,
+                                                       RobotStep& step) const {
+  const LoopDetectionResult result = robots_[other]->detector().detectScan(
+      query.features, *query.scan, query.keyframe, options_.cross_candidates, 0.0, options_.search_threads, check);
+  step.cross_aligned += result.aligned.size();
+  step.cross_not_aligned += result.not_aligned.size();
+  std::vector<LoopClosure> loops;
+  for (const LoopClosure& loop : result.aligned)
+    if (loop.accepted) loops.push_back(loop);
+  step.cross_validated += loops.size();
+  return loops;
+}
+
+bool MultiRobotSlam::contextHolds(std::size_t from_robot, LoopClosure& loop, std::size_t to_robot, RobotStep& step) const {
+  // Each end's context from its own robot's odometry chain (a loop between robots is checked
+  // against both, as a loop within one run is: a corridor a door along fits worse).
+  const LoopDetector& store = robots_[from_robot]->detector();
+  if (!store.options().context.enabled) return true;
+  store.checkContextWith(loop, store.size(), contextOf(from_robot), robots_[to_robot]->detector(), contextOf(to_robot));
+  if (loop.accepted) return true;
+  ++step.cross_refused_by_context;
+  return false;
+}
+
+std::vector<std::pair<std::size_t, LoopClosure>> MultiRobotSlam::searchOthers(std::size_t robot, const Query& query,
                                                                                RobotStep& step) {
   std::vector<std::pair<std::size_t, LoopClosure>> found;
-  const LoopDetector& own = robots_[robot]->detector();
-  const std::vector<double> features = own.features(keyframe);
-  const PreparedScan& prepared = own.prepared(keyframe);
-  // Each keyframe's context from its own robot's odometry chain (a loop between robots is
-  // checked against both, as a loop within one run is: a corridor a door along fits worse).
-  const KeyframeContext own_context = contextOf(robot);
   for (std::size_t other = 0; other < robots_.size(); ++other) {
     if (other == robot || !state_[other].joined || robots_[other]->detector().size() == 0) continue;
     // A robot already in the map asks the map's place gate first, as mapping does: the map's
     // marginals say whether the two keyframes can be at one place (one not yet joined has no
-    // relative prior to ask).
+    // relative prior to ask). Every keyframe of a joined robot is in the map.
     CandidateCheck place_gate;
     if (state_[robot].joined && place_gate_.enabled) {
-      place_gate = [this, robot, other](std::size_t from, std::size_t to) -> LoopVerdict {
-        if (from >= state_[other].map_index.size()) return {};  // not in the map yet: aligned ungated
+      place_gate = [this, robot, other](std::size_t from, std::size_t to) {
         return placeGateVerdict(place_gate_, map_.placeChi2(mapIndex(other, from), mapIndex(robot, to), place_gate_.radius));
       };
     }
-    const LoopDetectionResult result = robots_[other]->detector().detectScan(
-        features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads, place_gate);
-    step.cross_aligned += result.aligned.size();
-    step.cross_not_aligned += result.not_aligned.size();
-    const LoopDetector& store = robots_[other]->detector();
-    for (LoopClosure loop : result.aligned) {
-      if (!loop.accepted) continue;
-      // Only keyframes already in the map (a robot's newest keyframe enters it with its scan).
-      if (loop.from >= state_[other].map_index.size()) continue;
-      ++step.cross_validated;
-      if (store.options().context.enabled) {
-        store.checkContextWith(loop, store.size(), contextOf(other), own, own_context);
-        if (!loop.accepted) {
-          ++step.cross_refused_by_context;
-          continue;
-        }
-      }
-      found.emplace_back(other, loop);
-    }
+    for (LoopClosure& loop : validatedLoops(query, other, place_gate, step))
+      if (contextHolds(other, loop, robot, step)) found.emplace_back(other, loop);
   }
   return found;
 }
@@ -173,32 +191,18 @@ JoinHypothesis MultiRobotSlam::joinHypothesis(std::size_t robot, const LoopClosu
   return h;
 }
 
-void MultiRobotSlam::searchUnjoined(std::size_t robot, std::size_t keyframe, RobotStep& step) {
+void MultiRobotSlam::searchUnjoined(std::size_t robot, const Query& query, RobotStep& step) {
   const LoopDetector& own = robots_[robot]->detector();
-  const std::vector<double> features = own.features(keyframe);
-  const PreparedScan& prepared = own.prepared(keyframe);
   for (std::size_t other = 0; other < robots_.size(); ++other) {
     if (other == robot || state_[other].joined || robots_[other]->detector().size() == 0) continue;
     const LoopDetector& store = robots_[other]->detector();
-    const LoopDetectionResult result =
-        store.detectScan(features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
-    step.cross_aligned += result.aligned.size();
     std::vector<JoinHypothesis> hypotheses;
-    for (const LoopClosure& found : result.aligned) {
-      if (!found.accepted) continue;
-      ++step.cross_validated;
+    for (const LoopClosure& found : validatedLoops(query, other, {}, step)) {
       // The same pair the other way round: the other robot's keyframe seen from this one's,
       // as its own search would have found it (a loop, its covariance, in the join's terms).
-      LoopClosure loop = own.verifyScan(keyframe, store.prepared(found.from), found.from, found.score);
-      if (!loop.accepted) continue;
-      if (own.options().context.enabled) {
-        own.checkContextWith(loop, own.size(), contextOf(robot), store, contextOf(other));
-        if (!loop.accepted) {
-          ++step.cross_refused_by_context;
-          continue;
-        }
-      }
-      loop.from = mapIndex(robot, keyframe);
+      LoopClosure loop = own.verifyScan(query.keyframe, store.prepared(found.from), found.from, found.score);
+      if (!loop.accepted || !contextHolds(robot, loop, other, step)) continue;
+      loop.from = mapIndex(robot, query.keyframe);
       hypotheses.push_back(joinHypothesis(other, loop));
     }
     if (hypotheses.empty()) continue;
@@ -209,10 +213,7 @@ void MultiRobotSlam::searchUnjoined(std::size_t robot, std::size_t keyframe, Rob
   }
 }
 
-void MultiRobotSlam::searchPeers(std::size_t robot, std::size_t keyframe, RobotStep& step) {
-  const LoopDetector& own = robots_[robot]->detector();
-  const std::vector<double> features = own.features(keyframe);
-  const PreparedScan& prepared = own.prepared(keyframe);
+void MultiRobotSlam::searchPeers(std::size_t robot, const Query& query, RobotStep& step) {
   auto linked = [this](std::size_t a, std::size_t b) {
     for (const Link& link : links_)
       if ((link.a == a && link.b == b) || (link.a == b && link.b == a)) return true;
@@ -220,27 +221,15 @@ void MultiRobotSlam::searchPeers(std::size_t robot, std::size_t keyframe, RobotS
   };
   for (std::size_t other = 0; other < robots_.size(); ++other) {
     if (other == robot || state_[other].joined || robots_[other]->detector().size() == 0 || linked(robot, other)) continue;
-    const LoopDetector& store = robots_[other]->detector();
-    const LoopDetectionResult result =
-        store.detectScan(features, prepared, keyframe, options_.cross_candidates, 0.0, options_.search_threads);
-    step.cross_aligned += result.aligned.size();
     const std::pair<std::size_t, std::size_t> pair{robot, other};
     std::vector<JoinHypothesis> hypotheses;
-    for (LoopClosure loop : result.aligned) {
-      if (!loop.accepted) continue;
-      ++step.cross_validated;
-      if (store.options().context.enabled) {
-        store.checkContextWith(loop, store.size(), contextOf(other), own, contextOf(robot));
-        if (!loop.accepted) {
-          ++step.cross_refused_by_context;
-          continue;
-        }
-      }
+    for (LoopClosure& loop : validatedLoops(query, other, {}, step)) {
+      if (!contextHolds(other, loop, robot, step)) continue;
       // Where the other robot's odometry chain puts this keyframe: a place in its own frame.
       JoinHypothesis h;
-      h.keyframe = keyframe;
+      h.keyframe = query.keyframe;
       h.path = state_[robot].path;
-      h.trajectory_pose = state_[robot].chain[keyframe];
+      h.trajectory_pose = state_[robot].chain[query.keyframe];
       h.map_keyframe = loop.from;
       h.map_pose = compose(state_[other].chain.at(loop.from), loop.pose);
       h.covariance = loop.covariance;
@@ -248,18 +237,11 @@ void MultiRobotSlam::searchPeers(std::size_t robot, std::size_t keyframe, RobotS
       peer_loops_[pair].push_back(loop);
     }
     if (hypotheses.empty()) continue;
-    auto join = peer_joins_.try_emplace(pair, options_.join).first;
-    const TrajectoryJoinResult result_of_join = join->second.offer(hypotheses);
-    if (!result_of_join.joined) continue;
+    TrajectoryJoin& join = peer_joins_.try_emplace(pair, options_.join).first->second;
+    const TrajectoryJoinResult result = join.offer(hypotheses);
+    if (!result.joined) continue;
     Link link{other, robot, {}};
-    for (std::size_t index : result_of_join.support) {
-      const JoinHypothesis& h = join->second.hypotheses().at(index);
-      for (const LoopClosure& loop : peer_loops_[pair])
-        if (loop.to == h.keyframe && loop.from == h.map_keyframe) {
-          link.loops.push_back({other, robot, loop});
-          break;
-        }
-    }
+    for (const LoopClosure& loop : supportingLoops(join, result, peer_loops_[pair])) link.loops.push_back({other, robot, loop});
     links_.push_back(std::move(link));
     ++counters_.robot_links;
     peer_joins_.erase(pair);
@@ -269,17 +251,10 @@ void MultiRobotSlam::searchPeers(std::size_t robot, std::size_t keyframe, RobotS
 
 std::vector<MultiRobotSlam::RobotLoop> MultiRobotSlam::loopsOfJoin(std::size_t robot, const TrajectoryJoinResult& join) const {
   std::vector<RobotLoop> loops;
-  const std::vector<JoinHypothesis>& offered = joins_[robot].hypotheses();
-  for (std::size_t index : join.support) {
-    const JoinHypothesis& h = offered.at(index);
-    for (const LoopClosure& loop : state_[robot].joining_loops) {
-      if (loop.to != h.keyframe || loop.from != h.map_keyframe) continue;
-      const RobotKeyframe& other = map_keyframes_.at(loop.from);
-      LoopClosure own_indices = loop;
-      own_indices.from = other.keyframe;
-      loops.push_back({other.robot, robot, own_indices});
-      break;
-    }
+  for (LoopClosure loop : supportingLoops(joins_[robot], join, state_[robot].joining_loops)) {
+    const RobotKeyframe other = map_keyframes_.at(loop.from);  // the joining loops name map keyframes
+    loop.from = other.keyframe;
+    loops.push_back({other.robot, robot, loop});
   }
   return loops;
 }
@@ -359,14 +334,9 @@ void MultiRobotSlam::joinRobot(std::size_t robot, const Pose2& map_from_trajecto
 
 SlamSession MultiRobotSlam::session() const {
   std::vector<std::vector<double>> features;
-  SlamSession session;
-  for (const RobotKeyframe& k : map_keyframes_) {
-    features.push_back(robots_[k.robot]->detector().features(k.keyframe));
-    session.robots.push_back(std::uint32_t(k.robot));
-  }
-  std::vector<std::uint32_t> robots = std::move(session.robots);
-  session = sessionOf(map_, features);
-  session.robots = std::move(robots);
+  for (const RobotKeyframe& k : map_keyframes_) features.push_back(robots_[k.robot]->detector().features(k.keyframe));
+  SlamSession session = sessionOf(map_, features);
+  for (const RobotKeyframe& k : map_keyframes_) session.robots.push_back(std::uint32_t(k.robot));
   return session;
 }
 

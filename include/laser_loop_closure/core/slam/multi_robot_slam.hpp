@@ -124,9 +124,23 @@ class MultiRobotSlam {
     std::vector<LoopClosure> joining_loops;  ///< loops offered to the join, parallel to its hypotheses' order of offer
   };
 
-  /// The robot's keyframe against every other joined robot's keyframes: the shape-validated
-  /// loops (from = the other robot's keyframe in its own pipeline, to = this keyframe).
-  std::vector<std::pair<std::size_t, LoopClosure>> searchOthers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  /// A new keyframe as the cross-robot searches take it.
+  struct Query {
+    std::vector<double> features;
+    const PreparedScan* scan = nullptr;
+    std::size_t keyframe = 0;
+  };
+  /// The keyframe against robot `other`'s keyframes with no pose prior (`check`, when given,
+  /// asked before each alignment): the shape-validated loops (from = other's keyframe, to = the
+  /// query's), counted in `step`.
+  std::vector<LoopClosure> validatedLoops(const Query& query, std::size_t other, const CandidateCheck& check,
+                                          RobotStep& step) const;
+  /// The context check of a loop from a keyframe of `from_robot` to one of `to_robot`, each
+  /// context from its own robot's odometry; false (refused in place, counted) when it fails.
+  bool contextHolds(std::size_t from_robot, LoopClosure& loop, std::size_t to_robot, RobotStep& step) const;
+  /// The robot's keyframe against every other joined robot's keyframes: the loops that passed
+  /// the context check (from = the other robot's keyframe in its own pipeline, to = this keyframe).
+  std::vector<std::pair<std::size_t, LoopClosure>> searchOthers(std::size_t robot, const Query& query, RobotStep& step);
   /// A loop between two robots' keyframes, each index its own robot's.
   struct RobotLoop {
     std::size_t from_robot = 0, to_robot = 0;
@@ -141,7 +155,7 @@ class MultiRobotSlam {
   /// A robot not yet in the map: its keyframe against the keyframes of every other robot not
   /// yet in it; the loops of each pair meet a TrajectoryJoin of their own, and agreeing ones
   /// make a Link.
-  void searchPeers(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  void searchPeers(std::size_t robot, const Query& query, RobotStep& step);
   /// The joining loops of a join to the map (its supporting hypotheses' loops), each robot's indices.
   std::vector<RobotLoop> loopsOfJoin(std::size_t robot, const TrajectoryJoinResult& join) const;
   /// Every robot linked to `robot` (now joined) and not in the map joins through its link.
@@ -149,7 +163,7 @@ class MultiRobotSlam {
   /// A joined robot's keyframe against the keyframes of every robot not yet in the map: each
   /// loop found is aligned again the other way round (the other robot's keyframe seen from
   /// this one's), context-checked, and offered to that robot's join.
-  void searchUnjoined(std::size_t robot, std::size_t keyframe, RobotStep& step);
+  void searchUnjoined(std::size_t robot, const Query& query, RobotStep& step);
   /// A shape-validated, context-checked loop from map keyframe loop.from to keyframe loop.to
   /// of a robot not yet joined: offered to its join as a hypothesis (returned).
   JoinHypothesis joinHypothesis(std::size_t robot, const LoopClosure& loop);
