@@ -65,11 +65,37 @@ std::size_t MultiRobotSlam::mapIndex(std::size_t robot, std::size_t keyframe) co
 }
 
 RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
-  SlamPipeline& pipeline = *robots_.at(robot);
-  RobotState& state = state_[robot];
   RobotStep step;
-  step.slam = pipeline.addScan(scan, scan_index, wheel_odometry);
+  step.slam = robots_.at(robot)->addScan(scan, scan_index, wheel_odometry);
   if (!step.slam.keyframe) return step;
+  std::vector<LoopClosure> own_loops;
+  for (const LoopClosure& loop : step.slam.loops.aligned)
+    if (loop.accepted) own_loops.push_back(loop);
+  keyframeAdded(robot, own_loops, step);
+  return step;
+}
+
+RobotStep MultiRobotSlam::addKeyframe(std::size_t robot, Keyframe keyframe, const std::vector<double>& features,
+                                      const OdometryStep& odometry) {
+  RobotStep step;
+  step.slam = robots_.at(robot)->addKeyframe(std::move(keyframe), features, odometry);
+  keyframeAdded(robot, {}, step);
+  return step;
+}
+
+LoopRecord MultiRobotSlam::addLoop(std::size_t robot, const LoopClosure& loop) {
+  const LoopRecord record = robots_.at(robot)->addLoop(loop);
+  RobotState& state = state_[robot];
+  const std::size_t known = state.chain.size();
+  if (!loop.accepted || loop.from >= known || loop.to >= known || loop.from == loop.to) return record;
+  state.own_loops.push_back(loop);
+  if (state.joined) applyToMap(robot, loop, robot);
+  return record;
+}
+
+void MultiRobotSlam::keyframeAdded(std::size_t robot, const std::vector<LoopClosure>& own_loops, RobotStep& step) {
+  const SlamPipeline& pipeline = *robots_[robot];
+  RobotState& state = state_[robot];
   const std::size_t keyframe = step.slam.keyframe_index;
   // The robot's own odometry chain: what TrajectoryJoin places its keyframes by.
   if (state.chain.empty()) {
@@ -84,13 +110,11 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
   }
   state.paths.push_back(state.path);
   state.steps.push_back(step.slam.odometry);
-  for (const LoopClosure& loop : step.slam.loops.aligned)
-    if (loop.accepted) state.own_loops.push_back(loop);
+  state.own_loops.insert(state.own_loops.end(), own_loops.begin(), own_loops.end());
 
   if (state.joined) {
     enterKeyframe(robot, keyframe);
-    for (const LoopClosure& loop : step.slam.loops.aligned)
-      if (loop.accepted) applyToMap(robot, loop, robot);
+    for (const LoopClosure& loop : own_loops) applyToMap(robot, loop, robot);
   }
   const auto start = std::chrono::steady_clock::now();
   const LoopDetector& own = pipeline.detector();
@@ -124,7 +148,6 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
   counters_.cross_validated += step.cross_validated;
   counters_.cross_refused_by_context += step.cross_refused_by_context;
   counters_.seconds_search += secondsSince(start);
-  return step;
 }
 
 std::vector<LoopClosure> MultiRobotSlam::validatedLoops(const Query& query, std::size_t other, const CandidateCheck& check,

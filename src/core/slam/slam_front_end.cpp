@@ -174,12 +174,7 @@ FrontEndStep SlamFrontEnd::addScan(const Scan& scan, const Pose2* wheel_odometry
   step.keyframe = true;
   step.keyframe_index = detector_.add(scan, prepared);
   ++counters_.steps_not_matched[std::size_t(step.odometry.refusal)];
-  chains_.full_circle = chains_.full_circle && scan.full_circle;
-  const bool chained = step.keyframe_index > chains_.start && isFinite(step.odometry.motion);
-  if (!chained) chains_.start = step.keyframe_index;  // the first keyframe of a new chain
-  chains_.pose.push_back(chained ? compose(chains_.pose.back(), step.odometry.motion) : Pose2{});
-  chains_.path.push_back(chained ? chains_.path.back() + std::hypot(step.odometry.motion.x, step.odometry.motion.y) : 0.0);
-  chains_.first.push_back(chains_.start);
+  extendChains(step.keyframe_index, step.odometry.motion, scan.full_circle);
   // The own odometry frame goes on through a new chain (whose motion is the identity).
   const Pose2 motion = isFinite(step.odometry.motion) ? step.odometry.motion : Pose2{};
   own_odometry_.keyframe = own_odometry_.has_keyframe ? compose(own_odometry_.keyframe, motion) : Pose2{};
@@ -413,6 +408,30 @@ std::vector<std::size_t> SlamFrontEnd::surelyElsewhere(std::size_t index) {
     found.resize(options.pairs_per_keyframe);
   }
   return found;
+}
+
+void SlamFrontEnd::extendChains(std::size_t keyframe, const Pose2& motion, bool full_circle) {
+  chains_.full_circle = chains_.full_circle && full_circle;
+  const bool chained = keyframe > chains_.start && isFinite(motion);
+  if (!chained) chains_.start = keyframe;  // the first keyframe of a new chain
+  chains_.pose.push_back(chained ? compose(chains_.pose.back(), motion) : Pose2{});
+  chains_.path.push_back(chained ? chains_.path.back() + std::hypot(motion.x, motion.y) : 0.0);
+  chains_.first.push_back(chains_.start);
+}
+
+std::size_t SlamFrontEnd::addKeyframeMadeElsewhere(const Scan& scan, const std::vector<double>& features,
+                                                   const Pose2& motion) {
+  std::shared_ptr<const PreparedScan> prepared = detector_.aligner().prepare(scan);
+  // Features of another length (another feature set on the robot) or not finite are made again here.
+  const bool usable = features.size() == detector_.featureCount() &&
+                      std::all_of(features.begin(), features.end(), [](double f) { return std::isfinite(f); });
+  const std::size_t index = usable ? detector_.addWithFeatures(features, std::move(prepared))
+                                : detector_.add(scan, std::move(prepared));
+  extendChains(index, index == 0 ? Pose2{} : motion, scan.full_circle);
+  ++counters_.keyframes;
+  // The threshold its candidates must reach, calibrated as that front end's was (detectLoops).
+  counters_.calibration_pairs += detector_.calibrate(index, surelyElsewhere(index));
+  return index;
 }
 
 std::vector<ContextKeyframe> SlamFrontEnd::context(std::size_t index, std::size_t before, double distance,

@@ -134,6 +134,27 @@ SlamStepResult SlamPipeline::addScan(const Scan& scan, std::size_t scan_index, c
   return step;
 }
 
+SlamStepResult SlamPipeline::addKeyframe(Keyframe keyframe, const std::vector<double>& features,
+                                         const OdometryStep& odometry) {
+  SlamStepResult step;
+  step.keyframe = true;
+  step.keyframe_index = front_.addKeyframeMadeElsewhere(keyframe.scan, features, odometry.motion);
+  step.odometry = odometry;
+  placements_.push_back({keyframe.scan_index, keyframe.stamp, step.keyframe_index, Pose2{}});
+  step.back_end_note = back_.addKeyframe(std::move(keyframe), odometry.motion, odometry.covariance);
+  return step;
+}
+
+LoopRecord SlamPipeline::addLoop(const LoopClosure& loop) {
+  // The back end refuses one naming a keyframe it does not hold (malformed), and records it.
+  LoopRecord record = back_.addLoop(loop);
+  for (std::size_t id : back_.lastConsensus())
+    if (id < pipeline_index_of_.size()) loops_[pipeline_index_of_[id]] = back_.loops()[id];
+  pipeline_index_of_.push_back(loops_.size());
+  loops_.push_back(record);
+  return record;
+}
+
 SlamSession SlamPipeline::session() const {
   std::vector<std::vector<double>> features;
   for (std::size_t k = 0; k < front_.keyframeCount(); ++k) features.push_back(front_.detector().features(k));

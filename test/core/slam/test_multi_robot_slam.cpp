@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -111,6 +112,70 @@ TEST(MultiRobotSlam, TheJoinedMapLiesOnTheTruth) {
   llc::SlamPipeline restored(llc_test::defaultModel());
   EXPECT_EQ(restored.restore(session, false), "");
   EXPECT_EQ(restored.keyframes().size(), map.size());
+}
+
+TEST(MultiRobotSlam, KeyframesMadeByFrontEndsElsewhereJoinAsTheScansDo) {
+  // What the multi-robot back end node does: each robot's own front end (here a pipeline of its
+  // own, as a robot's loop_closure nodelet) makes the keyframes and finds its own loops; the
+  // map only takes keyframes (scan, features, odometry step) and those loops, after each keyframe.
+  const TwoRobots& scans = twoRobots();
+  const llc::SimDrive& drive = scans.drive;
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 2);
+  std::vector<std::unique_ptr<llc::SlamPipeline>> front_ends;
+  for (int robot = 0; robot < 2; ++robot) front_ends.push_back(std::make_unique<llc::SlamPipeline>(llc_test::defaultModel()));
+  const llc::Pose2 frame_of_robot_1{-250.0, 400.0, 2.5};
+  std::size_t joined_at = 0, own_loops = 0;
+  for (std::size_t i = 0; i < scans.split; ++i) {
+    for (std::size_t robot = 0; robot < 2; ++robot) {
+      const std::size_t f = robot == 0 ? i : scans.split + i;
+      if (f >= drive.frames.size()) continue;
+      const llc::Pose2 odometry = robot == 0 ? drive.frames[f].odometry : llc::compose(frame_of_robot_1, drive.frames[f].odometry);
+      const llc::SlamStepResult made = front_ends[robot]->addScan(llc_test::frameScan(drive, drive.frames[f]), f, &odometry);
+      if (!made.keyframe) continue;
+      const std::size_t k = made.keyframe_index;
+      const llc::RobotStep step = slam.addKeyframe(robot, front_ends[robot]->keyframes()[k],
+                                                   front_ends[robot]->detector().features(k), made.odometry);
+      EXPECT_EQ(step.slam.keyframe_index, k);
+      if (step.joined_now) joined_at = k;
+      for (const llc::LoopClosure& loop : made.loops.aligned)
+        if (loop.accepted) slam.addLoop(robot, loop), ++own_loops;
+    }
+  }
+  ASSERT_TRUE(slam.joined(1));
+  std::size_t scans_joined_at = 0;
+  for (std::size_t k = 0, keyframe = 0; k < scans.steps[1].size(); ++k)
+    if (scans.steps[1][k].slam.keyframe) {
+      if (scans.steps[1][k].joined_now) scans_joined_at = keyframe;
+      ++keyframe;
+    }
+  std::cout << "robot 1 joined at keyframe " << joined_at << " (from scans: " << scans_joined_at << "), own loops "
+            << own_loops << ", cross loops " << slam.counters().cross_robot_loops << " (from scans: "
+            << scans.slam.counters().cross_robot_loops << ")\n";
+  // The same classes on the same keyframes (the stores calibrated alike; this drive's robots
+  // close no loop of their own, so no order of own loops can differ): the same map.
+  EXPECT_EQ(joined_at, scans_joined_at);
+  EXPECT_EQ(slam.counters().cross_robot_loops, scans.slam.counters().cross_robot_loops);
+  ASSERT_EQ(slam.robot(1).keyframes().size(), scans.slam.robot(1).keyframes().size());
+  for (const llc::CrossRobotLoop& loop : slam.crossLoops()) {
+    if (!loop.record.applied) continue;
+    const llc::Pose2 truth = llc::between(truthOf(slam, drive, loop.from), truthOf(slam, drive, loop.to));
+    const llc::Pose2 e = llc::between(truth, loop.record.loop.pose);
+    EXPECT_LT(std::hypot(e.x, e.y), 0.5) << "a wrong cross-robot loop";
+  }
+  std::vector<llc::Pose2> map, truth, scans_map, scans_truth;
+  mapAndTruth(slam, drive, &map, &truth);
+  mapAndTruth(scans.slam, drive, &scans_map, &scans_truth);
+  ASSERT_EQ(map.size(), scans_map.size());
+  const double rms = llc::alignedRmsError(map, truth), scans_rms = llc::alignedRmsError(scans_map, scans_truth);
+  std::cout << "map RMS " << rms << " m (from scans: " << scans_rms << " m)\n";
+  EXPECT_NEAR(rms, scans_rms, 1e-6);
+  // A loop naming a keyframe the robot never sent is refused, not fatal; an unknown robot throws.
+  const llc::LoopRecord bad = slam.addLoop(1, llc::LoopClosure{});
+  llc::LoopClosure beyond;
+  beyond.from = 0, beyond.to = 100000, beyond.accepted = true;
+  EXPECT_FALSE(slam.addLoop(1, beyond).applied);
+  EXPECT_FALSE(bad.applied);
+  EXPECT_THROW(slam.addLoop(2, beyond), std::out_of_range);
 }
 
 TEST(MultiRobotSlam, EveryScanOfAJoinedRobotIsPlacedInTheMapNearItsTruth) {

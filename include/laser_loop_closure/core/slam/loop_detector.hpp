@@ -101,6 +101,8 @@ class LoopDetector {
   const ScanAligner& aligner() const { return aligner_; }
   const ClassifierModel& model() const { return model_; }
   std::size_t size() const { return prepared_.size(); }
+  /// Values in each stored feature vector (what addWithFeatures takes).
+  std::size_t featureCount() const { return store_.featureCount(); }
 
   /// Stores a keyframe: its features and its scan prepared for alignment (prepared by
   /// aligner(), or nullptr to prepare it here). Returns its index.

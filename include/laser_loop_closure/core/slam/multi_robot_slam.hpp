@@ -86,6 +86,16 @@ class MultiRobotSlam {
   /// throws on bad data (SlamPipeline::addScan); std::out_of_range for an unknown robot.
   RobotStep addScan(std::size_t robot, const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry);
 
+  /// A keyframe of `robot` that its own front end made elsewhere (its loop_closure nodelet,
+  /// over the network): what addScan does once that robot's front end made it. Its own loops
+  /// come by addLoop. Never throws on bad data; std::out_of_range for an unknown robot.
+  RobotStep addKeyframe(std::size_t robot, Keyframe keyframe, const std::vector<double>& features,
+                        const OdometryStep& odometry);
+  /// A loop the robot's own front end found between two of its keyframes already added: into
+  /// its own graph, and into the map's when it is joined (else with the robot when it joins).
+  /// std::out_of_range for an unknown robot.
+  LoopRecord addLoop(std::size_t robot, const LoopClosure& loop);
+
   std::size_t robots() const { return robots_.size(); }
   /// Whether the robot's keyframes are in the map (robot 0 always, once it has one).
   bool joined(std::size_t robot) const { return robot < state_.size() && state_[robot].joined; }
@@ -124,6 +134,9 @@ class MultiRobotSlam {
     std::vector<LoopClosure> joining_loops;  ///< loops offered to the join, parallel to its hypotheses' order of offer
   };
 
+  /// The robot's newest keyframe (in its pipeline, step.slam) with the loops its own front end
+  /// accepted: its chain, the map when joined, then the cross-robot searches and joins.
+  void keyframeAdded(std::size_t robot, const std::vector<LoopClosure>& own_loops, RobotStep& step);
   /// A new keyframe as the cross-robot searches take it.
   struct Query {
     std::vector<double> features;

@@ -84,6 +84,12 @@ class SlamFrontEnd {
   /// and bearings of different lengths, is skipped (skip_reason says why); never throws on data.
   /// A new keyframe is only stored: detectLoops looks for its loops.
   FrontEndStep addScan(const Scan& scan, const Pose2* wheel_odometry);
+  /// A keyframe another front end made (a robot's loop_closure nodelet, its message taken by a
+  /// back end of several robots): stored for loop searches and the context check, its odometry
+  /// chain extended by `motion` (from the keyframe before; non-finite: a new chain), the
+  /// classifier's threshold calibrated as detectLoops does. No scan is matched, no loop searched. Features of another length than the model's are computed
+  /// from the scan. Returns its index.
+  std::size_t addKeyframeMadeElsewhere(const Scan& scan, const std::vector<double>& features, const Pose2& motion);
   /// Loop detection for a stored keyframe (LoopDetector::detect), counted. Two calls apart so
   /// that a back end can take the keyframe first and then answer `check`.
   LoopDetectionResult detectLoops(std::size_t keyframe_index, const CandidateCheck& check = {},
@@ -198,6 +204,8 @@ class SlamFrontEnd {
     bool full_circle = true;         ///< every keyframe's scan covers 360 degrees
   };
   KeyframeChains chains_;
+  /// Keyframe `keyframe` (the newest) enters the chains, `motion` from the one before.
+  void extendChains(std::size_t keyframe, const Pose2& motion, bool full_circle);
 
   /// Made from the newest keyframes when first needed, forgotten as one by restore (another
   /// run's keyframe of the same index is another scan).

@@ -106,6 +106,15 @@ class SlamPipeline {
   /// (skip_reason says why); never throws on bad data.
   SlamStepResult addScan(const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry);
 
+  /// A keyframe another front end made (a robot's loop_closure nodelet): stored for loop
+  /// searches and the context check, and into the back end with its odometry step, as addScan
+  /// would after its front end (no scan matched, no loop searched: its loops come by addLoop).
+  /// Never throws on bad data; the back end's note says what of the odometry was unusable.
+  SlamStepResult addKeyframe(Keyframe keyframe, const std::vector<double>& features, const OdometryStep& odometry);
+  /// A loop that front end found between two of its keyframes already added: to the back end,
+  /// recorded with loops() (one naming a keyframe not added: refused as malformed).
+  LoopRecord addLoop(const LoopClosure& loop);
+
   const SlamOptions& options() const { return options_; }
   const std::vector<Keyframe>& keyframes() const { return back_.keyframes(); }
   /// Optimised keyframe poses in the map frame (the first keyframe sits at its wheel-odometry pose).
