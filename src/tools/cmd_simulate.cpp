@@ -1,4 +1,5 @@
-// llc simulate: the deterministic urban drive as sim.bag, sim.log and world.png.
+// llc simulate: the deterministic urban drive as sim.bag, sim.log and world.png (and, with
+// --robots N, the drive cut into N robots that drive at once as fleet.bag).
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -9,6 +10,7 @@
 #include "laser_loop_closure/core/sim/carmen_writer.hpp"
 #include "laser_loop_closure/core/sim/kidnap.hpp"
 #include "laser_loop_closure/core/common/png_image.hpp"
+#include "laser_loop_closure/core/common/random.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 #include "laser_loop_closure/core/sim/sim_world.hpp"
 #include "laser_loop_closure/ros/io/bag_io.hpp"
@@ -59,6 +61,40 @@ llc::SimDrive selectedFrames(llc::SimDrive drive, const Args& args) {
   return drive;
 }
 
+/// --robots N: the drive cut into N consecutive parts, each a robot r1 .. rN driving at once
+/// (stamps shifted to the first part's start), the parts after the first with their odometry in
+/// a random frame (--robot-seed): fleet.bag, as multi_robot.launch takes it. "" when not asked.
+std::string writeFleet(const llc::SimDrive& drive, const Args& args, const std::string& out_dir) {
+  if (!args.has("robots")) return "";
+  const long robots = args.integer("robots", 1);
+  if (robots < 2 || robots > 16) throw UsageError("--robots must be 2 to 16");
+  const std::size_t per_part = drive.frames.size() / std::size_t(robots);
+  if (per_part < 2) throw UsageError("--robots: fewer than 2 frames per robot");
+  llc::Random random(std::uint64_t(args.integer("robot-seed", 1)));
+  std::vector<llc::SimDrive> parts;
+  std::vector<llc_ros::SimBagRobot> fleet;
+  parts.reserve(std::size_t(robots));
+  for (std::size_t r = 0; r < std::size_t(robots); ++r) {
+    llc::SimDrive part = drive;
+    const std::size_t first = r * per_part, end = r + 1 == std::size_t(robots) ? drive.frames.size() : first + per_part;
+    part.frames.assign(drive.frames.begin() + long(first), drive.frames.begin() + long(end));
+    parts.push_back(std::move(part));
+  }
+  for (std::size_t r = 0; r < parts.size(); ++r) {
+    llc_ros::SimBagRobot robot{&parts[r], "r" + std::to_string(r + 1)};
+    if (r > 0)
+      robot.odometry_frame = {random.uniform(-500.0, 500.0), random.uniform(-500.0, 500.0), random.uniform(-M_PI, M_PI)};
+    robot.time_shift = parts[0].frames.front().stamp - parts[r].frames.front().stamp;
+    fleet.push_back(robot);
+  }
+  try {
+    llc_ros::writeSimFleetBag(fleet, out_dir + "/fleet.bag");
+  } catch (const llc_ros::BagError& e) {
+    throw ToolError(e.what());
+  }
+  return " " + out_dir + "/fleet.bag (" + std::to_string(robots) + " robots r1 .. r" + std::to_string(robots) + ")";
+}
+
 }  // namespace
 
 int runSimulate(const Args& args) {
@@ -93,6 +129,7 @@ int runSimulate(const Args& args) {
     throw ToolError(e.what());
   }
   drawWorld(world, drive, out_dir + "/world.png");
+  const std::string fleet = writeFleet(drive, args, out_dir);
   const double drive_seconds = drive.frames.empty() ? 0.0 : drive.frames.back().stamp;
   std::cout << std::fixed << std::setprecision(2) << "frames=" << drive.frames.size() << " drive_seconds=" << drive_seconds
             << " blocks=" << world.options().blocks_x << "x" << world.options().blocks_y
@@ -100,7 +137,7 @@ int runSimulate(const Args& args) {
             << " movers=" << world.movers().size() << "\n"
             << "simulated in " << simulated << " s: " << std::setprecision(0)
             << (simulated > 0 ? drive_seconds / simulated : 0.0) << "x real time\n"
-            << "wrote " << out_dir << "/sim.bag " << out_dir << "/sim.log " << out_dir << "/world.png\n";
+            << "wrote " << out_dir << "/sim.bag " << out_dir << "/sim.log " << out_dir << "/world.png" << fleet << "\n";
   return 0;
 }
 

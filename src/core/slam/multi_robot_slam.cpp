@@ -84,7 +84,7 @@ RobotStep MultiRobotSlam::addKeyframe(std::size_t robot, Keyframe keyframe, cons
 }
 
 LoopRecord MultiRobotSlam::addLoop(std::size_t robot, const LoopClosure& loop) {
-  const LoopRecord record = robots_.at(robot)->addLoop(loop);
+  const LoopRecord record = robots_.at(robot)->addLoop(loop);  // a refused one is only recorded there
   RobotState& state = state_[robot];
   const std::size_t known = state.chain.size();
   if (!loop.accepted || loop.from >= known || loop.to >= known || loop.from == loop.to) return record;

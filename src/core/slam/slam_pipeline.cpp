@@ -146,8 +146,16 @@ SlamStepResult SlamPipeline::addKeyframe(Keyframe keyframe, const std::vector<do
 }
 
 LoopRecord SlamPipeline::addLoop(const LoopClosure& loop) {
+  LoopRecord record;
+  if (!loop.accepted) {  // refused by the front end's alignment: recorded, never applied (as addScan)
+    record.loop = loop;
+    record.refusal = loop.refusal;
+    record.reject_reason = loop.reject_reason;
+    loops_.push_back(record);
+    return record;
+  }
   // The back end refuses one naming a keyframe it does not hold (malformed), and records it.
-  LoopRecord record = back_.addLoop(loop);
+  record = back_.addLoop(loop);
   for (std::size_t id : back_.lastConsensus())
     if (id < pipeline_index_of_.size()) loops_[pipeline_index_of_[id]] = back_.loops()[id];
   pipeline_index_of_.push_back(loops_.size());

@@ -300,11 +300,11 @@ sensor_msgs::LaserScan scanMessage(const llc::SimScannerOptions& scanner, const 
 }
 
 nav_msgs::Odometry odometryMessage(const llc::Pose2& pose, const llc::Pose2& previous, double dt, const std::string& frame,
-                                   const ros::Time& stamp) {
+                                   const ros::Time& stamp, const std::string& child_frame) {
   nav_msgs::Odometry msg;
   msg.header.stamp = stamp;
   msg.header.frame_id = frame;
-  msg.child_frame_id = "base_link";
+  msg.child_frame_id = child_frame;
   msg.pose.pose = toPoseMsg(pose);
   if (dt > 0.0) {  // velocities in base_link from the step since the previous frame
     const llc::Pose2 step = llc::between(previous, pose);
@@ -317,40 +317,59 @@ nav_msgs::Odometry odometryMessage(const llc::Pose2& pose, const llc::Pose2& pre
 
 }  // namespace
 
-void writeSimBag(const llc::SimDrive& drive, const std::string& path) {
+void writeSimBag(const llc::SimDrive& drive, const std::string& path) { writeSimFleetBag({SimBagRobot{&drive}}, path); }
+
+void writeSimFleetBag(const std::vector<SimBagRobot>& robots, const std::string& path) {
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Write);
-    const ros::Time start(kSimBagEpoch + (drive.frames.empty() ? 0.0 : drive.frames.front().stamp));
+    double first_stamp = std::numeric_limits<double>::infinity();
+    for (const SimBagRobot& robot : robots)
+      if (!robot.drive->frames.empty()) first_stamp = std::min(first_stamp, robot.drive->frames.front().stamp + robot.time_shift);
+    const ros::Time start(kSimBagEpoch + (std::isfinite(first_stamp) ? first_stamp : 0.0));
+    // One latched /tf_static with every robot's mounts (a player latches only the last message).
     tf2_msgs::TFMessage mounts;
-    std::vector<std::pair<const llc::SimScannerOptions*, std::string>> scanners{{&drive.front, "laser_front"}};
-    if (drive.options.back_scanner) scanners.emplace_back(&drive.back, "laser_back");
-    for (const auto& [scanner, frame] : scanners) {
-      geometry_msgs::TransformStamped t;
-      t.header.stamp = start;
-      t.header.frame_id = "base_link";
-      t.child_frame_id = frame;
-      t.transform = toTransformMsg(scanner->mount);
-      mounts.transforms.push_back(t);
+    for (const SimBagRobot& robot : robots) {
+      const llc::SimDrive& drive = *robot.drive;
+      auto name = [&](const std::string& frame) { return robot.ns.empty() ? frame : robot.ns + "/" + frame; };
+      std::vector<std::pair<const llc::SimScannerOptions*, std::string>> scanners{{&drive.front, "laser_front"}};
+      if (drive.options.back_scanner) scanners.emplace_back(&drive.back, "laser_back");
+      for (const auto& [scanner, frame] : scanners) {
+        geometry_msgs::TransformStamped t;
+        t.header.stamp = start;
+        t.header.frame_id = name("base_link");
+        t.child_frame_id = name(frame);
+        t.transform = toTransformMsg(scanner->mount);
+        mounts.transforms.push_back(t);
+      }
     }
     bag.write("/tf_static", start, mounts, latchedConnection<tf2_msgs::TFMessage>());
-    for (std::size_t k = 0; k < drive.frames.size(); ++k) {
-      const llc::SimFrame& frame = drive.frames[k];
-      const llc::SimFrame& previous = drive.frames[k > 0 ? k - 1 : 0];
-      const ros::Time stamp(kSimBagEpoch + frame.stamp);
-      const double dt = frame.stamp - previous.stamp;
-      const nav_msgs::Odometry odom = odometryMessage(frame.odometry, previous.odometry, dt, "odom", stamp);
-      bag.write("/odom", stamp, odom);
-      tf2_msgs::TFMessage tf;
-      geometry_msgs::TransformStamped t;
-      t.header = odom.header;
-      t.child_frame_id = odom.child_frame_id;
-      t.transform = toTransformMsg(frame.odometry);
-      tf.transforms.push_back(t);
-      bag.write("/tf", stamp, tf);
-      bag.write("/ground_truth", stamp, odometryMessage(frame.truth, previous.truth, dt, "world", stamp));
-      bag.write("/scan_front", stamp, scanMessage(drive.front, frame.front, "laser_front", stamp, drive.options.rate_hz));
-      if (drive.options.back_scanner)
-        bag.write("/scan_back", stamp, scanMessage(drive.back, frame.back, "laser_back", stamp, drive.options.rate_hz));
+    for (const SimBagRobot& robot : robots) {
+      const llc::SimDrive& drive = *robot.drive;
+      auto name = [&](const std::string& frame) { return robot.ns.empty() ? frame : robot.ns + "/" + frame; };
+      for (std::size_t k = 0; k < drive.frames.size(); ++k) {
+        const llc::SimFrame& frame = drive.frames[k];
+        const llc::SimFrame& previous = drive.frames[k > 0 ? k - 1 : 0];
+        const ros::Time stamp(kSimBagEpoch + frame.stamp + robot.time_shift);
+        const double dt = frame.stamp - previous.stamp;
+        const llc::Pose2 odometry = llc::compose(robot.odometry_frame, frame.odometry);
+        const nav_msgs::Odometry odom = odometryMessage(odometry, llc::compose(robot.odometry_frame, previous.odometry), dt,
+                                                        name("odom"), stamp, name("base_link"));
+        bag.write("/" + name("odom"), stamp, odom);
+        tf2_msgs::TFMessage tf;
+        geometry_msgs::TransformStamped t;
+        t.header = odom.header;
+        t.child_frame_id = odom.child_frame_id;
+        t.transform = toTransformMsg(odometry);
+        tf.transforms.push_back(t);
+        bag.write("/tf", stamp, tf);
+        bag.write("/" + name("ground_truth"), stamp,
+                  odometryMessage(frame.truth, previous.truth, dt, "world", stamp, name("base_link")));
+        bag.write("/" + name("scan_front"), stamp,
+                  scanMessage(drive.front, frame.front, name("laser_front"), stamp, drive.options.rate_hz));
+        if (drive.options.back_scanner)
+          bag.write("/" + name("scan_back"), stamp,
+                    scanMessage(drive.back, frame.back, name("laser_back"), stamp, drive.options.rate_hz));
+      }
     }
     bag.close();
   } catch (const rosbag::BagException& e) {

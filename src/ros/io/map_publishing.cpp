@@ -94,6 +94,11 @@ geometry_msgs::Point point(const llc::Pose2& p) {
 
 visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses,
                                              const std::vector<llc::LoopRecord>& loops, const std_msgs::Header& header) {
+  return graphMarkers(poses, loops, header, FleetGraph{});
+}
+
+visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses, const std::vector<llc::LoopRecord>& loops,
+                                             const std_msgs::Header& header, const FleetGraph& fleet) {
   visualization_msgs::Marker nodes;
   nodes.header = header;
   nodes.ns = "keyframes";
@@ -107,32 +112,44 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
   visualization_msgs::Marker by_consensus = lineList(header, "loops_applied_by_consensus", 0.1, 1.0f, 0.55f, 0.0f, 1.0f);
   visualization_msgs::Marker gated = lineList(header, "loops_refused_by_gate", 0.1, 0.9f, 0.0f, 0.0f, 1.0f);
   visualization_msgs::Marker aligned = lineList(header, "loops_refused_by_alignment", 0.02, 0.5f, 0.5f, 0.5f, 0.5f);
+  visualization_msgs::Marker cross = lineList(header, "cross_robot_loops", 0.15, 0.9f, 0.0f, 0.9f, 1.0f);
   // A loop joins two poses less than a few metres apart: at the scale of a whole map its line
   // is a dot, so the newer pose of each loop is also marked by a disc that stays visible.
-  visualization_msgs::Marker applied_places = applied, gated_places = gated;
-  for (visualization_msgs::Marker* m : {&applied_places, &gated_places}) {
-    m->ns = m == &applied_places ? "loop_places_applied" : "loop_places_refused_by_gate";
+  visualization_msgs::Marker applied_places = applied, gated_places = gated, cross_places = cross;
+  for (visualization_msgs::Marker* m : {&applied_places, &gated_places, &cross_places}) {
+    m->ns = m == &applied_places ? "loop_places_applied" : m == &gated_places ? "loop_places_refused_by_gate"
+                                                                              : "cross_robot_loop_places";
     m->type = visualization_msgs::Marker::SPHERE_LIST;
     m->scale.x = m->scale.y = 2.0, m->scale.z = 0.05;
     m->color.a = 0.6f;
   }
+  const bool several = fleet.previous.size() == poses.size() && fleet.robot.size() == poses.size();
   for (std::size_t k = 0; k < poses.size(); ++k) {
     nodes.points.push_back(point(poses[k]));
-    if (k > 0) {
-      odometry.points.push_back(point(poses[k - 1]));
+    const std::size_t previous = several ? fleet.previous[k] : k - 1;
+    if (k > 0 && previous != k && previous < poses.size()) {
+      odometry.points.push_back(point(poses[previous]));
       odometry.points.push_back(point(poses[k]));
     }
   }
   for (const llc::LoopRecord& record : loops) {
     if (record.loop.from >= poses.size() || record.loop.to >= poses.size()) continue;
-    visualization_msgs::Marker& m = record.by_consensus ? by_consensus : record.applied ? applied : record.loop.accepted ? gated : aligned;
+    const bool between_robots = several && fleet.robot[record.loop.from] != fleet.robot[record.loop.to];
+    visualization_msgs::Marker& m = record.applied && between_robots ? cross
+                                    : record.by_consensus            ? by_consensus
+                                    : record.applied                 ? applied
+                                    : record.loop.accepted           ? gated
+                                                                     : aligned;
     m.points.push_back(point(poses[record.loop.from]));
     m.points.push_back(point(poses[record.loop.to]));
-    if (record.loop.accepted) (record.applied ? applied_places : gated_places).points.push_back(point(poses[record.loop.to]));
+    if (record.loop.accepted)
+      (record.applied ? (between_robots ? cross_places : applied_places) : gated_places).points.push_back(point(poses[record.loop.to]));
   }
   visualization_msgs::MarkerArray array;
-  for (visualization_msgs::Marker* m :
-       {&nodes, &odometry, &applied, &by_consensus, &gated, &aligned, &applied_places, &gated_places}) {
+  std::vector<visualization_msgs::Marker*> markers{&nodes,   &odometry,       &applied,      &by_consensus, &gated,
+                                                   &aligned, &applied_places, &gated_places};
+  if (several) markers.insert(markers.end(), {&cross, &cross_places});
+  for (visualization_msgs::Marker* m : markers) {
     // rviz refuses an empty LINE_LIST/SPHERE_LIST with a warning; DELETE keeps it quiet.
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;
     array.markers.push_back(*m);

@@ -96,6 +96,17 @@ class MultiRobotSlam {
   /// std::out_of_range for an unknown robot.
   LoopRecord addLoop(std::size_t robot, const LoopClosure& loop);
 
+  /// The robot's own graph's answers to its front end's place gate and nearby candidates (what
+  /// its pipeline asks in addScan; a front end elsewhere asks them over the network). Keyframe
+  /// indices are the robot's own; std::out_of_range for an unknown robot or keyframe.
+  double placeChi2(std::size_t robot, std::size_t from, std::size_t to, double radius) {
+    return robots_.at(robot)->backEnd().placeChi2(from, to, radius);
+  }
+  std::vector<NearbyKeyframe> nearbyKeyframes(std::size_t robot, std::size_t index, std::size_t before,
+                                              double max_distance, double max_std, std::size_t count) {
+    return robots_.at(robot)->backEnd().nearbyKeyframes(index, before, max_distance, max_std, count);
+  }
+
   std::size_t robots() const { return robots_.size(); }
   /// Whether the robot's keyframes are in the map (robot 0 always, once it has one).
   bool joined(std::size_t robot) const { return robot < state_.size() && state_[robot].joined; }

@@ -111,8 +111,8 @@ class SlamPipeline {
   /// would after its front end (no scan matched, no loop searched: its loops come by addLoop).
   /// Never throws on bad data; the back end's note says what of the odometry was unusable.
   SlamStepResult addKeyframe(Keyframe keyframe, const std::vector<double>& features, const OdometryStep& odometry);
-  /// A loop that front end found between two of its keyframes already added: to the back end,
-  /// recorded with loops() (one naming a keyframe not added: refused as malformed).
+  /// A loop that front end aligned between two of its keyframes already added: when accepted,
+  /// to the back end (one naming a keyframe not added: refused as malformed); recorded with loops().
   LoopRecord addLoop(const LoopClosure& loop);
 
   const SlamOptions& options() const { return options_; }

@@ -92,4 +92,19 @@ constexpr double kSimBagEpoch = 1600000000.0;
 /// mountings on /tf_static (latched). Throws BagError when the file cannot be written.
 void writeSimBag(const llc::SimDrive& drive, const std::string& path);
 
+/// One robot of a simulated fleet: its drive (often a part of one), its namespace ("" for
+/// none), the frame its odometry is given in (anywhere: no relative prior between robots), and
+/// seconds added to its stamps (parts of one drive played at once).
+struct SimBagRobot {
+  const llc::SimDrive* drive = nullptr;
+  std::string ns;
+  llc::Pose2 odometry_frame;
+  double time_shift = 0.0;
+};
+/// writeSimBag's messages for every robot under its namespace: topics /ns/scan_front,
+/// /ns/scan_back, /ns/odom, /ns/ground_truth (world -> ns/base_link), frames ns/odom,
+/// ns/base_link, ns/laser_front, ns/laser_back on /tf; one latched /tf_static with every mount.
+/// Throws BagError when the file cannot be written.
+void writeSimFleetBag(const std::vector<SimBagRobot>& robots, const std::string& path);
+
 }  // namespace llc_ros

@@ -34,4 +34,15 @@ sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, 
 visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses,
                                              const std::vector<llc::LoopRecord>& loops, const std_msgs::Header& header);
 
+/// A graph of several robots' keyframes (one map): keyframe k's odometry line runs from
+/// previous[k] (previous[k] == k: the first of its robot's chain, no line), and an applied loop
+/// between two robots (robot[from] != robot[to]) is drawn in its own colour (magenta, namespace
+/// cross_robot_loops, a 2 m disc at its newer pose in cross_robot_loop_places); the rest as above.
+struct FleetGraph {
+  std::vector<std::size_t> previous;  ///< per keyframe
+  std::vector<std::size_t> robot;     ///< per keyframe
+};
+visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses, const std::vector<llc::LoopRecord>& loops,
+                                             const std_msgs::Header& header, const FleetGraph& fleet);
+
 }  // namespace llc_ros
