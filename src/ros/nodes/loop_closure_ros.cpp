@@ -17,6 +17,7 @@ std::string LoopClosureNodeOptions::validate() const {
   const std::string input_error = input.validate();
   if (!input_error.empty()) return input_error;
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
+  if (resend_keyframes < 0) return "resend_keyframes must not be negative";
   if (publish_odometry_tf && input.use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   return "";
@@ -50,6 +51,8 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
+  sent_ = std::make_unique<ResendBuffer>(std::size_t(options_.resend_keyframes));
+  resend_sub_ = nh.subscribe("resend_request", 10, &LoopClosureRos::onResendRequest, this);
   receiver_ = std::make_unique<ScanReceiver>("loop_closure", options_.input, tf_buffer_, nh, *wheels_, *backlog_);
   path_sub_ = nh.subscribe("path", 1, &LoopClosureRos::onPath, this);
   session_sub_ = nh.subscribe("session", 1000, &LoopClosureRos::onSession, this);  // every part of a long session
@@ -128,6 +131,7 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
   keyframe_msg.loops_before = loops_published_;
   keyframe_pub_.publish(keyframe_msg);
+  sent_->keyframe(keyframe_msg);
   llc::CandidateCheck place_gate;
   if (system_.slam.place_gate.enabled) {
     const std::size_t k = step.keyframe_index;
@@ -141,7 +145,9 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   }
   const llc::LoopDetectionResult loops = front_->detectLoops(step.keyframe_index, place_gate, nearby);
   for (const llc::LoopClosure& loop : loops.aligned) {
-    loop_pub_.publish(toLoopClosureMsg(loop, msg.header));
+    const laser_loop_closure::LoopClosure loop_msg = toLoopClosureMsg(loop, msg.header);
+    loop_pub_.publish(loop_msg);
+    sent_->loop(loop_msg);
     ++loops_published_;
     ++state_.refusals[std::size_t(loop.refusal)];
   }
@@ -164,6 +170,16 @@ void LoopClosureRos::publishOdometry(const llc::FrontEndStep& step, const std_ms
   t.child_frame_id = tfFrame(scan_header.frame_id);
   t.transform = toTransformMsg(pose);
   odometry_broadcaster_.sendTransform(t);
+}
+
+void LoopClosureRos::onResendRequest(const std_msgs::UInt32::ConstPtr& msg) {
+  std::size_t gone = 0;
+  const std::size_t sent = sent_->sendFrom(
+      msg->data, [this](const laser_loop_closure::Keyframe& k) { keyframe_pub_.publish(k); },
+      [this](const laser_loop_closure::LoopClosure& l) { loop_pub_.publish(l); }, &gone);
+  keyframes_sent_again_ += sent;
+  ROS_INFO("loop_closure: the back end lacks keyframes from %u on: %zu sent again%s", msg->data, sent,
+           gone > 0 ? (", " + std::to_string(gone) + " no longer kept (resend_keyframes)").c_str() : "");
 }
 
 void LoopClosureRos::onPath(const nav_msgs::Path::ConstPtr& msg) {
@@ -275,6 +291,7 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "detecting loops");
   receiver_->addTo(status);
   status.add("tf stamps that jumped back (tf history cleared)", tf_listener_.clears());
+  status.add("keyframes sent again (resend_request)", keyframes_sent_again_.load());
   if (w.estimate) {
     status.add("odometry time offset (s)", w.estimate->offset);
     status.add("odometry time offset estimate",

@@ -3,6 +3,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/package.h>
 #include <ros/serialization.h>
+#include <std_msgs/UInt32.h>
 
 #include <algorithm>
 #include <chrono>
@@ -27,7 +28,7 @@ std::string MultiRobotBackendNodeOptions::validate() const {
   if (map_frame.empty() || odom_frame.empty()) return "map_frame and odom_frame must not be empty";
   if (!(transform_tolerance >= 0.0)) return "transform_tolerance must not be negative";
   if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
-  if (!(answer_timeout >= 0.0)) return "answer_timeout must not be negative";
+  if (!(answer_timeout >= 0.0) || !(resend_wait >= 0.0)) return "answer_timeout and resend_wait must not be negative";
   if (queue_size < 1) return "queue_size must be at least 1";
   if (session_path.empty()) return "session_path must not be empty";
   return "";
@@ -74,6 +75,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
     robot.name = names[r];
     robot.odom_frame = tfFrame(names[r] + "/" + options_.odom_frame);
     robot.path_pub = nh.advertise<nav_msgs::Path>(names[r] + "/path", 2);
+    robot.resend_pub = nh.advertise<std_msgs::UInt32>(names[r] + "/resend_request", 10);
     robot.keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>(
         names[r] + "/keyframes", std::uint32_t(options_.queue_size),
         [this, r](const laser_loop_closure::Keyframe::ConstPtr& msg) { onKeyframe(r, msg); });
@@ -105,6 +107,11 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
   map_timer_ = map_thread_.handle(nh).createWallTimer(ros::WallDuration(options_.map_publish_period),
                                                       [this](const ros::WallTimerEvent&) { publishMap(); });
   map_thread_.start();
+  gap_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (std::size_t r = 0; r < robots_.size(); ++r)
+      if (!robots_[r].held.empty()) takeHeldKeyframes(r);
+  });
   diagnostics_.setHardwareID("none");
   diagnostics_.add("multi-robot backend", this, &MultiRobotBackendRos::diagnose);
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
@@ -118,6 +125,7 @@ MultiRobotBackendRos::~MultiRobotBackendRos() {
   map_thread_.stop();
   tf_timer_.stop();
   map_timer_.stop();
+  gap_timer_.stop();
   diagnostics_timer_.stop();
 }
 
@@ -132,7 +140,15 @@ void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closur
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
   countBytes(r, ros::serialization::serializationLength(*msg));
-  r.held.push_back(msg);
+  // Held in number order; one taken or held already (sent again after a gap) is ignored.
+  const auto at = std::lower_bound(r.held.begin(), r.held.end(), msg->index,
+                                   [](const laser_loop_closure::Keyframe::ConstPtr& k, std::uint32_t i) { return k->index < i; });
+  const bool taken = msg->index < r.pipeline_index.size() && r.pipeline_index[msg->index] >= 0;
+  if (taken || (at != r.held.end() && (*at)->index == msg->index)) {
+    ++r.keyframes_received_again;
+    return;
+  }
+  r.held.insert(at, msg);
   takeHeldKeyframes(robot);
 }
 
@@ -140,6 +156,7 @@ void MultiRobotBackendRos::onLoop(std::size_t robot, const laser_loop_closure::L
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
   countBytes(r, ros::serialization::serializationLength(*msg));
+  if (!r.loops_seen.insert({msg->from_keyframe, msg->to_keyframe}).second) return;  // sent again
   ++r.loops_taken;
   if (!takeLoop(robot, *msg)) {
     if (r.pending_loops.size() >= std::size_t(options_.queue_size)) {
@@ -153,11 +170,35 @@ void MultiRobotBackendRos::onLoop(std::size_t robot, const laser_loop_closure::L
   state_changed_.notify_all();
 }
 
+bool MultiRobotBackendRos::waitForMissingKeyframes(Robot& r) {
+  const std::size_t expected = r.pipeline_index.size();
+  if (r.held.front()->index <= expected || r.front_index.empty()) {  // no gap (or the robot's first keyframe here)
+    r.gap_since = ros::WallTime();
+    return false;
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  if (r.gap_since.isZero()) r.gap_since = now;
+  if ((now - r.gap_since).toSec() >= options_.resend_wait || r.held.size() >= std::size_t(options_.queue_size)) {
+    r.gap_since = ros::WallTime();
+    return false;  // not sent again in time: bridged
+  }
+  if (r.resend_asked.isZero() || (now - r.resend_asked).toSec() >= 2.0) {
+    std_msgs::UInt32 request;
+    request.data = std::uint32_t(expected);
+    r.resend_pub.publish(request);
+    r.resend_asked = now;
+    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s: keyframes from %zu on are missing (keyframe %u came): asked again",
+                      r.name.c_str(), expected, r.held.front()->index);
+  }
+  return true;
+}
+
 void MultiRobotBackendRos::takeHeldKeyframes(std::size_t robot) {
   // As esdf_backend: the loops of keyframe k before keyframe k + 1, as llc slam takes them.
   Robot& r = robots_[robot];
   constexpr std::size_t kMostHeld = 3;
   while (!r.held.empty()) {
+    if (waitForMissingKeyframes(r)) break;
     const laser_loop_closure::Keyframe::ConstPtr next = r.held.front();
     if (next->loops_before > r.loops_taken) {
       if (r.held.size() <= kMostHeld) break;
@@ -415,6 +456,8 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     status.add(r.name + " keyframes lost", r.keyframes_lost);
     status.add(r.name + " keyframes refused", r.keyframes_refused);
     status.add(r.name + " loops dropped", r.loops_dropped);
+    status.add(r.name + " keyframes received again", r.keyframes_received_again);
+    status.add(r.name + " keyframes held", r.held.size());
     status.add(r.name + " bytes received", r.bytes);
     status.add(r.name + " bytes per second", seconds > 0.0 ? double(r.bytes) / seconds : 0.0);
   }

@@ -22,6 +22,9 @@ struct LoopClosureNodeOptions {
   /// The back end's nearby keyframes (NearbyKeyframes.srv), asked when loops/nearby_candidates
   /// and the classifier's candidates gave no loop (as `llc slam` asks its back end); unanswered: none.
   std::string nearby_service = "esdf_backend/nearby_keyframes";
+  /// Newest keyframes (with their loops) kept to send again when a back end asks on
+  /// resend_request (one across a network that lost some); 0: none kept.
+  int resend_keyframes = 500;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -33,6 +36,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("trained_model_path", o.trained_model_path);
   visit("place_check_service", o.place_check_service);
   visit("nearby_service", o.nearby_service);
+  visit("resend_keyframes", o.resend_keyframes);
 }
 
 }  // namespace llc_ros

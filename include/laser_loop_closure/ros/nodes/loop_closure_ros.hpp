@@ -16,6 +16,7 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <std_msgs/UInt32.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 
@@ -39,6 +40,7 @@
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/ros/io/session_parts.hpp"
 #include "laser_loop_closure/ros/io/tf_listener.hpp"
+#include "laser_loop_closure/ros/nodes/resend_buffer.hpp"
 #include "laser_loop_closure/ros/nodes/back_end_client.hpp"
 #include "laser_loop_closure/ros/nodes/loop_closure_options.hpp"
 #include "laser_loop_closure/ros/nodes/scan_receiver.hpp"
@@ -84,6 +86,7 @@ class LoopClosureRos {
   /// keyframe, gives it its pose in odom_frame (as has_wheel_odometry / wheel_odometry).
   void publishOdometry(const llc::FrontEndStep& step, const std_msgs::Header& scan_header, llc::Keyframe* keyframe);
   void onPath(const nav_msgs::Path::ConstPtr& msg);
+  void onResendRequest(const std_msgs::UInt32::ConstPtr& msg);
   /// A session the back end restored: the keyframes (and their features) replace ours, on the worker.
   void onSession(const laser_loop_closure::Session::ConstPtr& msg);
   /// Trains on the service thread (scans keep flowing); the worker gives the training set and swaps the model in.
@@ -102,6 +105,9 @@ class LoopClosureRos {
   ros::Subscriber path_sub_, session_sub_;
   ros::ServiceServer train_srv_;
   ros::Publisher keyframe_pub_, loop_pub_;
+  ros::Subscriber resend_sub_;  ///< resend_request: a back end lacks keyframes from this number on
+  std::unique_ptr<ResendBuffer> sent_;
+  std::atomic<std::size_t> keyframes_sent_again_{0};
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
   SessionAssembler session_assembler_;  ///< the parts of a restored session (session_sub_'s callback only)

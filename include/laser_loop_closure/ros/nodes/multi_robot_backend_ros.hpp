@@ -16,6 +16,8 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -41,6 +43,9 @@ struct MultiRobotBackendNodeOptions {
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
   double map_publish_period = 2.0;     ///< s of wall time between rebuilds of /map and the markers (when changed)
   double answer_timeout = 2.0;         ///< s of wall time a robot's place check waits for the state it names
+  /// s of wall time keyframes that came after a gap wait for the missing ones, asked again of the
+  /// robot's front end (<robot>/resend_request), before the gap is bridged by its odometry.
+  double resend_wait = 10.0;
   std::string session_path = "llc_fleet.llcsession";  ///< default file of ~save_session
   int queue_size = 1000;               ///< keyframes and loops kept per robot while the back end is busy
   [[nodiscard]] std::string validate() const;
@@ -57,6 +62,7 @@ void visitMultiRobotBackendParameters(MultiRobotBackendNodeOptions& o, Visit&& v
   visit("tf_publish_period", o.tf_publish_period);
   visit("map_publish_period", o.map_publish_period);
   visit("answer_timeout", o.answer_timeout);
+  visit("resend_wait", o.resend_wait);
   visit("session_path", o.session_path);
   visit("queue_size", o.queue_size);
 }
@@ -85,9 +91,13 @@ class MultiRobotBackendRos {
     std::string name;
     std::string odom_frame;
     ros::Subscriber keyframe_sub, loop_sub;
-    ros::Publisher path_pub;
+    ros::Publisher path_pub, resend_pub;
     ros::ServiceServer place_check_srv, nearby_srv;
-    std::deque<laser_loop_closure::Keyframe::ConstPtr> held;  ///< waiting for their loops_before
+    std::deque<laser_loop_closure::Keyframe::ConstPtr> held;  ///< by number: waiting for their loops_before, or for a gap to fill
+    std::set<std::pair<std::uint32_t, std::uint32_t>> loops_seen;  ///< (from, to) of the loops taken in: one sent again is not counted twice
+    ros::WallTime gap_since;            ///< the first held keyframe is past a gap since then (zero: no gap)
+    ros::WallTime resend_asked;         ///< when the missing keyframes were last asked for
+    std::size_t keyframes_received_again = 0;  ///< numbers already taken (sent again): ignored
     std::deque<laser_loop_closure::LoopClosure> pending_loops;  ///< waiting for their keyframes
     std::uint64_t loops_taken = 0;      ///< LoopClosure messages received
     /// Per front-end keyframe number: its index in the robot's pipeline (-1: never arrived).
@@ -106,6 +116,9 @@ class MultiRobotBackendRos {
   void countBytes(Robot& robot, std::uint32_t bytes);
   /// Under mutex_: the robot's held keyframes whose loops have come, in order.
   void takeHeldKeyframes(std::size_t robot);
+  /// Under mutex_: whether the robot's first held keyframe waits for keyframes missing before it
+  /// (asked again of its front end, at most every 2 s, until resend_wait).
+  bool waitForMissingKeyframes(Robot& robot);
   void takeKeyframe(std::size_t robot, const laser_loop_closure::Keyframe& msg);
   /// Under mutex_: the loop into the robot's graph (and the map's) if both its keyframes came;
   /// returns false when one has not come yet.
@@ -140,6 +153,7 @@ class MultiRobotBackendRos {
   ros::ServiceServer save_session_srv_;
   ros::Timer tf_timer_;
   ros::WallTimer map_timer_, diagnostics_timer_;
+  ros::WallTimer gap_timer_;  ///< takes held keyframes whose gap was not filled in time (no message may come)
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;
