@@ -66,4 +66,33 @@ TEST(GraphMarkers, EachLoopIsDrawnInTheNamespaceOfWhatBecameOfIt) {
   EXPECT_EQ(plain.at("loops_applied").action, visualization_msgs::Marker::ADD);
 }
 
+TEST(GraphMarkers, SeveralRobotsEachHaveTheirOwnChainAndTheirLoopsTheirOwnColour) {
+  // Keyframes 0, 1 and 4 of robot 0, 2 and 3 of robot 1 (map order: as they entered).
+  const std::vector<llc::Pose2> poses = {{0, 0, 0}, {1, 0, 0}, {5, 5, 0}, {6, 5, 0}, {2, 0, 0}};
+  llc_ros::FleetGraph fleet;
+  fleet.robot = {0, 0, 1, 1, 0};
+  fleet.previous = {0, 0, 2, 2, 1};
+  const std::vector<llc::LoopRecord> loops = {
+      recordOf(0, 4, true, true, false),   // robot 0's own
+      recordOf(1, 3, true, true, false),   // between the robots
+      recordOf(0, 2, true, false, false),  // between the robots, refused by the gate
+  };
+  std_msgs::Header header;
+  const auto markers = byNamespace(llc_ros::graphMarkers(poses, loops, header, fleet));
+  ASSERT_EQ(markers.size(), 10u);
+  const auto& odometry = markers.at("odometry").points;
+  ASSERT_EQ(odometry.size(), 6u);  // 0-1, 2-3, 1-4: no line from one robot to the other
+  EXPECT_EQ(odometry[2].x, 5.0);
+  EXPECT_EQ(odometry[3].x, 6.0);
+  EXPECT_EQ(odometry[4].x, 1.0);
+  EXPECT_EQ(odometry[5].x, 2.0);
+  EXPECT_EQ(markers.at("loops_applied").points.size(), 2u);
+  EXPECT_EQ(markers.at("cross_robot_loops").points.size(), 2u);
+  EXPECT_EQ(markers.at("cross_robot_loop_places").points.size(), 1u);
+  EXPECT_EQ(markers.at("loops_refused_by_gate").points.size(), 2u);
+  const auto& cross = markers.at("cross_robot_loops");
+  EXPECT_GT(cross.color.r, cross.color.g);  // magenta, unlike any other loop
+  EXPECT_GT(cross.color.b, cross.color.g);
+}
+
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "laser_loop_closure/ros/nodes/esdf_backend_ros.hpp"
 #include "laser_loop_closure/ros/nodes/localization_ros.hpp"
+#include "laser_loop_closure/ros/nodes/multi_robot_backend_ros.hpp"
 #include "laser_loop_closure/ros/nodes/loop_closure_ros.hpp"
 #include "laser_loop_closure/ros/nodes/scan_merger_ros.hpp"
 
@@ -43,7 +44,23 @@ TEST(RosConfig, EveryParameterAtItsDefault) {
   checkSection<llc_ros::LoopClosureNodeOptions>(root, "loop_closure", [](auto& o, auto& v) { llc_ros::visitLoopClosureParameters(o, v); });
   checkSection<llc_ros::EsdfBackendNodeOptions>(root, "esdf_backend", [](auto& o, auto& v) { llc_ros::visitEsdfBackendParameters(o, v); });
   checkSection<llc_ros::LocalizationNodeOptions>(root, "localization", [](auto& o, auto& v) { llc_ros::visitLocalizationParameters(o, v); });
-  EXPECT_EQ(root.size(), 4u);
+  checkSection<llc_ros::MultiRobotBackendNodeOptions>(root, "multi_robot_backend",
+                                                      [](auto& o, auto& v) { llc_ros::visitMultiRobotBackendParameters(o, v); });
+  EXPECT_EQ(root.size(), 5u);
+}
+
+TEST(RosConfig, RobotNamesAreParsedOrRefused) {
+  EXPECT_EQ(llc_ros::parseRobotNames("r1 r2  r3"), (std::vector<std::string>{"r1", "r2", "r3"}));
+  EXPECT_EQ(llc_ros::parseRobotNames("alpha,beta"), (std::vector<std::string>{"alpha", "beta"}));
+  EXPECT_THROW(llc_ros::parseRobotNames(""), std::invalid_argument);       // no robot
+  EXPECT_THROW(llc_ros::parseRobotNames("r1 r1"), std::invalid_argument);  // one twice
+  EXPECT_THROW(llc_ros::parseRobotNames("r1 9lives"), std::invalid_argument);  // not a ROS name
+  llc_ros::MultiRobotBackendNodeOptions options;
+  options.resend_wait = -1.0;
+  EXPECT_NE(options.validate(), "");
+  options = llc_ros::MultiRobotBackendNodeOptions{};
+  options.queue_size = 0;
+  EXPECT_NE(options.validate(), "");
 }
 
 TEST(RosConfig, BadOptionsAreRefused) {
