@@ -8,13 +8,12 @@ import sys
 import threading
 import time
 
-import rosgraph
-import rosnode
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Path
 from rosgraph_msgs.msg import Clock
 from laser_loop_closure.srv import SaveMap
+from run_watch import number, wait_for_master, wait_for_player_to_finish
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--run", required=True, help="folder for map.pgm/.yaml and path.csv")
@@ -23,10 +22,7 @@ parser.add_argument("--timeout", type=float, default=3600.0, help="s of wall tim
 args = parser.parse_args()
 
 deadline = time.time() + args.timeout
-while not rosgraph.is_master_online():
-    if time.time() > deadline - args.timeout + 60:
-        sys.exit("no ROS master after 60 s")
-    time.sleep(0.5)
+wait_for_master(deadline)
 rospy.init_node("real_bags_watch", anonymous=True, disable_signals=True)
 
 lock = threading.Lock()
@@ -61,29 +57,9 @@ rospy.Subscriber("/path", Path, on_path, queue_size=1)
 rospy.Subscriber("/clock", Clock, on_clock, queue_size=1)
 
 
-def player_running():
-    try:
-        return "/player" in rosnode.get_node_names()
-    except rosnode.ROSNodeIOException:
-        return False
 
 
-def number(values, key):
-    try:
-        return float(values.get(key, "nan"))
-    except ValueError:
-        return float("nan")
-
-
-# The player registers a moment after the master starts; then wait until it has left.
-while not player_running():
-    if time.time() > deadline:
-        sys.exit("the player never started")
-    time.sleep(0.5)
-while player_running():
-    if time.time() > deadline:
-        sys.exit("the bag did not finish in %.0f s" % args.timeout)
-    time.sleep(1.0)
+wait_for_player_to_finish(deadline, args.timeout)
 
 # Drained: nothing waits for the front end, both ends agree on the keyframes, and two diagnostics
 # in a row say the same (the nodelets publish diagnostics on wall time, so they go on after /clock stops).

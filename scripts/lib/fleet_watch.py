@@ -8,10 +8,9 @@ import sys
 import threading
 import time
 
-import rosgraph
-import rosnode
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
+from run_watch import number, wait_for_master, wait_for_player_to_finish
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--robots", required=True, help="the robots' namespaces, separated by spaces")
@@ -21,10 +20,7 @@ args = parser.parse_args()
 robots = args.robots.split()
 
 deadline = time.time() + args.timeout
-while not rosgraph.is_master_online():
-    if time.time() > deadline:
-        sys.exit("no ROS master")
-    time.sleep(0.5)
+wait_for_master(deadline)
 rospy.init_node("fleet_watch", anonymous=True, disable_signals=True)
 lock = threading.Lock()
 state = {"front": {r: {} for r in robots}, "back": {}}
@@ -44,28 +40,9 @@ def on_diagnostics(msg):
 rospy.Subscriber("/diagnostics", DiagnosticArray, on_diagnostics, queue_size=100)
 
 
-def player_running():
-    try:
-        return "/player" in rosnode.get_node_names()
-    except rosnode.ROSNodeIOException:
-        return False
 
 
-def number(values, key):
-    try:
-        return float(values.get(key, "nan"))
-    except ValueError:
-        return float("nan")
-
-
-while not player_running():
-    if time.time() > deadline:
-        sys.exit("the player never started")
-    time.sleep(0.5)
-while player_running():
-    if time.time() > deadline:
-        sys.exit("the bag did not finish in %.0f s" % args.timeout)
-    time.sleep(1.0)
+wait_for_player_to_finish(deadline, args.timeout)
 
 last, same, unchanged_since = None, 0, time.time()
 while same < 3 and time.time() - unchanged_since < 30.0:
