@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -74,6 +75,10 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
     Robot& robot = robots_[r];
     robot.name = names[r];
     robot.odom_frame = tfFrame(names[r] + "/" + options_.odom_frame);
+    llc::KeyframeInboxOptions inbox;
+    inbox.resend_wait = options_.resend_wait;
+    inbox.max_held = std::size_t(options_.queue_size);
+    robot.inbox = std::make_unique<Inbox>(inbox);
     robot.path_pub = nh.advertise<nav_msgs::Path>(names[r] + "/path", 2);
     robot.resend_pub = nh.advertise<std_msgs::UInt32>(names[r] + "/resend_request", 10);
     robot.keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>(
@@ -110,7 +115,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
   gap_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     for (std::size_t r = 0; r < robots_.size(); ++r)
-      if (!robots_[r].held.empty()) takeHeldKeyframes(r);
+      if (robots_[r].inbox->held() > 0) takeHeldKeyframes(r);
   });
   diagnostics_.setHardwareID("none");
   diagnostics_.add("multi-robot backend", this, &MultiRobotBackendRos::diagnose);
@@ -140,15 +145,22 @@ void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closur
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
   countBytes(r, ros::serialization::serializationLength(*msg));
-  // Held in number order; one taken or held already (sent again after a gap) is ignored.
-  const auto at = std::lower_bound(r.held.begin(), r.held.end(), msg->index,
-                                   [](const laser_loop_closure::Keyframe::ConstPtr& k, std::uint32_t i) { return k->index < i; });
-  const bool taken = msg->index < r.pipeline_index.size() && r.pipeline_index[msg->index] >= 0;
-  if (taken || (at != r.held.end() && (*at)->index == msg->index)) {
-    ++r.keyframes_received_again;
+  std::string why;
+  auto arrived = std::make_shared<ArrivedKeyframe>();
+  arrived->msg = msg;
+  if (!fromKeyframeMsg(*msg, &arrived->keyframe, &arrived->step.motion, &arrived->step.covariance, &why)) {
+    // Never offered: its number stays missing, and the keyframe after it bridges the gap.
+    ++r.keyframes_refused;
+    last_problem_ = r.name + ": keyframe " + std::to_string(msg->index) + ": " + why;
+    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s", last_problem_.c_str());
     return;
   }
-  r.held.insert(at, msg);
+  arrived->step.matched = msg->scan_matched;
+  if (r.inbox->offer(msg->index, msg->loops_before, msg->header.stamp.toSec(), std::move(arrived), &why) ==
+      Inbox::Offer::kRefused) {
+    last_problem_ = r.name + ": " + why;
+    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s", last_problem_.c_str());
+  }
   takeHeldKeyframes(robot);
 }
 
@@ -156,8 +168,7 @@ void MultiRobotBackendRos::onLoop(std::size_t robot, const laser_loop_closure::L
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
   countBytes(r, ros::serialization::serializationLength(*msg));
-  if (!r.loops_seen.insert({msg->from_keyframe, msg->to_keyframe}).second) return;  // sent again
-  ++r.loops_taken;
+  if (!r.inbox->loopArrived(msg->from_keyframe, msg->to_keyframe)) return;  // sent again
   if (!takeLoop(robot, *msg)) {
     if (r.pending_loops.size() >= std::size_t(options_.queue_size)) {
       r.pending_loops.pop_front();
@@ -170,90 +181,47 @@ void MultiRobotBackendRos::onLoop(std::size_t robot, const laser_loop_closure::L
   state_changed_.notify_all();
 }
 
-bool MultiRobotBackendRos::waitForMissingKeyframes(Robot& r) {
-  const std::size_t expected = r.pipeline_index.size();
-  if (r.held.front()->index <= expected || r.front_index.empty()) {  // no gap (or the robot's first keyframe here)
-    r.gap_since = ros::WallTime();
-    return false;
-  }
-  const ros::WallTime now = ros::WallTime::now();
-  if (r.gap_since.isZero()) r.gap_since = now;
-  if ((now - r.gap_since).toSec() >= options_.resend_wait || r.held.size() >= std::size_t(options_.queue_size)) {
-    r.gap_since = ros::WallTime();
-    return false;  // not sent again in time: bridged
-  }
-  if (r.resend_asked.isZero() || (now - r.resend_asked).toSec() >= 2.0) {
-    std_msgs::UInt32 request;
-    request.data = std::uint32_t(expected);
-    r.resend_pub.publish(request);
-    r.resend_asked = now;
-    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s: keyframes from %zu on are missing (keyframe %u came): asked again",
-                      r.name.c_str(), expected, r.held.front()->index);
-  }
-  return true;
-}
-
 void MultiRobotBackendRos::takeHeldKeyframes(std::size_t robot) {
-  // As esdf_backend: the loops of keyframe k before keyframe k + 1, as llc slam takes them.
   Robot& r = robots_[robot];
-  constexpr std::size_t kMostHeld = 3;
-  while (!r.held.empty()) {
-    if (waitForMissingKeyframes(r)) break;
-    const laser_loop_closure::Keyframe::ConstPtr next = r.held.front();
-    if (next->loops_before > r.loops_taken) {
-      if (r.held.size() <= kMostHeld) break;
-      r.loops_taken = next->loops_before;  // its loops were lost (or came before this node did)
-    }
-    r.held.pop_front();
-    takeKeyframe(robot, *next);
+  const double now = ros::WallTime::now().toSec();
+  std::optional<std::uint32_t> ask_from;
+  while (auto taken = r.inbox->next(now, &ask_from)) takeKeyframe(robot, *taken);
+  if (ask_from) {
+    std_msgs::UInt32 request;
+    request.data = *ask_from;
+    r.resend_pub.publish(request);
+    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s: keyframes from %u on are missing: asked again", r.name.c_str(),
+                      *ask_from);
   }
   state_changed_.notify_all();
 }
 
-long MultiRobotBackendRos::pipelineIndex(const Robot& robot, std::size_t index) const {
-  return index < robot.pipeline_index.size() ? robot.pipeline_index[index] : -1;
-}
-
-void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const laser_loop_closure::Keyframe& msg) {
+void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const Inbox::Taken& taken) {
   Robot& r = robots_[robot];
-  const std::size_t expected = r.pipeline_index.size();
-  llc::Keyframe keyframe;
-  llc::OdometryStep step;
-  std::string error;
-  if (msg.index < expected) {
-    error = "keyframe " + std::to_string(msg.index) + " again (" + std::to_string(expected) +
-            " expected): a front end that restarted is not followed";
-  } else if (!fromKeyframeMsg(msg, &keyframe, &step.motion, &step.covariance, &error)) {
-    error = "keyframe " + std::to_string(msg.index) + ": " + error;
-  }
-  if (!error.empty()) {
-    ++r.keyframes_refused;
-    last_problem_ = r.name + ": " + error;
-    ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s", last_problem_.c_str());
-    return;
-  }
-  step.matched = msg.scan_matched;
-  if (msg.index > expected && !r.front_index.empty()) {
-    // Keyframes lost on the way (a network outage): the step over them from the robot's
-    // odometry poses when both ends have one, with the covariance of unmatched wheels; else a
-    // new chain, placed by the loops that come.
-    r.keyframes_lost += msg.index - expected;
-    if (r.has_last_wheels && keyframe.has_wheel_odometry) {
+  const laser_loop_closure::Keyframe& msg = *taken.payload->msg;
+  llc::Keyframe keyframe = taken.payload->keyframe;
+  llc::OdometryStep step = taken.payload->step;
+  const bool first_of_robot = slam_->robot(robot).keyframes().empty();
+  if (!first_of_robot && (taken.lost_before > 0 || taken.restarted)) {
+    // Keyframes lost on the way, or a front end that started again: the step from the robot's
+    // odometry poses when both ends have one (a restarted front end's odometry frame is another:
+    // none), with the covariance of unmatched wheels; else a new chain, placed by the loops that come.
+    const bool bridged = taken.lost_before > 0 && !taken.restarted && r.has_last_wheels && keyframe.has_wheel_odometry;
+    if (bridged) {
       step.motion = llc::between(r.last_wheels, keyframe.wheel_odometry);
       step.covariance = odometry_model_->stepCovariance(step.motion, false);
     } else {
       step.motion = llc::Pose2{std::nan(""), std::nan(""), std::nan("")};
     }
     step.matched = false;
-    ROS_WARN("multi_robot_backend: %s: keyframes %zu to %u never came: bridged by %s", r.name.c_str(), expected,
-             msg.index - 1, r.has_last_wheels && keyframe.has_wheel_odometry ? "its odometry" : "nothing (a new chain)");
+    if (taken.restarted)
+      ROS_WARN("multi_robot_backend: %s: its front end started again: a new chain", r.name.c_str());
+    else
+      ROS_WARN("multi_robot_backend: %s: %zu keyframes before %u never came: bridged by %s", r.name.c_str(),
+               taken.lost_before, msg.index, bridged ? "its odometry" : "nothing (a new chain)");
   }
   r.has_last_wheels = keyframe.has_wheel_odometry;
   r.last_wheels = keyframe.wheel_odometry;
-  r.pipeline_index.resize(msg.index, -1);
-  r.pipeline_index.push_back(long(r.front_index.size()));
-  r.front_index.push_back(msg.index);
-  const bool was_joined = slam_->joined(robot);
   const llc::RobotStep result = slam_->addKeyframe(robot, std::move(keyframe), msg.features, step);
   if (!result.slam.back_end_note.empty())
     ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s keyframe %u: %s", r.name.c_str(), msg.index,
@@ -261,7 +229,6 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const laser_loop_clos
   for (std::size_t joined : result.joined_robots)
     ROS_INFO("multi_robot_backend: %s joined the map (%s's frame) after %.1f m of its path", robots_[joined].name.c_str(),
              robots_[0].name.c_str(), slam_->joinedAtPath(joined));
-  if (!was_joined && robot == 0 && slam_->joined(0)) ROS_INFO("multi_robot_backend: %s starts the map", r.name.c_str());
   // Loops that waited for this keyframe.
   for (auto it = r.pending_loops.begin(); it != r.pending_loops.end();)
     it = takeLoop(robot, *it) ? r.pending_loops.erase(it) : std::next(it);
@@ -273,9 +240,9 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const laser_loop_clos
 
 bool MultiRobotBackendRos::takeLoop(std::size_t robot, const laser_loop_closure::LoopClosure& msg) {
   Robot& r = robots_[robot];
-  if (msg.from_keyframe >= r.pipeline_index.size() || msg.to_keyframe >= r.pipeline_index.size()) return false;
-  const long from = pipelineIndex(r, msg.from_keyframe), to = pipelineIndex(r, msg.to_keyframe);
-  if (from < 0 || to < 0) {  // names a keyframe that was lost on the way
+  if (!r.inbox->settled(msg.from_keyframe) || !r.inbox->settled(msg.to_keyframe)) return false;
+  const long from = r.inbox->pipelineIndex(msg.from_keyframe), to = r.inbox->pipelineIndex(msg.to_keyframe);
+  if (from < 0 || to < 0) {  // names a keyframe lost on the way (or refused)
     ++r.loops_dropped;
     return true;
   }
@@ -292,11 +259,11 @@ std::string MultiRobotBackendRos::waitForRobotState(std::unique_lock<std::mutex>
   const Robot& r = robots_[robot];
   // Wall time: the front end waits on this answer, and the clock may stand still.
   const bool reached = state_changed_.wait_for(lock, std::chrono::duration<double>(options_.answer_timeout), [&] {
-    return r.pipeline_index.size() >= keyframes && r.loops_taken >= loops;
+    return r.inbox->expected() >= keyframes && r.inbox->loopsTaken() >= loops;
   });
   if (reached) return "";
-  return r.name + ": the back end holds " + std::to_string(r.pipeline_index.size()) + " of its keyframes and " +
-         std::to_string(r.loops_taken) + " loop messages, not " + std::to_string(keyframes) + " and " +
+  return r.name + ": the back end holds " + std::to_string(r.inbox->expected()) + " of its keyframes and " +
+         std::to_string(r.inbox->loopsTaken()) + " loop messages, not " + std::to_string(keyframes) + " and " +
          std::to_string(loops) + ", after " + std::to_string(options_.answer_timeout) + " s";
 }
 
@@ -304,8 +271,8 @@ bool MultiRobotBackendRos::placeCheck(std::size_t robot, laser_loop_closure::Pla
                                       laser_loop_closure::PlaceCheck::Response& response) {
   std::unique_lock<std::mutex> lock(mutex_);
   response.message = waitForRobotState(lock, robot, request.keyframes, request.loops);
-  const long from = pipelineIndex(robots_[robot], request.from_keyframe);
-  const long to = pipelineIndex(robots_[robot], request.to_keyframe);
+  const long from = robots_[robot].inbox->pipelineIndex(request.from_keyframe);
+  const long to = robots_[robot].inbox->pipelineIndex(request.to_keyframe);
   if (response.message.empty() && (from < 0 || to < 0)) response.message = "a keyframe of the pair never came";
   if (!response.message.empty()) return true;
   try {
@@ -322,16 +289,15 @@ bool MultiRobotBackendRos::nearbyKeyframes(std::size_t robot, laser_loop_closure
   std::unique_lock<std::mutex> lock(mutex_);
   response.message = waitForRobotState(lock, robot, request.keyframes, request.loops);
   const Robot& r = robots_[robot];
-  const long index = pipelineIndex(r, request.keyframe);
+  const long index = r.inbox->pipelineIndex(request.keyframe);
   if (response.message.empty() && index < 0) response.message = "keyframe " + std::to_string(request.keyframe) + " never came";
   if (!response.message.empty()) return true;
-  // `before` in the robot's numbering: the pipeline keyframes that came before it.
-  const auto before = std::size_t(std::lower_bound(r.front_index.begin(), r.front_index.end(), std::size_t(request.before)) -
-                                  r.front_index.begin());
   try {
-    for (const llc::NearbyKeyframe& near :
-         slam_->nearbyKeyframes(robot, std::size_t(index), before, request.max_distance, request.max_std, request.count)) {
-      response.nearby.push_back(std::uint32_t(r.front_index.at(near.keyframe)));
+    for (const llc::NearbyKeyframe& near : slam_->nearbyKeyframes(robot, std::size_t(index), r.inbox->pipelineCountBelow(request.before),
+                                                                  request.max_distance, request.max_std, request.count)) {
+      const std::optional<std::uint32_t> number = r.inbox->frontNumber(near.keyframe);
+      if (!number) continue;  // of an earlier run of its front end: it does not know it
+      response.nearby.push_back(*number);
       response.poses.push_back(toPose2D(near.pose));
     }
     response.answered = true;
@@ -452,12 +418,14 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     total_bytes += r.bytes;
     const std::size_t index = std::size_t(&r - robots_.data());
     status.add(r.name + " joined", slam_->joined(index));
-    status.add(r.name + " keyframes", r.front_index.size());
-    status.add(r.name + " keyframes lost", r.keyframes_lost);
-    status.add(r.name + " keyframes refused", r.keyframes_refused);
+    const auto& inbox = r.inbox->counters();
+    status.add(r.name + " keyframes", inbox.taken);
+    status.add(r.name + " keyframes lost", inbox.lost);
+    status.add(r.name + " keyframes refused", r.keyframes_refused + inbox.refused);
+    status.add(r.name + " keyframes received again", inbox.again);
+    status.add(r.name + " keyframes held", r.inbox->held());
+    status.add(r.name + " front end restarts", inbox.restarts);
     status.add(r.name + " loops dropped", r.loops_dropped);
-    status.add(r.name + " keyframes received again", r.keyframes_received_again);
-    status.add(r.name + " keyframes held", r.held.size());
     status.add(r.name + " bytes received", r.bytes);
     status.add(r.name + " bytes per second", seconds > 0.0 ? double(r.bytes) / seconds : 0.0);
   }

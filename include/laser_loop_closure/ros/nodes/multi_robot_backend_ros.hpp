@@ -16,8 +16,6 @@
 #include <deque>
 #include <memory>
 #include <mutex>
-#include <set>
-#include <utility>
 #include <string>
 #include <vector>
 
@@ -26,6 +24,7 @@
 #include "laser_loop_closure/NearbyKeyframes.h"
 #include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/SaveSession.h"
+#include "laser_loop_closure/core/slam/keyframe_inbox.hpp"
 #include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
 #include "laser_loop_closure/core/slam/scan_odometry.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
@@ -84,28 +83,27 @@ class MultiRobotBackendRos {
   MultiRobotBackendRos& operator=(const MultiRobotBackendRos&) = delete;
 
  private:
-  /// One robot as this node meets it: its messages, their order, and what crossed the network.
-  /// Reset as one if it ever had to be (never now: a robot that restarts sends keyframe 0 again
-  /// and is refused, counted).
+  /// A keyframe message as it came and as read (read once, when it came).
+  struct ArrivedKeyframe {
+    laser_loop_closure::Keyframe::ConstPtr msg;
+    llc::Keyframe keyframe;
+    llc::OdometryStep step;
+  };
+  using Inbox = llc::KeyframeInbox<std::shared_ptr<const ArrivedKeyframe>>;
+
+  /// One robot as this node meets it: its messages in order (inbox), its loops waiting for
+  /// their keyframes, what crossed the network. A front end that restarts starts a new run in
+  /// the inbox (a new chain of the same robot).
   struct Robot {
     std::string name;
     std::string odom_frame;
     ros::Subscriber keyframe_sub, loop_sub;
     ros::Publisher path_pub, resend_pub;
     ros::ServiceServer place_check_srv, nearby_srv;
-    std::deque<laser_loop_closure::Keyframe::ConstPtr> held;  ///< by number: waiting for their loops_before, or for a gap to fill
-    std::set<std::pair<std::uint32_t, std::uint32_t>> loops_seen;  ///< (from, to) of the loops taken in: one sent again is not counted twice
-    ros::WallTime gap_since;            ///< the first held keyframe is past a gap since then (zero: no gap)
-    ros::WallTime resend_asked;         ///< when the missing keyframes were last asked for
-    std::size_t keyframes_received_again = 0;  ///< numbers already taken (sent again): ignored
+    std::unique_ptr<Inbox> inbox;
     std::deque<laser_loop_closure::LoopClosure> pending_loops;  ///< waiting for their keyframes
-    std::uint64_t loops_taken = 0;      ///< LoopClosure messages received
-    /// Per front-end keyframe number: its index in the robot's pipeline (-1: never arrived).
-    std::vector<long> pipeline_index;
-    std::vector<std::size_t> front_index;  ///< per pipeline keyframe: its front-end number
     bool has_last_wheels = false;       ///< the newest keyframe taken had an odometry pose
     llc::Pose2 last_wheels;
-    std::size_t keyframes_lost = 0;     ///< front-end keyframes that never arrived (a gap in the numbers)
     std::size_t keyframes_refused = 0, loops_dropped = 0;
     std::uint64_t bytes = 0;            ///< serialised size of every message received
     ros::WallTime first_message, last_message;
@@ -114,12 +112,10 @@ class MultiRobotBackendRos {
   void onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg);
   void onLoop(std::size_t robot, const laser_loop_closure::LoopClosure::ConstPtr& msg);
   void countBytes(Robot& robot, std::uint32_t bytes);
-  /// Under mutex_: the robot's held keyframes whose loops have come, in order.
+  /// Under mutex_: the keyframes the robot's inbox hands out now, taken in order; asks the robot
+  /// for missing ones when the inbox says so.
   void takeHeldKeyframes(std::size_t robot);
-  /// Under mutex_: whether the robot's first held keyframe waits for keyframes missing before it
-  /// (asked again of its front end, at most every 2 s, until resend_wait).
-  bool waitForMissingKeyframes(Robot& robot);
-  void takeKeyframe(std::size_t robot, const laser_loop_closure::Keyframe& msg);
+  void takeKeyframe(std::size_t robot, const Inbox::Taken& taken);
   /// Under mutex_: the loop into the robot's graph (and the map's) if both its keyframes came;
   /// returns false when one has not come yet.
   bool takeLoop(std::size_t robot, const laser_loop_closure::LoopClosure& msg);
@@ -131,8 +127,6 @@ class MultiRobotBackendRos {
   /// front end's keyframes and took `loops` loop messages; "" or why not.
   std::string waitForRobotState(std::unique_lock<std::mutex>& lock, std::size_t robot, std::size_t keyframes,
                                 std::uint64_t loops);
-  /// The robot's pipeline index of front-end keyframe `index`, or -1.
-  long pipelineIndex(const Robot& robot, std::size_t index) const;
   void publishPaths();
   void publishMap();
   void publishTransforms();
