@@ -124,6 +124,24 @@ TEST(MsgConversion, KeyframeAndLoopClosureRoundTrip) {
   bad.scan.bearings.pop_back();
   EXPECT_FALSE(llc_ros::fromKeyframeMsg(bad, &back, &motion, &covariance, &error));
   EXPECT_FALSE(error.empty());
+  // Packed for a network: the scan within the packing's steps, no features; a corrupt packing refused.
+  laser_loop_closure::Keyframe packed = msg;
+  packed.features = {1.0, 2.0};
+  packed.scan.full_circle = true;
+  llc::Scan full = keyframe.scan;
+  full.full_circle = true;
+  llc_ros::packKeyframeMsg(&packed, full);
+  EXPECT_TRUE(packed.scan.ranges.empty());
+  EXPECT_TRUE(packed.features.empty());
+  ASSERT_TRUE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error)) << error;
+  ASSERT_EQ(back.scan.size(), 2u);
+  EXPECT_NEAR(back.scan.ranges[1], 2.0, 0.0025);
+  EXPECT_NEAR(back.scan.bearings[0], -0.5, 5e-5);
+  EXPECT_TRUE(back.scan.full_circle);
+  EXPECT_DOUBLE_EQ(back.scan.stamp, 12.5);
+  EXPECT_EQ(back.scan_index, 17u);
+  packed.packed_scan.resize(packed.packed_scan.size() - 3);
+  EXPECT_FALSE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error));
 
   llc::LoopClosure loop;
   loop.from = 3, loop.to = 40, loop.score = 0.7, loop.pose = {0.5, -0.25, 3.0}, loop.inlier_share = 0.95;

@@ -1,5 +1,7 @@
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 
+#include "laser_loop_closure/core/io/scan_codec.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -205,9 +207,20 @@ laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::s
   return msg;
 }
 
+void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan) {
+  msg->packed_scan = llc::packScan(scan);
+  msg->scan.ranges.clear();
+  msg->scan.bearings.clear();
+  msg->features.clear();
+}
+
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
                      Eigen::Matrix3d* covariance, std::string* error) {
-  if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
+  if (msg.packed_scan.empty()) {
+    if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
+  } else {
+    if (!llc::unpackScan(msg.packed_scan, &keyframe->scan, error)) return false;
+  }
   keyframe->scan_index = msg.scan_index;
   keyframe->stamp = msg.header.stamp.toSec();
   keyframe->scan.stamp = keyframe->stamp;

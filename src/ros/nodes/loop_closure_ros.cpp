@@ -129,6 +129,13 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
+  if (options_.pack_keyframes) {
+    try {
+      packKeyframeMsg(&keyframe_msg, keyframe.scan);
+    } catch (const std::exception& e) {  // sent as it is
+      ROS_WARN_THROTTLE(5.0, "loop_closure: keyframe %zu not packed: %s", step.keyframe_index, e.what());
+    }
+  }
   keyframe_msg.loops_before = loops_published_;
   keyframe_pub_.publish(keyframe_msg);
   sent_->keyframe(keyframe_msg);

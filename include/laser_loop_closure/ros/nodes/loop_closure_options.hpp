@@ -25,6 +25,9 @@ struct LoopClosureNodeOptions {
   /// Newest keyframes (with their loops) kept to send again when a back end asks on
   /// resend_request (one across a network that lost some); 0: none kept.
   int resend_keyframes = 500;
+  /// Keyframes sent with their scan packed small and no features (multi_robot.launch's robots:
+  /// about a fifth of the bytes; the back end computes the features again).
+  bool pack_keyframes = false;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -37,6 +40,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("place_check_service", o.place_check_service);
   visit("nearby_service", o.nearby_service);
   visit("resend_keyframes", o.resend_keyframes);
+  visit("pack_keyframes", o.pack_keyframes);
 }
 
 }  // namespace llc_ros
