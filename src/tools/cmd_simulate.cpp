@@ -62,8 +62,9 @@ llc::SimDrive selectedFrames(llc::SimDrive drive, const Args& args) {
 }
 
 /// --robots N: the drive cut into N consecutive parts, each a robot r1 .. rN driving at once
-/// (stamps shifted to the first part's start), the parts after the first with their odometry in
-/// a random frame (--robot-seed): fleet.bag, as multi_robot.launch takes it. "" when not asked.
+/// (stamps shifted to the first part's start; --robots-in-turn: each where the drive had it, one
+/// after the other), the parts after the first with their odometry in a random frame
+/// (--robot-seed): fleet.bag, as multi_robot.launch takes it. "" when not asked.
 std::string writeFleet(const llc::SimDrive& drive, const Args& args, const std::string& out_dir) {
   if (!args.has("robots")) return "";
   const long robots = args.integer("robots", 1);
@@ -84,7 +85,7 @@ std::string writeFleet(const llc::SimDrive& drive, const Args& args, const std::
     llc_ros::SimBagRobot robot{&parts[r], "r" + std::to_string(r + 1)};
     if (r > 0)
       robot.odometry_frame = {random.uniform(-500.0, 500.0), random.uniform(-500.0, 500.0), random.uniform(-M_PI, M_PI)};
-    robot.time_shift = parts[0].frames.front().stamp - parts[r].frames.front().stamp;
+    if (!args.has("robots-in-turn")) robot.time_shift = parts[0].frames.front().stamp - parts[r].frames.front().stamp;
     fleet.push_back(robot);
   }
   try {

@@ -74,13 +74,14 @@ const std::vector<Command>& commands() {
       {"simulate", llc_tool::runSimulate,
        {"out", "seed", "route-seed", "length-m", "scanners", "rate-hz", "parking-mean-s", "start-frame", "end-frame",
         "kidnap-at", "kidnap-to", "robots", "robot-seed"},
-       {},
+       {"robots-in-turn"},
        "simulate --out DIR [--seed 1] [--route-seed 0] [--length-m 2000] [--scanners front,back|front] [--rate-hz 10]\n"
        "      [--parking-mean-s 1800] [--start-frame S --end-frame E] [--kidnap-at A --kidnap-to B]\n"
        "      (--route-seed N > 0: another route and noise through the city of --seed; frames S .. E-1 of the drive\n"
        "      are written, and with a kidnapping frames S .. A-1 then B .. E-1, odometry and stamps running on)\n"
-       "      [--robots N [--robot-seed 1]]   (also fleet.bag: the drive cut into N parts driven at once by robots\n"
-       "      r1 .. rN, topics and frames under their namespaces, parts after the first in a random odometry frame)"},
+       "      [--robots N [--robot-seed 1] [--robots-in-turn]]   (also fleet.bag: the drive cut into N parts driven at\n"
+       "      once by robots r1 .. rN (in turn: one after the other), topics and frames under their namespaces, parts\n"
+       "      after the first in a random odometry frame)"},
       {"align", llc_tool::runAlign,
        with(with({"data", "out", "model", "tolerance-m", "tolerance-deg"}, llc_tool::kAlignerFlags), kInputFlags),
        {"compare-pcl", "truth-check"},

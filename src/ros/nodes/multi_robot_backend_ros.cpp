@@ -418,6 +418,7 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     total_bytes += r.bytes;
     const std::size_t index = std::size_t(&r - robots_.data());
     status.add(r.name + " joined", slam_->joined(index));
+    status.add(r.name + " joined after m", slam_->joined(index) ? slam_->joinedAtPath(index) : -1.0);  // of its own odometry path
     const auto& inbox = r.inbox->counters();
     status.add(r.name + " keyframes", inbox.taken);
     status.add(r.name + " keyframes lost", inbox.lost);
