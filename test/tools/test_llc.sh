@@ -379,6 +379,10 @@ check "simulate kidnap outside the frames" 2 "must be frames after --start-frame
 # A kidnapped drive: 150 frames, then the drive from frame 50 on (odometry running on), as the
 # localisation rostest's bag is made.
 check "simulate kidnapped" 0 "frames=350 " -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --start-frame 0 --end-frame 250 --kidnap-at 150 --kidnap-to 50
+check "simulate one robot is no fleet" 2 "--robots must be 2 to 16" -- "$LLC" simulate --out "$TMP/sim_f" --length-m 300 --robots 1
+check "simulate a fleet" 0 "fleet.bag \\(3 robots r1 .. r3\\)" -- "$LLC" simulate --out "$TMP/sim_f" --length-m 300 --robots 3
+# The fleet's bag: each robot's topics under its namespace, one /tf_static; at once, all start at the first stamp.
+check "simulate a fleet: its topics" 0 "^ok$" -- bash -c "source '$REPO/build/.ws/devel/setup.bash' && rosbag info -y -k topics '$TMP/sim_f/fleet.bag' | grep -c 'topic: /r[123]/scan_\\(front\\|back\\)' | awk '{print (\$1 == 6 ? \"ok\" : \"not ok: \" \$1)}'"
 
 # Help for every subcommand: its usage with defaults, exit 0.
 for sub in pairs features train evaluate score simulate align graph slam train-crf relations; do
