@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/slam/session_io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -286,8 +287,25 @@ SlamSession loadSession(const std::string& path) {
   return session;
 }
 
-SlamSession sessionOf(const SlamBackEnd& back, const std::vector<std::vector<double>>& features) {
+KeyframeRobots KeyframeRobots::afterRestore(const SlamSession& session, bool continue_odometry) {
+  KeyframeRobots robots;
+  robots.restored = session.robots.empty() ? std::vector<std::uint32_t>(session.keyframes.size(), 0) : session.robots;
+  if (robots.restored.empty()) return robots;
+  robots.current = continue_odometry ? robots.restored.back()
+                                     : *std::max_element(robots.restored.begin(), robots.restored.end()) + 1;
+  return robots;
+}
+
+std::vector<std::uint32_t> KeyframeRobots::of(std::size_t keyframes) const {
+  std::vector<std::uint32_t> out(restored.begin(), restored.begin() + long(std::min(keyframes, restored.size())));
+  out.resize(keyframes, current);
+  return out;
+}
+
+SlamSession sessionOf(const SlamBackEnd& back, const std::vector<std::vector<double>>& features,
+                      const KeyframeRobots* robots) {
   SlamSession session;
+  if (robots) session.robots = robots->of(back.keyframes().size());
   session.keyframes = back.keyframes();
   session.features = features;
   session.poses = back.poses();

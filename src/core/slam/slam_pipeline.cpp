@@ -166,7 +166,7 @@ LoopRecord SlamPipeline::addLoop(const LoopClosure& loop) {
 SlamSession SlamPipeline::session() const {
   std::vector<std::vector<double>> features;
   for (std::size_t k = 0; k < front_.keyframeCount(); ++k) features.push_back(front_.detector().features(k));
-  return sessionOf(back_, features);
+  return sessionOf(back_, features, &robots_);
 }
 
 std::string SlamPipeline::restore(const SlamSession& session, bool continue_odometry) {
@@ -192,6 +192,7 @@ std::string SlamPipeline::restore(const SlamSession& session, bool continue_odom
     return error;
   }
   loops_ = session.loops;
+  robots_ = KeyframeRobots::afterRestore(session, continue_odometry);
   pipeline_index_of_.resize(loops_.size());
   for (std::size_t i = 0; i < loops_.size(); ++i) pipeline_index_of_[i] = i;  // a session holds the back end's loops only
   placements_.clear();  // the scans of another run: their keyframes are gone

@@ -368,7 +368,7 @@ bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& reque
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string path = request.path.empty() ? options_.session_path : request.path;
   try {
-    llc::saveSession(llc::sessionOf(*back_, features_), path);
+    llc::saveSession(llc::sessionOf(*back_, features_, &robots_), path);
     response.success = true;
     response.keyframes = std::uint32_t(back_->keyframes().size());
     response.loops = std::uint32_t(back_->loops().size());
@@ -402,6 +402,7 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     return true;
   }
   features_ = session.features;
+  robots_ = llc::KeyframeRobots::afterRestore(session, request.continue_odometry);
   map_scans_.clear();
   for (const llc::Keyframe& k : back_->keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
   pending_loops_.clear();

@@ -282,6 +282,41 @@ TEST(SlamSession, SavedHalfwayAndContinuedGivesTheMapOfOneRun) {
   for (std::size_t k = 0; k < whole.poses().size(); ++k)
     worst = std::max(worst, std::hypot(second.poses()[k].x - whole.poses()[k].x, second.poses()[k].y - whole.poses()[k].y));
   EXPECT_LT(worst, 1e-3) << "m between the continued run and the run at once";
+  // Who was who: the run that went on is the same robot (0), in the session saved again.
+  const llc::SlamSession again = second.session();
+  ASSERT_EQ(again.robots.size(), again.keyframes.size());
+  for (const std::uint32_t robot : again.robots) EXPECT_EQ(robot, 0u);
+}
+
+TEST(SlamSession, WhoMadeEachKeyframeSurvivesALoadAndASave) {
+  llc::SlamSession fleet;
+  fleet.keyframes.resize(4);
+  fleet.robots = {0, 2, 2, 1};
+  // Started anew on it: a new run, robot 3; going on from its newest keyframe: robot 1's run.
+  llc::KeyframeRobots fresh = llc::KeyframeRobots::afterRestore(fleet, false);
+  EXPECT_EQ(fresh.of(6), (std::vector<std::uint32_t>{0, 2, 2, 1, 3, 3}));
+  EXPECT_EQ(llc::KeyframeRobots::afterRestore(fleet, true).of(5), (std::vector<std::uint32_t>{0, 2, 2, 1, 1}));
+  EXPECT_EQ(fresh.of(2), (std::vector<std::uint32_t>{0, 2}));
+  fleet.robots.clear();  // a file before version 4: robot 0's
+  EXPECT_EQ(llc::KeyframeRobots::afterRestore(fleet, false).of(5), (std::vector<std::uint32_t>{0, 0, 0, 0, 1}));
+  EXPECT_EQ(llc::KeyframeRobots{}.of(2), (std::vector<std::uint32_t>{0, 0}));  // nothing restored
+
+  // Through a pipeline: a map restored and started anew keeps its keyframes' robots, and its
+  // new keyframes are a new robot's.
+  const Drive d;
+  llc::SlamPipeline mapped(llc_test::defaultModel());
+  d.run(&mapped, 0, 200);
+  llc::SlamSession session = mapped.session();
+  ASSERT_GT(session.keyframes.size(), 4u);
+  session.robots.assign(session.keyframes.size(), 4);
+  session.robots[1] = 7;
+  llc::SlamPipeline second(llc_test::defaultModel());
+  ASSERT_EQ(second.restore(session, false), "");
+  d.run(&second, 200, 300);
+  const llc::SlamSession saved = second.session();
+  ASSERT_GT(saved.keyframes.size(), session.keyframes.size());
+  for (std::size_t k = 0; k < saved.keyframes.size(); ++k)
+    EXPECT_EQ(saved.robots[k], k < session.keyframes.size() ? session.robots[k] : 8u) << k;
 }
 
 TEST(SlamSession, ARestoredMapPlacesANewChainAtItsFirstLoopClosure) {

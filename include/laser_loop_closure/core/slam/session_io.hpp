@@ -34,7 +34,21 @@ void saveSession(const SlamSession& session, const std::string& path);
 /// corrupted file (checksum), and a session that does not validate().
 SlamSession loadSession(const std::string& path);
 
-/// The session of a running back end plus the front end's features of its keyframes.
-SlamSession sessionOf(const SlamBackEnd& back, const std::vector<std::vector<double>>& features);
+/// Who made each keyframe of a map that went on from a saved session: the session's robots
+/// for its keyframes, then the run that goes on: the newest restored keyframe's robot when its
+/// odometry goes on (continue_odometry: the same robot), else a new one (the largest + 1: a new
+/// run). A map that restored nothing is robot 0's. So a session saved again keeps who was who.
+struct KeyframeRobots {
+  std::vector<std::uint32_t> restored;
+  std::uint32_t current = 0;
+  static KeyframeRobots afterRestore(const SlamSession& session, bool continue_odometry);
+  /// Per keyframe of a map of `keyframes`: the restored ones', then `current`.
+  std::vector<std::uint32_t> of(std::size_t keyframes) const;
+};
+
+/// The session of a running back end plus the front end's features of its keyframes (and who
+/// made them, when given).
+SlamSession sessionOf(const SlamBackEnd& back, const std::vector<std::vector<double>>& features,
+                      const KeyframeRobots* robots = nullptr);
 
 }  // namespace llc

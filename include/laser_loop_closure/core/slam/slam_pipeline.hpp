@@ -129,7 +129,8 @@ class SlamPipeline {
   Pose2 mapToOdom() const { return back_.mapToOdom(); }
   SlamBackEnd& backEnd() { return back_; }
   const SlamBackEnd& backEnd() const { return back_; }
-  /// The state to save: keyframes, their features, the graph and the loops.
+  /// The state to save: keyframes, their features, the graph, the loops and who made each
+  /// keyframe (KeyframeRobots: a restored session's robots, then this run's).
   SlamSession session() const;
   /// Restores both ends from a session (see SlamFrontEnd::restore for continue_odometry).
   /// Returns "" or why not, never throws: refused by the session's own checks or the back end,
@@ -144,6 +145,7 @@ class SlamPipeline {
   SlamFrontEnd front_;
   SlamBackEnd back_;
   std::vector<LoopRecord> loops_;
+  KeyframeRobots robots_;  ///< who made each keyframe (a restored session's, then this run's)
   std::vector<std::size_t> pipeline_index_of_;  ///< the back end's loop i is loops_[pipeline_index_of_[i]]
   /// Each used scan: its index, stamp, newest keyframe and motion from it (scanPoses).
   struct Placement {

@@ -25,6 +25,7 @@
 #include "laser_loop_closure/PlaceCheck.h"
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
+#include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/ros/io/callback_thread.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
@@ -148,6 +149,7 @@ class EsdfBackendRos {
   std::size_t nearby_asked_ = 0, nearby_unanswered_ = 0;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
   std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
+  llc::KeyframeRobots robots_;                         ///< who made each keyframe (a loaded session's, then this run's)
   /// Each keyframe's scan, shared with the map rebuild, which runs outside mutex_.
   std::vector<std::shared_ptr<const llc::Scan>> map_scans_;
   std::mutex map_building_;  ///< one rebuild at a time
