@@ -14,7 +14,10 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -27,6 +30,9 @@
 #include "health_watch.hpp"
 #include "laser_loop_closure/Keyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
+#include "laser_loop_closure/SaveMap.h"
+#include "laser_loop_closure/SaveSession.h"
+#include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/geometry/trajectory_error.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 #include "wall_bounded.hpp"
@@ -209,6 +215,22 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
   ros::WallDuration(2.5).sleep();  // the last paths (published with the map, every 2 s)
   spinner.stop();
 
+  // The map and the session, saved: the session holds every robot's keyframes, each its robot's.
+  const std::string stem = "/tmp/llc_multi_robot_test_" + std::to_string(::getpid());
+  laser_loop_closure::SaveMap save_map;
+  save_map.request.path = stem;
+  ASSERT_TRUE(llc_test::callWithin("/multi_robot_backend/save_map", &save_map, 120.0, &why)) << why;
+  EXPECT_TRUE(save_map.response.success) << save_map.response.message;
+  EXPECT_TRUE(std::ifstream(stem + ".pgm").good());
+  laser_loop_closure::SaveSession save_session;
+  save_session.request.path = stem + ".llcsession";
+  ASSERT_TRUE(llc_test::callWithin("/multi_robot_backend/save_session", &save_session, 120.0, &why)) << why;
+  ASSERT_TRUE(save_session.response.success) << save_session.response.message;
+  const llc::SlamSession session = llc::loadSession(stem + ".llcsession");
+  std::map<std::uint32_t, std::size_t> per_robot;
+  for (const std::uint32_t robot : session.robots) ++per_robot[robot];
+  for (const char* suffix : {".pgm", ".yaml", ".llcsession"}) std::remove((stem + suffix).c_str());
+
   std::lock_guard<std::mutex> lock(mutex);
   RecordProperty("robots_joined", int(back_end.value("robots joined")));
   RecordProperty("cross_robot_loops", int(back_end.value("cross-robot loops")));
@@ -224,6 +246,9 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
     RecordProperty(robot + "_bytes_per_keyframe", std::to_string(bytes / double(front_end_keyframes[robot].size())));
   }
   EXPECT_EQ(back_end.value("robots joined"), double(kRobots.size())) << "not every robot joined the map";
+  ASSERT_EQ(per_robot.size(), kRobots.size()) << "the saved session does not hold every robot";
+  for (std::size_t r = 0; r < kRobots.size(); ++r)
+    EXPECT_EQ(per_robot[std::uint32_t(r)], front_end_keyframes[kRobots[r]].size()) << kRobots[r] << "'s keyframes in the session";
 
   // The outage: the robot lost keyframes on the way, asked for them again, and none is missing.
   if (!loss_robot.empty()) {

@@ -31,7 +31,7 @@ std::string MultiRobotBackendNodeOptions::validate() const {
   if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
   if (!(answer_timeout >= 0.0) || !(resend_wait >= 0.0)) return "answer_timeout and resend_wait must not be negative";
   if (queue_size < 1) return "queue_size must be at least 1";
-  if (session_path.empty()) return "session_path must not be empty";
+  if (session_path.empty() || map_path.empty()) return "session_path and map_path must not be empty";
   return "";
 }
 
@@ -103,6 +103,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
   map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   save_session_srv_ = service_nh.advertiseService("save_session", &MultiRobotBackendRos::saveSession, this);
+  save_map_srv_ = service_nh.advertiseService("save_map", &MultiRobotBackendRos::saveMap, this);
   service_thread_.start();
   if (options_.publish_tf) {
     tf_timer_ = transform_thread_.handle(nh).createTimer(ros::Duration(options_.tf_publish_period),
@@ -406,6 +407,34 @@ bool MultiRobotBackendRos::saveSession(laser_loop_closure::SaveSession::Request&
     response.message = e.what();
   }
   ROS_INFO("multi_robot_backend: save_session: %s", response.message.c_str());
+  return true;
+}
+
+bool MultiRobotBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
+  const std::string stem = request.path.empty() ? options_.map_path : request.path;
+  std::vector<llc::Pose2> poses;
+  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);  // a snapshot; the map is built outside the lock
+    poses = slam_->map().poses();
+    scans_held = map_scans_;
+  }
+  if (scans_held.empty()) {
+    response.success = false;
+    response.message = "no keyframe in the map yet: nothing to save";
+    return true;
+  }
+  std::vector<const llc::Scan*> scans;
+  for (const auto& scan : scans_held) scans.push_back(scan.get());
+  try {
+    llc::saveMapFiles(llc::buildOccupancyGrid(scans, poses, system_.map), stem, system_.map);
+    response.success = true;
+    response.message = "wrote " + stem + ".pgm and " + stem + ".yaml";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  ROS_INFO("multi_robot_backend: save_map: %s", response.message.c_str());
   return true;
 }
 

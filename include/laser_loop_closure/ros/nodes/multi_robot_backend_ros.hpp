@@ -23,6 +23,7 @@
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/NearbyKeyframes.h"
 #include "laser_loop_closure/PlaceCheck.h"
+#include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam/keyframe_inbox.hpp"
 #include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
@@ -45,6 +46,7 @@ struct MultiRobotBackendNodeOptions {
   /// s of wall time keyframes that came after a gap wait for the missing ones, asked again of the
   /// robot's front end (<robot>/resend_request), before the gap is bridged by its odometry.
   double resend_wait = 10.0;
+  std::string map_path = "llc_fleet_map";  ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_fleet.llcsession";  ///< default file of ~save_session
   int queue_size = 1000;               ///< keyframes and loops kept per robot while the back end is busy
   [[nodiscard]] std::string validate() const;
@@ -62,6 +64,7 @@ void visitMultiRobotBackendParameters(MultiRobotBackendNodeOptions& o, Visit&& v
   visit("map_publish_period", o.map_publish_period);
   visit("answer_timeout", o.answer_timeout);
   visit("resend_wait", o.resend_wait);
+  visit("map_path", o.map_path);
   visit("session_path", o.session_path);
   visit("queue_size", o.queue_size);
 }
@@ -75,7 +78,7 @@ class MultiRobotBackendRos {
   /// Subscribes <robot>/keyframes and <robot>/loop_closures of each robot; publishes map
   /// (latched), graph_markers (latched), <robot>/path, map -> <robot>/odom; serves
   /// ~<robot>/place_check and ~<robot>/nearby_keyframes (each robot's front end asks them of
-  /// its own graph, as llc slam's robot pipelines do) and ~save_session. Throws
+  /// its own graph, as llc slam's robot pipelines do), ~save_session and ~save_map. Throws
   /// std::runtime_error on bad parameters or model.
   MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~MultiRobotBackendRos();
@@ -133,6 +136,7 @@ class MultiRobotBackendRos {
   /// Under mutex_: map -> <robot>/odom of each joined robot from its newest keyframe.
   void updateTransforms();
   bool saveSession(laser_loop_closure::SaveSession::Request& request, laser_loop_closure::SaveSession::Response& response);
+  bool saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   MultiRobotBackendNodeOptions options_;
@@ -144,7 +148,7 @@ class MultiRobotBackendRos {
   std::vector<Robot> robots_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Publisher map_pub_, marker_pub_;
-  ros::ServiceServer save_session_srv_;
+  ros::ServiceServer save_session_srv_, save_map_srv_;
   ros::Timer tf_timer_;
   ros::WallTimer map_timer_, diagnostics_timer_;
   ros::WallTimer gap_timer_;  ///< takes held keyframes whose gap was not filled in time (no message may come)
