@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iterator>
@@ -44,9 +45,10 @@ std::string MultiRobotOptions::validate() const {
 }
 
 MultiRobotSlam::MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam,
-                               const MultiRobotOptions& options)
+                               const MultiRobotOptions& options, const SlamSession* saved_map)
     : options_(checked(options)), place_gate_(slam.place_gate), map_(slam.esdf, slam.gate_loops, slam.consensus) {
-  if (robots == 0) throw std::invalid_argument("multi-robot: at least one robot");
+  if (robots == 0 || (saved_map && robots < 2))
+    throw std::invalid_argument("multi-robot: at least one robot (besides a saved map)");
   for (std::size_t r = 0; r < robots; ++r) {
     robots_.push_back(std::make_unique<SlamPipeline>(model, slam));
     joins_.emplace_back(options_.join);
@@ -54,6 +56,24 @@ MultiRobotSlam::MultiRobotSlam(const ClassifierModel& model, std::size_t robots,
   state_.resize(robots);
   state_[0].joined = true;  // robot 0's frame is the map's
   counters_.robots_joined = 1;
+  if (!saved_map) return;
+  // The saved map as robot 0: its store, chains and own graph (the odometry steps it saved give
+  // its context), and the map's graph as it was saved.
+  std::string error = saved_map->keyframes.empty() ? "it has no keyframe" : robots_[0]->restore(*saved_map, true);
+  if (error.empty()) error = map_.restore(*saved_map);
+  if (!error.empty()) throw std::invalid_argument("multi-robot: the saved map: " + error);
+  const std::size_t n = saved_map->keyframes.size();
+  saved_robots_ = saved_map->robots.empty() ? std::vector<std::uint32_t>(n, 0) : saved_map->robots;
+  for (std::size_t k = 0; k < n; ++k) {
+    state_[0].map_index.push_back(k);
+    map_keyframes_.push_back({0, k});
+  }
+}
+
+std::uint32_t MultiRobotSlam::sessionRobot(std::size_t robot, std::size_t keyframe) const {
+  if (saved_robots_.empty()) return std::uint32_t(robot);
+  if (robot == 0) return saved_robots_.at(keyframe);
+  return *std::max_element(saved_robots_.begin(), saved_robots_.end()) + std::uint32_t(robot);
 }
 
 std::size_t MultiRobotSlam::mapIndex(std::size_t robot, std::size_t keyframe) const {
@@ -64,7 +84,12 @@ std::size_t MultiRobotSlam::mapIndex(std::size_t robot, std::size_t keyframe) co
   return state.map_index[keyframe];
 }
 
+void MultiRobotSlam::refuseSavedMap(std::size_t robot) const {
+  if (robot == 0 && hasSavedMap()) throw std::invalid_argument("multi-robot: robot 0 is the saved map: it takes no scans");
+}
+
 RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size_t scan_index, const Pose2* wheel_odometry) {
+  refuseSavedMap(robot);
   RobotStep step;
   step.slam = robots_.at(robot)->addScan(scan, scan_index, wheel_odometry);
   if (!step.slam.keyframe) return step;
@@ -77,6 +102,7 @@ RobotStep MultiRobotSlam::addScan(std::size_t robot, const Scan& scan, std::size
 
 RobotStep MultiRobotSlam::addKeyframe(std::size_t robot, Keyframe keyframe, const std::vector<double>& features,
                                       const OdometryStep& odometry) {
+  refuseSavedMap(robot);
   RobotStep step;
   step.slam = robots_.at(robot)->addKeyframe(std::move(keyframe), features, odometry);
   keyframeAdded(robot, {}, step);
@@ -84,6 +110,7 @@ RobotStep MultiRobotSlam::addKeyframe(std::size_t robot, Keyframe keyframe, cons
 }
 
 LoopRecord MultiRobotSlam::addLoop(std::size_t robot, const LoopClosure& loop) {
+  refuseSavedMap(robot);
   const LoopRecord record = robots_.at(robot)->addLoop(loop);  // a refused one is only recorded there
   RobotState& state = state_[robot];
   const std::size_t known = state.chain.size();
@@ -359,7 +386,7 @@ SlamSession MultiRobotSlam::session() const {
   std::vector<std::vector<double>> features;
   for (const RobotKeyframe& k : map_keyframes_) features.push_back(robots_[k.robot]->detector().features(k.keyframe));
   SlamSession session = sessionOf(map_, features);
-  for (const RobotKeyframe& k : map_keyframes_) session.robots.push_back(std::uint32_t(k.robot));
+  for (const RobotKeyframe& k : map_keyframes_) session.robots.push_back(sessionRobot(k.robot, k.keyframe));
   return session;
 }
 

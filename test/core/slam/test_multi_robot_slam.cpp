@@ -178,6 +178,55 @@ TEST(MultiRobotSlam, KeyframesMadeByFrontEndsElsewhereJoinAsTheScansDo) {
   EXPECT_THROW(slam.addLoop(2, beyond), std::out_of_range);
 }
 
+TEST(MultiRobotSlam, ARobotJoinsYesterdaysMapOfTheFleet) {
+  // Yesterday: robot 0 mapped the first half, saved as a session with its robot named 5.
+  const TwoRobots& today = twoRobots();
+  const llc::SimDrive& drive = today.drive;
+  llc::MultiRobotSlam yesterday(llc_test::defaultModel(), 1);
+  for (std::size_t f = 0; f < today.split; ++f)
+    yesterday.addScan(0, llc_test::frameScan(drive, drive.frames[f]), f, &drive.frames[f].odometry);
+  llc::SlamSession saved = yesterday.session();
+  saved.robots.assign(saved.keyframes.size(), 5);
+  // Today: the map is robot 0 (no scans of its own); robot 1 drives the second half in an
+  // odometry frame of its own and joins it with no pose prior.
+  llc::MultiRobotSlam slam(llc_test::defaultModel(), 2, {}, {}, &saved);
+  ASSERT_TRUE(slam.hasSavedMap());
+  ASSERT_EQ(slam.map().keyframes().size(), saved.keyframes.size());
+  EXPECT_NEAR(slam.map().poses().back().x, saved.poses.back().x, 1e-6);
+  const llc::Pose2 frame_of_robot_1{-250.0, 400.0, 2.5};
+  for (std::size_t f = today.split; f < drive.frames.size(); ++f) {
+    const llc::Pose2 odometry = llc::compose(frame_of_robot_1, drive.frames[f].odometry);
+    slam.addScan(1, llc_test::frameScan(drive, drive.frames[f]), f, &odometry);
+  }
+  ASSERT_TRUE(slam.joined(1)) << "robot 1 never joined the saved map";
+  std::cout << "robot 1 joined the saved map after " << slam.joinedAtPath(1) << " m; cross loops "
+            << slam.counters().cross_robot_loops << "\n";
+  for (const llc::CrossRobotLoop& loop : slam.crossLoops()) {
+    if (!loop.record.applied) continue;
+    const llc::Pose2 truth = llc::between(truthOf(slam, drive, loop.from), truthOf(slam, drive, loop.to));
+    const llc::Pose2 e = llc::between(truth, loop.record.loop.pose);
+    EXPECT_LT(std::hypot(e.x, e.y), 0.5) << "a wrong cross-robot loop";
+  }
+  std::vector<llc::Pose2> map, truth;
+  for (std::size_t m = 0; m < slam.map().keyframes().size(); ++m) {
+    map.push_back(slam.map().poses()[m]);
+    const llc::RobotKeyframe& k = slam.mapKeyframe(m);
+    // The saved map's keyframes are robot 0's pipeline's, restored: their scan index is the frame.
+    truth.push_back(drive.frames[slam.robot(k.robot).keyframes()[k.keyframe].scan_index].truth);
+  }
+  EXPECT_LT(llc::alignedRmsError(map, truth), 0.5);
+  // Saved again: who was who (yesterday's robot 5, today's robot 1 after it: 6).
+  const llc::SlamSession again = slam.session();
+  ASSERT_EQ(again.robots.size(), again.keyframes.size());
+  for (std::size_t m = 0; m < again.robots.size(); ++m)
+    EXPECT_EQ(again.robots[m], m < saved.keyframes.size() ? 5u : 6u) << m;
+  // The saved map takes no scans; a session that cannot be restored is refused.
+  EXPECT_THROW(slam.addScan(0, llc_test::frameScan(drive, drive.frames[0]), 0, nullptr), std::invalid_argument);
+  const llc::SlamSession empty;
+  EXPECT_THROW(llc::MultiRobotSlam(llc_test::defaultModel(), 2, {}, {}, &empty), std::invalid_argument);
+  EXPECT_THROW(llc::MultiRobotSlam(llc_test::defaultModel(), 1, {}, {}, &saved), std::invalid_argument);
+}
+
 TEST(MultiRobotSlam, EveryScanOfAJoinedRobotIsPlacedInTheMapNearItsTruth) {
   const TwoRobots& run = twoRobots();
   std::vector<llc::Pose2> map, truth;

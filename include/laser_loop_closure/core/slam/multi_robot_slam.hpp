@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <utility>
@@ -78,8 +79,13 @@ struct MultiRobotCounters {
 class MultiRobotSlam {
  public:
   /// Throws std::invalid_argument on bad options, robots == 0, or a model the extractor cannot serve.
+  /// With `saved_map` (a session: yesterday's map of the fleet), robot 0 is that map: it has no
+  /// scans of its own (addScan, addKeyframe and addLoop refuse it), its keyframes keep their
+  /// robots in session(), and robots 1 .. robots - 1 are the live ones, each joining it as any
+  /// robot joins robot 0's map (no pose prior). Throws std::invalid_argument when the session
+  /// cannot be restored (and robots < 2 with one).
   MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam = {},
-                 const MultiRobotOptions& options = {});
+                 const MultiRobotOptions& options = {}, const SlamSession* saved_map = nullptr);
 
   /// Feeds one scan of `robot` (base frame) with its wheel-odometry pose in that robot's own
   /// odometry frame when there is one; nothing of it is taken as a position in the map. Never
@@ -125,8 +131,13 @@ class MultiRobotSlam {
   const MultiRobotCounters& counters() const { return counters_; }
   /// The map as a session (its keyframes, features, graph and loops, and each keyframe's robot
   /// in SlamSession::robots): what `llc localize` and `llc slam --load-session` take. Robots
-  /// not yet joined are not in it.
+  /// not yet joined are not in it. With a saved map, its keyframes keep their robots and the
+  /// live robot r is robot (the saved map's largest) + r.
   SlamSession session() const;
+  /// Whether robot 0 is a saved map (the constructor's saved_map).
+  bool hasSavedMap() const { return !saved_robots_.empty(); }
+  /// The robot id session() writes for the map keyframe of (robot, keyframe).
+  std::uint32_t sessionRobot(std::size_t robot, std::size_t keyframe) const;
   /// m of path by the robot's own odometry when it joined (only when joined; robot 0: 0).
   double joinedAtPath(std::size_t robot) const { return state_.at(robot).joined_at_path; }
   const MultiRobotOptions& options() const { return options_; }
@@ -200,6 +211,8 @@ class MultiRobotSlam {
   /// the robots linked to it.
   void joinRobot(std::size_t robot, const Pose2& map_from_trajectory, std::size_t anchor, const std::vector<RobotLoop>& loops,
                  RobotStep& step);
+  /// Throws std::invalid_argument when `robot` is 0 and robot 0 is a saved map.
+  void refuseSavedMap(std::size_t robot) const;
   /// The context check's view of a robot's keyframes (its front end's odometry chain).
   KeyframeContext contextOf(std::size_t robot) const;
 
@@ -217,6 +230,8 @@ class MultiRobotSlam {
   std::map<std::pair<std::size_t, std::size_t>, TrajectoryJoin> peer_joins_;
   std::map<std::pair<std::size_t, std::size_t>, std::vector<LoopClosure>> peer_loops_;
   std::vector<Link> links_;
+  /// With a saved map (robot 0): each of its keyframes' robot as the session had it; empty without.
+  std::vector<std::uint32_t> saved_robots_;
 };
 
 }  // namespace llc
