@@ -63,7 +63,15 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
     if (options_.model_path.empty())
       options_.model_path = ros::package::getPath("laser_loop_closure") + "/config/classifier.yaml";
     model = llc::loadClassifierModel(options_.model_path);
-    slam_ = std::make_unique<llc::MultiRobotSlam>(model, names.size(), system_.slam, system_.multi_robot);
+    if (options_.map_session.empty()) {
+      slam_ = std::make_unique<llc::MultiRobotSlam>(model, names.size(), system_.slam, system_.multi_robot);
+    } else {  // yesterday's map of the fleet: robot 0, and every robot joins it
+      const llc::SlamSession saved = llc::loadSession(options_.map_session);
+      slam_ = std::make_unique<llc::MultiRobotSlam>(model, names.size() + 1, system_.slam, system_.multi_robot, &saved);
+      slot_offset_ = 1;
+      for (const llc::Keyframe& k : slam_->map().keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
+      map_dirty_ = true;
+    }
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("multi_robot_backend: ") + e.what());
   }
@@ -121,8 +129,13 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
   diagnostics_.setHardwareID("none");
   diagnostics_.add("multi-robot backend", this, &MultiRobotBackendRos::diagnose);
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
-  ROS_INFO("multi_robot_backend: %zu robots (%s first: its frame is %s), model %s", names.size(), names[0].c_str(),
-           options_.map_frame.c_str(), options_.model_path.c_str());
+  if (slot_offset_ == 0)
+    ROS_INFO("multi_robot_backend: %zu robots (%s first: its frame is %s), model %s", names.size(), names[0].c_str(),
+             options_.map_frame.c_str(), options_.model_path.c_str());
+  else
+    ROS_INFO("multi_robot_backend: %zu robots joining the saved map %s (%zu keyframes, its frame is %s), model %s",
+             names.size(), options_.map_session.c_str(), slam_->map().keyframes().size(), options_.map_frame.c_str(),
+             options_.model_path.c_str());
 }
 
 MultiRobotBackendRos::~MultiRobotBackendRos() {
@@ -202,7 +215,7 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const Inbox::Taken& t
   const laser_loop_closure::Keyframe& msg = *taken.payload->msg;
   llc::Keyframe keyframe = taken.payload->keyframe;
   llc::OdometryStep step = taken.payload->step;
-  const bool first_of_robot = slam_->robot(robot).keyframes().empty();
+  const bool first_of_robot = slam_->robot(slot(robot)).keyframes().empty();
   if (!first_of_robot && (taken.lost_before > 0 || taken.restarted)) {
     // Keyframes lost on the way, or a front end that started again: the step from the robot's
     // odometry poses when both ends have one (a restarted front end's odometry frame is another:
@@ -223,13 +236,13 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const Inbox::Taken& t
   }
   r.has_last_wheels = keyframe.has_wheel_odometry;
   r.last_wheels = keyframe.wheel_odometry;
-  const llc::RobotStep result = slam_->addKeyframe(robot, std::move(keyframe), msg.features, step);
+  const llc::RobotStep result = slam_->addKeyframe(slot(robot), std::move(keyframe), msg.features, step);
   if (!result.slam.back_end_note.empty())
     ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s keyframe %u: %s", r.name.c_str(), msg.index,
                       result.slam.back_end_note.c_str());
   for (std::size_t joined : result.joined_robots)
-    ROS_INFO("multi_robot_backend: %s joined the map (%s's frame) after %.1f m of its path", robots_[joined].name.c_str(),
-             robots_[0].name.c_str(), slam_->joinedAtPath(joined));
+    ROS_INFO("multi_robot_backend: %s joined the map after %.1f m of its path", robots_[joined - slot_offset_].name.c_str(),
+             slam_->joinedAtPath(joined));
   // Loops that waited for this keyframe.
   for (auto it = r.pending_loops.begin(); it != r.pending_loops.end();)
     it = takeLoop(robot, *it) ? r.pending_loops.erase(it) : std::next(it);
@@ -250,7 +263,7 @@ bool MultiRobotBackendRos::takeLoop(std::size_t robot, const laser_loop_closure:
   llc::LoopClosure loop = fromLoopClosureMsg(msg);
   loop.from = std::size_t(from);
   loop.to = std::size_t(to);
-  slam_->addLoop(robot, loop);
+  slam_->addLoop(slot(robot), loop);
   map_dirty_ = true;
   return true;
 }
@@ -277,7 +290,7 @@ bool MultiRobotBackendRos::placeCheck(std::size_t robot, laser_loop_closure::Pla
   if (response.message.empty() && (from < 0 || to < 0)) response.message = "a keyframe of the pair never came";
   if (!response.message.empty()) return true;
   try {
-    response.chi2 = slam_->placeChi2(robot, std::size_t(from), std::size_t(to), request.radius);
+    response.chi2 = slam_->placeChi2(slot(robot), std::size_t(from), std::size_t(to), request.radius);
     response.answered = true;
   } catch (const std::exception& e) {
     response.message = e.what();
@@ -294,7 +307,7 @@ bool MultiRobotBackendRos::nearbyKeyframes(std::size_t robot, laser_loop_closure
   if (response.message.empty() && index < 0) response.message = "keyframe " + std::to_string(request.keyframe) + " never came";
   if (!response.message.empty()) return true;
   try {
-    for (const llc::NearbyKeyframe& near : slam_->nearbyKeyframes(robot, std::size_t(index), r.inbox->pipelineCountBelow(request.before),
+    for (const llc::NearbyKeyframe& near : slam_->nearbyKeyframes(slot(robot), std::size_t(index), r.inbox->pipelineCountBelow(request.before),
                                                                   request.max_distance, request.max_std, request.count)) {
       const std::optional<std::uint32_t> number = r.inbox->frontNumber(near.keyframe);
       if (!number) continue;  // of an earlier run of its front end: it does not know it
@@ -311,9 +324,9 @@ bool MultiRobotBackendRos::nearbyKeyframes(std::size_t robot, laser_loop_closure
 void MultiRobotBackendRos::updateTransforms() {
   std::vector<std::pair<std::string, llc::Pose2>> transforms;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
-    const auto& keyframes = slam_->robot(r).keyframes();
-    if (!slam_->joined(r) || keyframes.empty() || !keyframes.back().has_wheel_odometry) continue;
-    const llc::Pose2& in_map = slam_->map().poses()[slam_->mapIndex(r, keyframes.size() - 1)];
+    const auto& keyframes = slam_->robot(slot(r)).keyframes();
+    if (!slam_->joined(slot(r)) || keyframes.empty() || !keyframes.back().has_wheel_odometry) continue;
+    const llc::Pose2& in_map = slam_->map().poses()[slam_->mapIndex(slot(r), keyframes.size() - 1)];
     transforms.emplace_back(robots_[r].odom_frame, llc::compose(in_map, llc::inverse(keyframes.back().wheel_odometry)));
   }
   std::lock_guard<std::mutex> lock(transform_mutex_);
@@ -365,12 +378,12 @@ void MultiRobotBackendRos::publishMap() {
     }
     if (!map.keyframes().empty()) header.stamp = ros::Time().fromSec(map.keyframes().back().stamp);
     for (std::size_t r = 0; r < robots_.size(); ++r) {
-      const llc::SlamPipeline& own = slam_->robot(r);
+      const llc::SlamPipeline& own = slam_->robot(slot(r));
       if (own.keyframes().empty()) continue;
       std_msgs::Header path_header = header;
       std::vector<llc::Pose2> path_poses = own.poses();  // its own frame until joined
-      if (slam_->joined(r)) {
-        for (std::size_t k = 0; k < path_poses.size(); ++k) path_poses[k] = poses[slam_->mapIndex(r, k)];
+      if (slam_->joined(slot(r))) {
+        for (std::size_t k = 0; k < path_poses.size(); ++k) path_poses[k] = poses[slam_->mapIndex(slot(r), k)];
       } else {
         path_header.frame_id = robots_[r].odom_frame;
       }
@@ -401,7 +414,8 @@ bool MultiRobotBackendRos::saveSession(laser_loop_closure::SaveSession::Request&
     response.keyframes = std::uint32_t(session.keyframes.size());
     response.loops = std::uint32_t(session.loops.size());
     response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes of " +
-                       std::to_string(slam_->counters().robots_joined) + " joined robots)";
+                       std::to_string(slam_->counters().robots_joined - slot_offset_) + " joined robots" +
+                       (slot_offset_ > 0 ? " and the saved map)" : ")");
   } catch (const std::exception& e) {
     response.success = false;
     response.message = e.what();
@@ -446,8 +460,8 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     const double seconds = r.bytes > 0 ? (r.last_message - r.first_message).toSec() : 0.0;
     total_bytes += r.bytes;
     const std::size_t index = std::size_t(&r - robots_.data());
-    status.add(r.name + " joined", slam_->joined(index));
-    status.add(r.name + " joined after m", slam_->joined(index) ? slam_->joinedAtPath(index) : -1.0);  // of its own odometry path
+    status.add(r.name + " joined", slam_->joined(slot(index)));
+    status.add(r.name + " joined after m", slam_->joined(slot(index)) ? slam_->joinedAtPath(slot(index)) : -1.0);  // of its own odometry path
     const auto& inbox = r.inbox->counters();
     status.add(r.name + " keyframes", inbox.taken);
     status.add(r.name + " keyframes lost", inbox.lost);
@@ -460,14 +474,15 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     status.add(r.name + " bytes per second", seconds > 0.0 ? double(r.bytes) / seconds : 0.0);
   }
   status.add("robots", robots_.size());
-  status.add("robots joined", c.robots_joined);
+  status.add("robots joined", c.robots_joined - slot_offset_);  // the live ones (a saved map is not one)
+  if (slot_offset_ > 0) status.add("saved map keyframes", slam_->robot(0).keyframes().size());
   status.add("cross-robot loops", c.cross_robot_loops);
   status.add("robot links", c.robot_links);
   status.add("bytes received", total_bytes);
   status.add("cross-robot search s", c.seconds_search);
   if (!last_problem_.empty()) status.add("last problem", last_problem_);
-  status.summary(diagnostic_msgs::DiagnosticStatus::OK,
-                 std::to_string(c.robots_joined) + " of " + std::to_string(robots_.size()) + " robots in the map");
+  status.summary(diagnostic_msgs::DiagnosticStatus::OK, std::to_string(c.robots_joined - slot_offset_) + " of " +
+                                                            std::to_string(robots_.size()) + " robots in the map");
 }
 
 }  // namespace llc_ros

@@ -36,6 +36,9 @@ namespace llc_ros {
 struct MultiRobotBackendNodeOptions {
   std::string robots = "";             ///< the robots' namespaces, separated by spaces; the first one's frame is the map's
   std::string model_path = "";         ///< classifier model (YAML) of the cross-robot search; empty: config/classifier.yaml
+  /// A saved session (yesterday's map of the fleet) every robot joins, its frame the map's; "":
+  /// none, the first robot's frame is the map's.
+  std::string map_session = "";
   std::string map_frame = "map";       ///< frame of the map, the joined robots' paths and the markers
   std::string odom_frame = "odom";     ///< each robot's odometry frame is <robot>/odom_frame (map -> it published once joined)
   bool publish_tf = true;              ///< publish map -> <robot>/odom for every joined robot
@@ -56,6 +59,7 @@ template <class Visit>
 void visitMultiRobotBackendParameters(MultiRobotBackendNodeOptions& o, Visit&& visit) {
   visit("robots", o.robots);
   visit("model_path", o.model_path);
+  visit("map_session", o.map_session);
   visit("map_frame", o.map_frame);
   visit("odom_frame", o.odom_frame);
   visit("publish_tf", o.publish_tf);
@@ -139,8 +143,12 @@ class MultiRobotBackendRos {
   bool saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
+  /// The MultiRobotSlam robot of robot `robot` of robots_ (1 later with a saved map, its robot 0).
+  std::size_t slot(std::size_t robot) const { return robot + slot_offset_; }
+
   MultiRobotBackendNodeOptions options_;
   llc::SystemOptions system_;
+  std::size_t slot_offset_ = 0;  ///< 1 with a saved map (map_session)
   std::unique_ptr<llc::MultiRobotSlam> slam_;
   std::unique_ptr<llc::ScanOdometry> odometry_model_;  ///< the covariance of a step bridged by wheels over lost keyframes
   // Threads before the handles registered on their queues (see esdf_backend_ros.hpp).
