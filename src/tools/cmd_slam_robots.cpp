@@ -1,12 +1,14 @@
 // llc slam with several inputs (--log A --log B ..., or one input --split N): each input is a
 // robot with its own odometry frame and no relative prior; MultiRobotSlam joins them into
-// robot 0's map. Writes one map, the trajectories with a robot column, and a report.
+// robot 0's map (with --load-session, a saved map that every input joins). Writes one map, the
+// trajectories with a robot column, and a report.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -111,7 +113,7 @@ struct RobotTruth {
 /// scans): the earliest a join could be right; -1 when never.
 double firstOverlapPath(const llc::MultiRobotSlam& slam, std::size_t r, const std::vector<std::vector<llc::Pose2>>& truths,
                         const std::vector<std::vector<std::size_t>>& made_at, std::size_t needed) {
-  const auto& keyframes = slam.robot(r).keyframes();
+  const auto& keyframes = slam.robot(r).keyframes();  // no saved map here: robot r is input r
   double path = 0.0;
   std::size_t overlapping = 0;
   auto seesMapped = [&](std::size_t k) {
@@ -134,34 +136,43 @@ double firstOverlapPath(const llc::MultiRobotSlam& slam, std::size_t r, const st
   return -1.0;
 }
 
-/// Every robot against its truth: the joined map laid onto it in one alignment (its RMS in
-/// *map_rms), each joined robot's RMS within that alignment, an unjoined one's in its own.
+/// Every input robot against its truth (input r is the map's robot r + `offset`: 1 after a
+/// saved map, whose keyframes have no truth here): the joined inputs' keyframes in the map laid
+/// onto it in one alignment (its RMS in *map_rms), each joined robot's RMS within that
+/// alignment, an unjoined one's in its own.
 std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const std::vector<std::vector<llc::Pose2>>& truths,
                                           const std::vector<std::vector<std::size_t>>& made_at,
-                                          const std::vector<std::size_t>& joined_by, std::size_t min_keyframes, double* map_rms) {
+                                          const std::vector<std::size_t>& joined_by, std::size_t min_keyframes, double* map_rms,
+                                          std::size_t offset) {
   const llc::SlamBackEnd& map = slam.map();
-  std::vector<llc::Pose2> reference;
-  for (std::size_t m = 0; m < map.keyframes().size(); ++m)
-    reference.push_back(truths[slam.mapKeyframe(m).robot][slam.mapKeyframe(m).keyframe]);
+  std::vector<llc::Pose2> estimate, reference;
+  for (std::size_t m = 0; m < map.keyframes().size(); ++m) {
+    const llc::RobotKeyframe& k = slam.mapKeyframe(m);
+    if (k.robot < offset) continue;
+    estimate.push_back(map.poses()[m]);
+    reference.push_back(truths[k.robot - offset][k.keyframe]);
+  }
   llc::Pose2 alignment;
-  *map_rms = llc::alignedRmsError(map.poses(), reference, &alignment);
+  *map_rms = estimate.empty() ? std::numeric_limits<double>::quiet_NaN() : llc::alignedRmsError(estimate, reference, &alignment);
   std::vector<RobotTruth> judged(truths.size());
   for (std::size_t r = 0; r < truths.size(); ++r) {
     RobotTruth& t = judged[r];
     const std::size_t keyframes = truths[r].size();
-    if (slam.joined(r)) {
+    const std::size_t robot = r + offset;
+    if (slam.joined(robot)) {
       double sum = 0.0;
       for (std::size_t k = 0; k < keyframes; ++k) {
-        const llc::Pose2 p = llc::compose(alignment, map.poses()[slam.mapIndex(r, k)]);
+        const llc::Pose2 p = llc::compose(alignment, map.poses()[slam.mapIndex(robot, k)]);
         sum += (p.x - truths[r][k].x) * (p.x - truths[r][k].x) + (p.y - truths[r][k].y) * (p.y - truths[r][k].y);
       }
       t.rms_m = keyframes == 0 ? 0.0 : std::sqrt(sum / double(keyframes));
     } else {
-      t.rms_m = llc::alignedRmsError(slam.robot(r).poses(), truths[r]);
+      t.rms_m = llc::alignedRmsError(slam.robot(robot).poses(), truths[r]);
     }
-    if (r == 0) continue;
-    t.first_overlap_m = firstOverlapPath(slam, r, truths, made_at, min_keyframes);
-    if (slam.joined(r)) {
+    if (robot == 0) continue;
+    // Places of a saved map have no truth here: no overlap is measured against them.
+    if (offset == 0) t.first_overlap_m = firstOverlapPath(slam, r, truths, made_at, min_keyframes);
+    if (slam.joined(robot)) {
       t.joined_m = 0.0;
       for (std::size_t k = 1; k <= joined_by[r] && k < keyframes; ++k)
         t.joined_m += std::hypot(truths[r][k].x - truths[r][k - 1].x, truths[r][k].y - truths[r][k - 1].y);
@@ -173,7 +184,7 @@ std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const
 }  // namespace
 
 int runMultiRobotSlam(const Args& args) {
-  for (const char* flag : {"load-session", "save-graph", "relations", "truth", "end-scan", "continue-odometry",
+  for (const char* flag : {"save-graph", "relations", "truth", "end-scan", "continue-odometry",
                            "estimate-odometry-time-offset"})
     if (args.has(flag)) throw UsageError(std::string("--") + flag + " is for one robot (one input, no --split)");
   const std::string dir = args.required("out");
@@ -189,8 +200,25 @@ int runMultiRobotSlam(const Args& args) {
   } catch (const llc::ModelError& e) {
     throw ToolError(e.what());
   }
+  // --load-session: a saved map (yesterday's fleet) is the map's robot 0, every input joins it.
+  std::optional<llc::SlamSession> saved;
+  if (args.has("load-session")) {
+    try {
+      saved = llc::loadSession(args.get("load-session", ""));
+    } catch (const llc::SessionError& e) {
+      throw ToolError(e.what());
+    }
+  }
+  const std::size_t offset = saved ? 1 : 0;  // input r is the map's robot r + offset
   const auto start = std::chrono::steady_clock::now();
-  llc::MultiRobotSlam slam(model, robots.size(), options.slam, options.multi_robot);
+  std::unique_ptr<llc::MultiRobotSlam> slam_made;
+  try {
+    slam_made = std::make_unique<llc::MultiRobotSlam>(model, robots.size() + offset, options.slam, options.multi_robot,
+                                                      saved ? &*saved : nullptr);
+  } catch (const std::invalid_argument& e) {
+    throw ToolError(e.what());
+  }
+  llc::MultiRobotSlam& slam = *slam_made;
   const std::vector<std::pair<std::size_t, std::size_t>> feed = feedOrder(robots, args.has("simultaneous"));
   // Per robot and keyframe: when (in the feed) it was made, and which keyframe joined the robot.
   std::vector<std::vector<std::size_t>> made_at(robots.size());
@@ -198,14 +226,15 @@ int runMultiRobotSlam(const Args& args) {
   std::size_t done = 0, skipped = 0;
   for (const auto& [r, i] : feed) {
     const llc::LoggedScan& s = robots[r].sequence.scans[i];
-    const llc::RobotStep step = slam.addScan(r, s.scan, robots[r].input_index[i], robots[r].wheels ? &s.odometry : nullptr);
+    const llc::RobotStep step = slam.addScan(r + offset, s.scan, robots[r].input_index[i], robots[r].wheels ? &s.odometry : nullptr);
     skipped += !step.slam.skip_reason.empty();
     if (step.slam.keyframe) made_at[r].push_back(done);
     for (std::size_t joined : step.joined_robots) {  // itself, or robots this robot's keyframe found
-      joined_by[joined] = slam.robot(joined).keyframes().size() - 1;
+      const std::size_t input = joined - offset;
+      joined_by[input] = slam.robot(joined).keyframes().size() - 1;
       if (!args.has("quiet"))
-        std::cerr << "robot " << joined << " joined the map at its keyframe " << joined_by[joined] << " after "
-                  << slam.joinedAtPath(joined) << " m of its path" << (joined == r ? "" : " (found by robot " + std::to_string(r) + ")")
+        std::cerr << "robot " << input << " joined the map at its keyframe " << joined_by[input] << " after "
+                  << slam.joinedAtPath(joined) << " m of its path" << (input == r ? "" : " (found by robot " + std::to_string(r) + ")")
                   << "\n";
     }
     ++done;
@@ -216,7 +245,7 @@ int runMultiRobotSlam(const Args& args) {
   std::vector<std::vector<llc::Pose2>> truths(robots.size());
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const auto& index = robots[r].input_index;
-    for (const llc::Keyframe& k : slam.robot(r).keyframes())
+    for (const llc::Keyframe& k : slam.robot(r + offset).keyframes())
       truths[r].push_back(robots[r].sequence.scans[std::size_t(std::lower_bound(index.begin(), index.end(), k.scan_index) - index.begin())].truth);
   }
   const bool truth = std::all_of(robots.begin(), robots.end(), [](const RobotInput& r) { return r.has_truth; });
@@ -227,15 +256,16 @@ int runMultiRobotSlam(const Args& args) {
   trajectory << "robot,index,stamp,x,y,theta,joined\n" << std::fixed << std::setprecision(6);
   for (std::size_t m = 0; m < map.keyframes().size(); ++m) {
     const llc::Pose2& p = map.poses()[m];
-    trajectory << slam.mapKeyframe(m).robot << "," << map.keyframes()[m].scan_index << "," << map.keyframes()[m].stamp << ","
+    const llc::RobotKeyframe& k = slam.mapKeyframe(m);
+    trajectory << slam.sessionRobot(k.robot, k.keyframe) << "," << map.keyframes()[m].scan_index << "," << map.keyframes()[m].stamp << ","
                << p.x << "," << p.y << "," << p.theta << ",1\n";
   }
   for (std::size_t r = 0; r < robots.size(); ++r) {
-    if (slam.joined(r)) continue;
-    const auto& keyframes = slam.robot(r).keyframes();
+    if (slam.joined(r + offset)) continue;
+    const auto& keyframes = slam.robot(r + offset).keyframes();
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
-      const llc::Pose2& p = slam.robot(r).poses()[k];
-      trajectory << r << "," << keyframes[k].scan_index << "," << keyframes[k].stamp << "," << p.x << "," << p.y << ","
+      const llc::Pose2& p = slam.robot(r + offset).poses()[k];
+      trajectory << slam.sessionRobot(r + offset, k) << "," << keyframes[k].scan_index << "," << keyframes[k].stamp << "," << p.x << "," << p.y << ","
                  << p.theta << ",0\n";
     }
   }
@@ -243,12 +273,12 @@ int runMultiRobotSlam(const Args& args) {
   llc::AtomicTextFile scans(dir + "/scans.csv");
   scans << "robot,scan,stamp,x,y,theta,joined\n" << std::fixed << std::setprecision(6);
   for (std::size_t r = 0; r < robots.size(); ++r)
-    for (const llc::ScanPose& s : slam.scanPoses(r))
-      scans << r << "," << s.scan_index << "," << s.stamp << "," << s.pose.x << "," << s.pose.y << "," << s.pose.theta << ","
-            << (slam.joined(r) ? 1 : 0) << "\n";
+    for (const llc::ScanPose& s : slam.scanPoses(r + offset))
+      scans << slam.sessionRobot(r + offset, 0) << "," << s.scan_index << "," << s.stamp << "," << s.pose.x << "," << s.pose.y
+            << "," << s.pose.theta << "," << (slam.joined(r + offset) ? 1 : 0) << "\n";
   scans.commit();
   // The map's loops (own and cross-robot), with wrong ones counted against the truth.
-  std::size_t wrong_loops = 0, wrong_cross = 0, wrong_joining = 0, applied_loops = 0;
+  std::size_t wrong_loops = 0, wrong_cross = 0, wrong_joining = 0, applied_loops = 0, not_judged = 0;
   std::ostringstream wrong_lines;
   std::set<std::pair<std::size_t, std::size_t>> joining;  // map (from, to) of the loops that joined a robot
   for (const llc::CrossRobotLoop& loop : slam.crossLoops())
@@ -259,7 +289,8 @@ int runMultiRobotSlam(const Args& args) {
   for (const llc::LoopRecord& record : map.loops()) {
     const llc::RobotKeyframe& a = slam.mapKeyframe(record.loop.from);
     const llc::RobotKeyframe& b = slam.mapKeyframe(record.loop.to);
-    loops << a.robot << "," << map.keyframes()[record.loop.from].scan_index << "," << b.robot << ","
+    loops << slam.sessionRobot(a.robot, a.keyframe) << "," << map.keyframes()[record.loop.from].scan_index << ","
+          << slam.sessionRobot(b.robot, b.keyframe) << ","
           << map.keyframes()[record.loop.to].scan_index << "," << (record.applied ? 1 : 0) << "," << std::setprecision(4)
           << record.loop.score << "," << record.loop.inlier_share << "," << std::setprecision(6) << record.loop.pose.x << ","
           << record.loop.pose.y << "," << record.loop.pose.theta << "," << std::setprecision(4) << record.innovation_chi2 << ","
@@ -268,14 +299,19 @@ int runMultiRobotSlam(const Args& args) {
     if (!record.applied) continue;
     ++applied_loops;
     if (!truth) continue;
-    const llc::Pose2 e = llc::between(llc::between(truths[a.robot][a.keyframe], truths[b.robot][b.keyframe]), record.loop.pose);
+    if (a.robot < offset || b.robot < offset) {  // a keyframe of the saved map: no truth here
+      ++not_judged;
+      continue;
+    }
+    const llc::Pose2 e = llc::between(llc::between(truths[a.robot - offset][a.keyframe], truths[b.robot - offset][b.keyframe]),
+                                      record.loop.pose);
     if (std::hypot(e.x, e.y) > wrong_m || std::abs(e.theta) > wrong_rad) {
       const bool joined_by_it = joining.count({record.loop.from, record.loop.to}) > 0;
       ++wrong_loops;
       wrong_cross += a.robot != b.robot;
       wrong_joining += joined_by_it;
-      wrong_lines << "wrong_loop: robot " << a.robot << " scan " << map.keyframes()[record.loop.from].scan_index << " -> robot "
-                  << b.robot << " scan " << map.keyframes()[record.loop.to].scan_index << ", off the truth by "
+      wrong_lines << "wrong_loop: robot " << a.robot - offset << " scan " << map.keyframes()[record.loop.from].scan_index
+                  << " -> robot " << b.robot - offset << " scan " << map.keyframes()[record.loop.to].scan_index << ", off the truth by "
                   << std::hypot(e.x, e.y) << " m " << e.theta * 180.0 / M_PI << " deg" << (joined_by_it ? ", one that joined the robot" : "")
                   << "\n";
     }
@@ -293,13 +329,19 @@ int runMultiRobotSlam(const Args& args) {
 
   double map_rms = std::numeric_limits<double>::quiet_NaN();
   const std::vector<RobotTruth> robot_truth =
-      truth ? judgeAgainstTruth(slam, truths, made_at, joined_by, options.multi_robot.join.min_keyframes, &map_rms)
+      truth ? judgeAgainstTruth(slam, truths, made_at, joined_by, options.multi_robot.join.min_keyframes, &map_rms, offset)
             : std::vector<RobotTruth>(robots.size());
 
   const llc::MultiRobotCounters& c = slam.counters();
   std::ostringstream report;
-  report << std::setprecision(4) << "robots=" << robots.size() << "\n"
-         << "robots_joined=" << c.robots_joined << "  (in robot 0's map frame, robot 0 included)\n"
+  report << std::setprecision(4) << "robots=" << robots.size() << "\n";
+  if (saved)
+    report << "saved_map=" << args.get("load-session", "") << " keyframes " << saved->keyframes.size()
+           << "  (the map's frame; every input joins it, and is named after its robots in the outputs)\n"
+           << "robots_joined=" << c.robots_joined - 1 << "  (inputs in the saved map)\n";
+  else
+    report << "robots_joined=" << c.robots_joined << "  (in robot 0's map frame, robot 0 included)\n";
+  report
          << "cross_robot_loops=" << c.cross_robot_loops << "  (applied to the map, the joining ones included)\n"
          << "robot_links=" << c.robot_links << "  (pairs of robots, neither in the map, whose loops agreed: one follows the other in)\n"
          << "cross_robot_aligned=" << c.cross_aligned << "\n"
@@ -313,29 +355,34 @@ int runMultiRobotSlam(const Args& args) {
          << "scans_skipped=" << skipped << "\n";
   for (std::size_t r = 0; r < robots.size(); ++r) {
     const std::string p = "robot_" + std::to_string(r) + "_";
+    const std::size_t robot = r + offset;
     report << p << "input=" << robots[r].source << " scans " << robots[r].input_index.front() << "-"
            << robots[r].input_index.back() << "\n"
-           << p << "keyframes=" << slam.robot(r).keyframes().size() << "\n"
-           << p << "joined=" << (slam.joined(r) ? 1 : 0) << "\n";
-    if (r > 0 && slam.joined(r)) report << p << "joined_after_odometry_m=" << slam.joinedAtPath(r) << "\n";
+           << p << "keyframes=" << slam.robot(robot).keyframes().size() << "\n"
+           << p << "joined=" << (slam.joined(robot) ? 1 : 0) << "\n";
+    if (robot > 0 && slam.joined(robot)) report << p << "joined_after_odometry_m=" << slam.joinedAtPath(robot) << "\n";
     if (!truth) continue;
-    report << p << "rms_error_m=" << robot_truth[r].rms_m << (slam.joined(r) ? "" : "  (in its own frame: not joined)") << "\n";
-    if (r == 0) continue;
+    report << p << "rms_error_m=" << robot_truth[r].rms_m << (slam.joined(robot) ? "" : "  (in its own frame: not joined)") << "\n";
+    if (robot == 0 || saved) continue;
     report << p << "first_overlap_m=" << robot_truth[r].first_overlap_m
            << "  (its true path until it has made multi_robot/join/min_keyframes = " << options.multi_robot.join.min_keyframes
            << " keyframes within 1.5 m of one another robot made earlier, as many as a join needs; -1: never)\n";
-    if (slam.joined(r) && robot_truth[r].first_overlap_m >= 0.0)
+    if (slam.joined(robot) && robot_truth[r].first_overlap_m >= 0.0)
       report << p << "joined_after_overlap_m=" << robot_truth[r].joined_m - robot_truth[r].first_overlap_m
              << "  (true path from that keyframe to the one that joined it; negative: joined from farther than 1.5 m)\n";
-    else if (slam.joined(r))
+    else if (slam.joined(robot))
       report << p << "joined_after_overlap_m=none  (joined, from places never within 1.5 m of another robot's)\n";
   }
   if (truth)
-    report << "rms_error_m=" << map_rms << "  (the map's keyframes, every joined robot, one alignment to the truth)\n"
+    report << "rms_error_m=" << map_rms
+           << (saved ? "  (the joined inputs' keyframes in the map, one alignment to the truth)\n"
+                     : "  (the map's keyframes, every joined robot, one alignment to the truth)\n")
            << "wrong_loops_accepted=" << wrong_loops << "  (applied to the map, off the truth by over " << wrong_m << " m or "
            << wrong_rad * 180.0 / M_PI << " deg)\n"
            << "wrong_cross_robot_loops=" << wrong_cross << "\n"
            << "wrong_joining_loops=" << wrong_joining << "  (of those, loops that joined a robot to the map)\n"
+           << (saved ? "loops_with_the_saved_map_not_judged=" + std::to_string(not_judged) + "  (its keyframes have no truth here)\n"
+                     : std::string())
            << wrong_lines.str();
   else
     report << "ground_truth=none (--evaluate or --drift compares against the inputs' poses)\n";

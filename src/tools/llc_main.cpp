@@ -128,7 +128,9 @@ const std::vector<Command>& commands() {
        "      [--simultaneous]   (fed as if every robot started at once; default: by stamp)\n"
        "      (trajectory.csv and scans.csv with robot and joined columns, loops.csv with robot_a/robot_b,\n"
        "       one map of the joined robots, report.txt: robots, robots_joined, cross_robot_loops, per robot;\n"
-       "       --save-session: the map with each keyframe's robot)"},
+       "       --save-session: the map with each keyframe's robot)\n"
+       "      [--load-session FILE]   (a saved map of the fleet: every input joins it, its frame the map's; the\n"
+       "       outputs keep its keyframes' robots and number the inputs after them)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",

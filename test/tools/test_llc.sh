@@ -379,6 +379,11 @@ check "simulate kidnap outside the frames" 2 "must be frames after --start-frame
 # A kidnapped drive: 150 frames, then the drive from frame 50 on (odometry running on), as the
 # localisation rostest's bag is made.
 check "simulate kidnapped" 0 "frames=350 " -- "$LLC" simulate --out "$TMP/sim_k" --length-m 300 --start-frame 0 --end-frame 250 --kidnap-at 150 --kidnap-to 50
+# Several robots joining a saved map of the fleet (--load-session with several inputs): every input joins it.
+"$LLC" slam --log "$TMP/sim/sim.log" --split 2 --simultaneous --out "$TMP/fleet_day1" --quiet --save-session "$TMP/fleet.llcsession" >/dev/null 2>&1
+check "slam: several robots join a saved map" 0 "^robots_joined=2 " -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --simultaneous --evaluate --out "$TMP/fleet_day2" --quiet --load-session "$TMP/fleet.llcsession"
+check "slam: several robots on a saved map, none wrongly" 0 "^wrong_loops_accepted=0 " -- cat "$TMP/fleet_day2/report.txt"
+check "slam: several robots, a saved map that is no session" 1 "fleet_day2/report.txt" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --out "$TMP/fleet_bad" --quiet --load-session "$TMP/fleet_day2/report.txt"
 check "simulate one robot is no fleet" 2 "--robots must be 2 to 16" -- "$LLC" simulate --out "$TMP/sim_f" --length-m 300 --robots 1
 check "simulate a fleet" 0 "fleet.bag \\(3 robots r1 .. r3\\)" -- "$LLC" simulate --out "$TMP/sim_f" --length-m 300 --robots 3
 # The fleet's bag: each robot's topics under its namespace, one /tf_static; at once, all start at the first stamp.
