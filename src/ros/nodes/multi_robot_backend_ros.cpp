@@ -433,21 +433,7 @@ bool MultiRobotBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request
     poses = slam_->map().poses();
     scans_held = map_scans_;
   }
-  if (scans_held.empty()) {
-    response.success = false;
-    response.message = "no keyframe in the map yet: nothing to save";
-    return true;
-  }
-  std::vector<const llc::Scan*> scans;
-  for (const auto& scan : scans_held) scans.push_back(scan.get());
-  try {
-    llc::saveMapFiles(llc::buildOccupancyGrid(scans, poses, system_.map), stem, system_.map);
-    response.success = true;
-    response.message = "wrote " + stem + ".pgm and " + stem + ".yaml";
-  } catch (const std::exception& e) {
-    response.success = false;
-    response.message = e.what();
-  }
+  response.success = saveMapOf(scans_held, poses, system_.map, stem, &response.message);
   ROS_INFO("multi_robot_backend: save_map: %s", response.message.c_str());
   return true;
 }

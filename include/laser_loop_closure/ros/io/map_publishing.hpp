@@ -1,6 +1,9 @@
 // What the back end publishes, built from core results: free functions, no state.
 #pragma once
 
+#include <memory>
+#include <string>
+
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -33,6 +36,12 @@ sensor_msgs::PointCloud2 toCloudMsg(const std::vector<const llc::Scan*>& scans, 
 /// loop_places_applied, loop_places_refused_by_gate.
 visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& poses,
                                              const std::vector<llc::LoopRecord>& loops, const std_msgs::Header& header);
+
+/// ~save_map's work, shared by the back ends: the occupancy grid of `scans` at `poses` saved as
+/// stem.pgm and stem.yaml (llc::saveMapFiles). True with what was written in *message, or false
+/// with why not (no keyframe yet, or the write failed).
+bool saveMapOf(const std::vector<std::shared_ptr<const llc::Scan>>& scans, const std::vector<llc::Pose2>& poses,
+               const llc::OccupancyGridOptions& options, const std::string& stem, std::string* message);
 
 /// A graph of several robots' keyframes (one map): keyframe k's odometry line runs from
 /// previous[k] (previous[k] == k: the first of its robot's chain, no line), and an applied loop
