@@ -200,7 +200,7 @@ check "slam: truncated session" 1 "truncated session" -- "$LLC" slam --bag "$TMP
 # llc slam with several robots: the drive cut in two, each half its own drifting odometry in a
 # frame of its own; the second joins the first's map, with no wrong loop.
 check "slam, several robots: --split needs one input" 2 "give exactly one --log or --bag" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/sim/sim.log" --split 2 --out "$TMP/robots0"
-check "slam, several robots: loading a session is for one robot" 2 "--load-session is for one robot" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --load-session "$TMP/robots.llcsession" --out "$TMP/robots0"
+check "slam, several robots: a saved map that is not there" 1 "robots.llcsession: no such file" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --load-session "$TMP/robots.llcsession" --out "$TMP/robots0"
 check "slam, several robots: a bad multi_robot parameter" 2 "cross_candidates" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --multi_robot/cross_candidates 0 --out "$TMP/robots0"
 check "slam, several robots: a missing input" 1 "no such file" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/none.log" --out "$TMP/robots0"
 check "slam, several robots: joined, never wrong" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --split 2 --drift moderate --out '$TMP/robots' --save-session '$TMP/robots.llcsession' --quiet | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"robots\"] == 2 && v[\"robots_joined\"] == 2 && v[\"wrong_loops_accepted\"] == 0 && v[\"cross_robot_loops\"] >= 3 && v[\"rms_error_m\"] < 0.2 ? \"ok\" : \"not ok\")}'"
