@@ -156,13 +156,15 @@ void MultiRobotBackendRos::countBytes(Robot& robot, std::uint32_t bytes) {
 }
 
 void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  Robot& r = robots_[robot];
-  countBytes(r, ros::serialization::serializationLength(*msg));
+  // Read (a packed scan unpacked) before the lock: other robots' messages and place checks need not wait for it.
   std::string why;
   auto arrived = std::make_shared<ArrivedKeyframe>();
   arrived->msg = msg;
-  if (!fromKeyframeMsg(*msg, &arrived->keyframe, &arrived->step.motion, &arrived->step.covariance, &why)) {
+  const bool readable = fromKeyframeMsg(*msg, &arrived->keyframe, &arrived->step.motion, &arrived->step.covariance, &why);
+  std::lock_guard<std::mutex> lock(mutex_);
+  Robot& r = robots_[robot];
+  countBytes(r, ros::serialization::serializationLength(*msg));
+  if (!readable) {
     // Never offered: its number stays missing, and the keyframe after it bridges the gap.
     ++r.keyframes_refused;
     last_problem_ = r.name + ": keyframe " + std::to_string(msg->index) + ": " + why;
