@@ -114,6 +114,11 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
   // so every robot, the first included, joins within max_join_path m of its own path.
   double max_join_path = -1.0;
   pnh.getParam("max_join_path", max_join_path);
+  // m of travel after its third keyframe near a place in the map by which each robot must have
+  // joined; negative: measured only (robots driving at once meet in an order the machine's load
+  // decides: in one run r3 met the map 50.6 m before it joined, in others never before).
+  double max_join_after_overlap = 5.0;
+  pnh.getParam("max_join_after_overlap", max_join_after_overlap);
 
   // The truth of every robot, by stamp; and the bag's time span.
   std::map<std::string, std::map<long long, llc::Pose2>> truth;
@@ -330,7 +335,8 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
     const double joined_after = back_end.value(kRobots[r] + " joined after m");
     RecordProperty(kRobots[r] + "_first_map_overlap_m", std::to_string(overlap));
     RecordProperty(kRobots[r] + "_joined_after_m", std::to_string(joined_after));
-    if (overlap >= 0.0) EXPECT_LT(joined_after - overlap, 5.0) << kRobots[r] << " joined long after it first saw the map";
+    if (overlap >= 0.0 && max_join_after_overlap >= 0.0)
+      EXPECT_LT(joined_after - overlap, max_join_after_overlap) << kRobots[r] << " joined long after it first saw the map";
   }
 }
 
