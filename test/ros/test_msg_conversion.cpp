@@ -140,6 +140,10 @@ TEST(MsgConversion, KeyframeAndLoopClosureRoundTrip) {
   EXPECT_TRUE(back.scan.full_circle);
   EXPECT_DOUBLE_EQ(back.scan.stamp, 12.5);
   EXPECT_EQ(back.scan_index, 17u);
+  llc_ros::packKeyframeMsg(&packed, full, 2);  // every other beam: the first of the two
+  ASSERT_TRUE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error)) << error;
+  ASSERT_EQ(back.scan.size(), 1u);
+  EXPECT_NEAR(back.scan.bearings[0], -0.5, 5e-5);
   packed.packed_scan.resize(packed.packed_scan.size() - 3);
   EXPECT_FALSE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error));
 

@@ -250,7 +250,7 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
   for (const std::string& robot : kRobots) {
     RecordProperty(robot + "_keyframes", int(front_end_keyframes[robot].size()));
     // Per second of the bag (robots that drive at once: of their drive; the wall time of a slow run is longer).
-    const double bytes = back_end.value(robot + " bytes received");
+    const double bytes = back_end.value(robot + " bytes exchanged");
     RecordProperty(robot + "_bytes_per_bag_second", std::to_string(bytes / (bag_end - bag_start)));
     RecordProperty(robot + "_bytes_per_keyframe", std::to_string(bytes / double(front_end_keyframes[robot].size())));
   }

@@ -207,8 +207,10 @@ laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::s
   return msg;
 }
 
-void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan) {
-  msg->packed_scan = llc::packScan(scan);
+void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan, std::size_t beam_stride) {
+  llc::ScanPackOptions options;
+  options.beam_stride = beam_stride;
+  msg->packed_scan = llc::packScan(scan, options);
   msg->scan.ranges.clear();
   msg->scan.bearings.clear();
   msg->features.clear();

@@ -18,6 +18,7 @@ std::string LoopClosureNodeOptions::validate() const {
   if (!input_error.empty()) return input_error;
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
   if (resend_keyframes < 0) return "resend_keyframes must not be negative";
+  if (pack_beam_stride < 1) return "pack_beam_stride must be 1 or more";
   if (publish_odometry_tf && input.use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   return "";
@@ -131,7 +132,7 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
   if (options_.pack_keyframes) {
     try {
-      packKeyframeMsg(&keyframe_msg, keyframe.scan);
+      packKeyframeMsg(&keyframe_msg, keyframe.scan, std::size_t(options_.pack_beam_stride));
     } catch (const std::exception& e) {  // sent as it is
       ROS_WARN_THROTTLE(5.0, "loop_closure: keyframe %zu not packed: %s", step.keyframe_index, e.what());
     }

@@ -99,13 +99,17 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
     robot.place_check_srv = service_nh.advertiseService<laser_loop_closure::PlaceCheck::Request, laser_loop_closure::PlaceCheck::Response>(
         names[r] + "/place_check",
         [this, r](laser_loop_closure::PlaceCheck::Request& q, laser_loop_closure::PlaceCheck::Response& a) {
-          return placeCheck(r, q, a);
+          placeCheck(r, q, a);
+          countServiceBytes(r, ros::serialization::serializationLength(q) + ros::serialization::serializationLength(a));
+          return true;
         });
     robot.nearby_srv = service_nh.advertiseService<laser_loop_closure::NearbyKeyframes::Request,
                                                    laser_loop_closure::NearbyKeyframes::Response>(
         names[r] + "/nearby_keyframes",
         [this, r](laser_loop_closure::NearbyKeyframes::Request& q, laser_loop_closure::NearbyKeyframes::Response& a) {
-          return nearbyKeyframes(r, q, a);
+          nearbyKeyframes(r, q, a);
+          countServiceBytes(r, ros::serialization::serializationLength(q) + ros::serialization::serializationLength(a));
+          return true;
         });
   }
   map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
@@ -153,6 +157,12 @@ void MultiRobotBackendRos::countBytes(Robot& robot, std::uint32_t bytes) {
   if (robot.bytes == 0) robot.first_message = now;
   robot.last_message = now;
   robot.bytes += bytes;
+}
+
+void MultiRobotBackendRos::countServiceBytes(std::size_t robot, std::uint32_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  countBytes(robots_[robot], bytes);
+  robots_[robot].service_bytes += bytes;
 }
 
 void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg) {
@@ -458,7 +468,8 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     status.add(r.name + " keyframes held", r.inbox->held());
     status.add(r.name + " front end restarts", inbox.restarts);
     status.add(r.name + " loops dropped", r.loops_dropped);
-    status.add(r.name + " bytes received", r.bytes);
+    status.add(r.name + " bytes exchanged", r.bytes);
+    status.add(r.name + " bytes of services", r.service_bytes);
     status.add(r.name + " bytes per second", seconds > 0.0 ? double(r.bytes) / seconds : 0.0);
   }
   status.add("robots", robots_.size());
@@ -466,7 +477,7 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   if (slot_offset_ > 0) status.add("saved map keyframes", slam_->robot(0).keyframes().size());
   status.add("cross-robot loops", c.cross_robot_loops);
   status.add("robot links", c.robot_links);
-  status.add("bytes received", total_bytes);
+  status.add("bytes exchanged", total_bytes);
   status.add("cross-robot search s", c.seconds_search);
   if (!last_problem_.empty()) status.add("last problem", last_problem_);
   status.summary(diagnostic_msgs::DiagnosticStatus::OK, std::to_string(c.robots_joined - slot_offset_) + " of " +

@@ -1,8 +1,10 @@
-// packScan / unpackScan: a simulated 360-degree scan round-trips within half a step of each
-// range and bearing, no return stays no return, the packing is a fraction of the float32 message,
+// packScan / unpackScan: a simulated 360-degree scan's points round-trip within half a step,
+// no return stays no return, the packing is a fraction of the float32 message and finds the
+// scanners the beams came from,
 // and anything that is not a packed scan (truncated, corrupt, random) is refused, never thrown.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -19,6 +21,35 @@ llc::Scan simulatedScan() {
   return llc_test::frameScan(drive, drive.frames[drive.frames.size() / 2]);
 }
 
+/// Every return of `original` (beams 0, stride, 2 stride, ...) has a return of `back` within
+/// half a range step and half a bearing step (times its range from a scanner that is at most
+/// 2 m from the base) of it, as many no-returns at the same bearings, and back's bearings
+/// increase. Brute force: a reference that needs no knowledge of the packing.
+void expectSamePoints(const llc::Scan& original, const llc::Scan& back, const llc::ScanPackOptions& options) {
+  std::vector<std::size_t> kept;
+  for (std::size_t k = 0; k < original.size(); k += options.beam_stride) kept.push_back(k);
+  ASSERT_EQ(back.size(), kept.size());
+  for (std::size_t k = 1; k < back.size(); ++k) EXPECT_LE(back.bearings[k - 1], back.bearings[k]) << k;
+  std::size_t returns = 0, no_returns = 0;
+  for (const std::size_t k : kept) {
+    const double r = original.ranges[k], b = original.bearings[k];
+    if (!(std::isfinite(r) && r > 0.0)) {
+      ++no_returns;
+      continue;
+    }
+    ++returns;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < back.size(); ++j)
+      if (std::isfinite(back.ranges[j]))
+        nearest = std::min(nearest, std::hypot(back.ranges[j] * std::cos(back.bearings[j]) - r * std::cos(b),
+                                               back.ranges[j] * std::sin(back.bearings[j]) - r * std::sin(b)));
+    EXPECT_LE(nearest, 0.5 * options.range_step + 0.5 * options.bearing_step * (r + 2.0) + 1e-9) << k << " at " << r << " m";
+  }
+  EXPECT_EQ(std::size_t(std::count_if(back.ranges.begin(), back.ranges.end(), [](double r) { return std::isinf(r) && r > 0; })),
+            no_returns);
+  EXPECT_EQ(returns + no_returns, back.size());
+}
+
 TEST(ScanCodec, RoundTripsWithinHalfAStep) {
   llc::Scan scan = simulatedScan();
   ASSERT_GT(scan.size(), 500u);
@@ -31,24 +62,64 @@ TEST(ScanCodec, RoundTripsWithinHalfAStep) {
   back.stamp = 12.5;
   std::string error;
   ASSERT_TRUE(llc::unpackScan(packed, &back, &error)) << error;
-  ASSERT_EQ(back.size(), scan.size());
   EXPECT_EQ(back.full_circle, scan.full_circle);
   EXPECT_EQ(back.stamp, 12.5);  // the caller's: the packing has none
-  std::size_t returns = 0;
-  for (std::size_t k = 0; k < scan.size(); ++k) {
-    EXPECT_NEAR(back.bearings[k], scan.bearings[k], 0.5 * options.bearing_step + 1e-12) << k;
-    if (std::isfinite(scan.ranges[k]) && scan.ranges[k] > 0.0) {
-      EXPECT_NEAR(back.ranges[k], scan.ranges[k], 0.5 * options.range_step + 1e-12) << k;
-      ++returns;
-    } else {
-      EXPECT_TRUE(std::isinf(back.ranges[k]) && back.ranges[k] > 0) << k;
-    }
-  }
-  EXPECT_GT(returns, 300u);
+  expectSamePoints(scan, back, options);
   // What a keyframe message saves: float32 ranges and bearings take 8 bytes a beam.
   const double bytes_per_beam = double(packed.size()) / double(scan.size());
   std::cout << scan.size() << " beams: " << packed.size() << " bytes packed (" << bytes_per_beam << " per beam, float32: 8)\n";
-  EXPECT_LT(bytes_per_beam, 3.0);
+  EXPECT_LT(bytes_per_beam, 1.6);
+}
+
+TEST(ScanCodec, FindsTheScannersItsBeamsCameFrom) {
+  // The simulated car's scanners sit 1.5 m ahead of and 1 m behind its base: seen from the base
+  // origin their bearings do not step evenly, seen from the scanners they do. Packing from the
+  // scanners' origins takes far fewer bytes than from the base origin alone (the same scan
+  // with every bearing moved by a different random part of a step, which no origin explains).
+  const llc::Scan scan = simulatedScan();
+  llc::Scan shuffled = scan;
+  std::mt19937 random(3);
+  std::uniform_real_distribution<double> jitter(-0.3e-2, 0.3e-2);
+  for (double& b : shuffled.bearings) b += jitter(random);
+  const std::size_t from_scanners = llc::packScan(scan).size(), unexplained = llc::packScan(shuffled).size();
+  std::cout << "from the scanners' origins: " << from_scanners << " bytes; bearings no origin explains: " << unexplained << "\n";
+  EXPECT_LT(double(from_scanners), 0.8 * double(unexplained));
+  // A scanner at the base origin (no mount offset), and one far off it: both round-trip.
+  for (const double mount : {0.0, 4.0}) {
+    llc::Scan one;
+    for (int k = 0; k < 181; ++k) {
+      const double phi = -M_PI / 2 + k * M_PI / 180.0, rho = 3.0 + 2.0 * std::sin(0.1 * k) + (k % 17 == 0 ? 10.0 : 0.0);
+      const double x = mount + rho * std::cos(phi), y = rho * std::sin(phi);
+      one.ranges.push_back(k % 29 == 0 ? std::numeric_limits<double>::infinity() : std::hypot(x, y));
+      one.bearings.push_back(k % 29 == 0 ? phi : std::atan2(y, x));
+    }
+    llc::Scan back;
+    std::string error;
+    ASSERT_TRUE(llc::unpackScan(llc::packScan(one), &back, &error)) << error;
+    expectSamePoints(one, back, llc::ScanPackOptions{});
+  }
+}
+
+TEST(ScanCodec, AStrideKeepsEveryNthBeamAndAboutThatShareOfTheBytes) {
+  const llc::Scan scan = simulatedScan();
+  std::size_t fewer = llc::packScan(scan).size();
+  const std::size_t full = fewer;
+  for (const std::size_t stride : {2u, 3u}) {
+    llc::ScanPackOptions options;
+    options.beam_stride = stride;
+    llc::Scan back;
+    std::string error;
+    ASSERT_TRUE(llc::unpackScan(llc::packScan(scan, options), &back, &error)) << error;
+    expectSamePoints(scan, back, options);
+    const std::size_t bytes = llc::packScan(scan, options).size();
+    std::cout << "every " << stride << " beams: " << bytes << " bytes of " << full << "\n";
+    EXPECT_LT(bytes, fewer) << stride;
+    if (stride == 2) EXPECT_LT(double(bytes), 0.65 * double(full));  // neighbours further apart differ more: not quite half
+    fewer = bytes;
+  }
+  llc::ScanPackOptions zero;
+  zero.beam_stride = 0;
+  EXPECT_THROW(llc::packScan(scan, zero), std::invalid_argument);
 }
 
 TEST(ScanCodec, AnythingElseIsRefusedNotThrown) {
@@ -61,6 +132,10 @@ TEST(ScanCodec, AnythingElseIsRefusedNotThrown) {
   std::vector<std::uint8_t> wrong_magic = packed;
   wrong_magic[0] = 'X';
   EXPECT_FALSE(llc::unpackScan(wrong_magic, &scan, &error));
+  std::vector<std::uint8_t> old_packing = packed;
+  old_packing[3] = '1';
+  EXPECT_FALSE(llc::unpackScan(old_packing, &scan, &error));
+  EXPECT_NE(error.find("0.13.0"), std::string::npos) << error;
   std::vector<std::uint8_t> more_beams = packed;
   more_beams[4] = 0xff, more_beams[5] = 0xff, more_beams[6] = 0xff, more_beams[7] = 0x7f;
   EXPECT_FALSE(llc::unpackScan(more_beams, &scan, &error));

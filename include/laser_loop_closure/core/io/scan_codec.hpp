@@ -1,8 +1,15 @@
-// A scan packed small for a network (a robot's keyframes to a shared back end): each bearing
-// and range rounded to a fixed step (bearing_step rad, range_step m), written as the difference
-// from the one before (zigzag varints), and the whole deflated by zlib. Lossless up to those
-// steps; a range that is not finite, not positive or beyond what the format holds is "no
-// return" (+inf, REP-117). The stamp is not in it (the message header has it).
+// A scan packed small for a network (a robot's keyframes to a shared back end). A merged scan's
+// beams come from scanners mounted away from the base origin, so their base-frame bearings do
+// not step evenly; seen from their scanner they do. The packing finds those origins (runs of
+// returns whose directions step evenly from one point), and writes each beam from the origin
+// that predicts it best: its direction in bearing_step steps (second difference from that
+// source's previous beam) and its range from there in range_step steps (first difference),
+// zigzag varints deflated by zlib. Each point comes back within about half a range step and
+// half a bearing step (times its range from its origin) of where it was; bearings and ranges
+// are computed again from the point, beams in increasing bearing. A range that is not finite,
+// not positive or beyond what the format holds is "no return" (+inf, REP-117) along its ray.
+// The stamp is not in it (the message header has it). With a beam_stride above 1 only every
+// beam_stride-th beam is written: a thinner scan.
 #pragma once
 
 #include <cstddef>
@@ -17,6 +24,7 @@ namespace llc {
 struct ScanPackOptions {
   double range_step = 0.005;     ///< m (a laser's noise is about 1 cm); ranges up to 2^31 steps
   double bearing_step = 1.0e-4;  ///< rad (1 mm across at 10 m)
+  std::size_t beam_stride = 1;   ///< write beams 0, n, 2n, ... (1: every beam); bytes fall about as 1/n
   [[nodiscard]] std::string validate() const;
 };
 

@@ -52,9 +52,9 @@ llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose);
 laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
                                            const std::string& base_frame);
 /// The keyframe's scan packed small (llc::packScan) in place of its float32 arrays, and no
-/// features (a reader computes them again from the scan): what crosses a network. Throws
-/// std::invalid_argument for a scan packScan refuses.
-void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan);
+/// features (a reader computes them again from the scan): what crosses a network. Only every
+/// beam_stride-th beam is kept. Throws std::invalid_argument for a scan packScan refuses.
+void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan, std::size_t beam_stride = 1);
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
                      Eigen::Matrix3d* covariance, std::string* error);
 laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, const std_msgs::Header& header);

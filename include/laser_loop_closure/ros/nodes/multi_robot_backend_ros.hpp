@@ -112,13 +112,15 @@ class MultiRobotBackendRos {
     bool has_last_wheels = false;       ///< the newest keyframe taken had an odometry pose
     llc::Pose2 last_wheels;
     std::size_t keyframes_refused = 0, loops_dropped = 0;
-    std::uint64_t bytes = 0;            ///< serialised size of every message received
+    std::uint64_t bytes = 0;            ///< serialised size of every message received, service request and answer
+    std::uint64_t service_bytes = 0;    ///< of which place checks and nearby keyframes (requests and answers)
     ros::WallTime first_message, last_message;
   };
 
   void onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg);
   void onLoop(std::size_t robot, const laser_loop_closure::LoopClosure::ConstPtr& msg);
   void countBytes(Robot& robot, std::uint32_t bytes);
+  void countServiceBytes(std::size_t robot, std::uint32_t bytes);  ///< takes the lock
   /// Under mutex_: the keyframes the robot's inbox hands out now, taken in order; asks the robot
   /// for missing ones when the inbox says so.
   void takeHeldKeyframes(std::size_t robot);
