@@ -293,7 +293,7 @@ int runLocalize(const Args& args) {
   llc::writeFileAtomically(dir + "/poses.csv", run.rows);
   llc::writeFileAtomically(dir + "/search.csv", run.searches);
   const llc::LocalizerCounters& c = localizer.counters();
-  report << "map_load_seconds=" << load_seconds << "  (features checked, every map scan prepared for alignment)\n"
+  report << "map_load_seconds=" << load_seconds << "  (features checked; the map scans prepared for alignment, unless more than loops/prepared_cache: then each when first aligned)\n"
          << "start_scan=" << start_scan << "\n"
          << "scans=" << c.scans << "\n"
          << "keyframes=" << c.keyframes << "\n"

@@ -492,6 +492,9 @@ int runSlam(const Args& args) {
          << "calibration_pairs=" << c.calibration_pairs << "\n"
          << "candidates_not_aligned=" << c.not_aligned << "  (the place gate: the back end says not one place)\n"
          << "aligned=" << c.aligned << "\n"
+         << "scans_prepared_again=" << slam.detector().preparedAgain()
+         << "  (keyframes aligned after loops/prepared_cache let their prepared scan go; held now: "
+         << slam.detector().heldPrepared() << ")\n"
          << "nearby_aligned=" << c.nearby_aligned << "  (of those, keyframes the map put near: loops/nearby_candidates)\n"
          << "nearby_found=" << c.nearby_found << "  (of those, aligned and shape-validated)\n"
          << "context_checked=" << c.context_checked << "  (shape-validated loops checked against the keyframes around them: loops/context)\n"

@@ -88,9 +88,13 @@ Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, cons
   // first keyframe, as SlamFrontEnd::restore does), else recomputed.
   const bool stored_features_fit = map.features.size() == map.keyframes.size() && !map.features.empty() &&
                                    map_.describe(map.keyframes.front().scan) == map.features.front();
-  // Preparing every map scan for alignment is most of a big map's load: on search_threads
-  // threads (ScanAligner::prepare is const), keyframe k on thread k % threads.
-  std::vector<std::shared_ptr<const PreparedScan>> prepared(map.keyframes.size());
+  // A map larger than the prepared cache keeps its scans and prepares those it aligns (the
+  // cache holds the most recently aligned). A smaller one is prepared at load, as before:
+  // that is most of its load, on search_threads threads (ScanAligner::prepare is const),
+  // keyframe k on thread k % threads.
+  const std::size_t cache = slam.loops.prepared_cache;
+  const bool lazy = cache > 0 && map.keyframes.size() > cache;
+  std::vector<std::shared_ptr<const PreparedScan>> prepared(lazy ? 0 : map.keyframes.size());
   auto prepareEvery = [&](std::size_t first, std::size_t step) {
     for (std::size_t k = first; k < prepared.size(); k += step) prepared[k] = map_.aligner().prepare(map.keyframes[k].scan);
   };
@@ -100,8 +104,12 @@ Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, cons
   prepareEvery(0, workers);
   for (std::future<void>& other : others) other.get();
   for (std::size_t k = 0; k < map.keyframes.size(); ++k) {
-    if (stored_features_fit) map_.addWithFeatures(map.features[k], std::move(prepared[k]));
-    else map_.add(map.keyframes[k].scan, std::move(prepared[k]));
+    std::shared_ptr<const PreparedScan> ready = lazy ? nullptr : std::move(prepared[k]);
+    if (!stored_features_fit) {
+      map_.add(map.keyframes[k].scan, std::move(ready));  // keeps a copy of the scan when the cache is bounded
+      continue;
+    }
+    map_.addWithFeatures(map.features[k], std::move(ready), cache > 0 ? &map.keyframes[k].scan : nullptr);
   }
 }
 
@@ -151,6 +159,7 @@ LocalizationStep Localizer::addScan(const Scan& scan, const Pose2* wheel_odometr
   const auto start = std::chrono::steady_clock::now();
   LocalizationStep step;
   ++counters_.scans;
+  map_.trimPrepared();  // the map takes no keyframes: its cache is trimmed between steps
   const FrontEndStep front = front_.addScan(scan, wheel_odometry);
   counters_.seconds_front_end += secondsSince(start);
   step.skip_reason = front.skip_reason;

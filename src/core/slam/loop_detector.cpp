@@ -68,6 +68,7 @@ LoopDetector::LoopDetector(const ClassifierModel& model, const ScanAlignerOption
       aligner_(aligner),
       extractor_(model.features),
       store_(model.features.feature_set),
+      prepared_(options.prepared_cache),
       calibrator_(options.calibration.validate().empty() ? options.calibration : ThresholdCalibrationOptions{}) {
   const std::string error = options_.validate();
   if (!error.empty()) throw std::invalid_argument("loop detector options: " + error);
@@ -100,30 +101,24 @@ std::size_t LoopDetector::calibrate(std::size_t index, const std::vector<std::si
   return scored;
 }
 
-const PreparedScan& LoopDetector::prepared(std::size_t index) const {
-  const std::shared_ptr<const PreparedScan>& scan = prepared_.at(index);
-  if (!scan) throw std::out_of_range("keyframe " + std::to_string(index) + ": its scan was let go (releasePrepared)");
-  return *scan;
-}
-
-void LoopDetector::releasePrepared(std::size_t index) {
-  if (index < prepared_.size()) prepared_[index].reset();
-}
+void LoopDetector::releasePrepared(std::size_t index) { prepared_.release(index); }
 
 std::size_t LoopDetector::add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared) {
-  if (!prepared) prepared = aligner_.prepare(scan);
-  return addWithFeatures(extractor_.extract(scan), std::move(prepared));
+  if (options_.prepared_cache == 0) {
+    if (!prepared) prepared = aligner_.prepare(scan);
+    return addWithFeatures(extractor_.extract(scan), std::move(prepared));
+  }
+  return addWithFeatures(extractor_.extract(scan), std::move(prepared), &scan);
 }
 
 std::size_t LoopDetector::addWithFeatures(const std::vector<double>& features,
-                                          std::shared_ptr<const PreparedScan> prepared) {
+                                          std::shared_ptr<const PreparedScan> prepared, const Scan* scan) {
   if (features.size() != store_.featureCount())
     throw std::invalid_argument("keyframe features: expected " + std::to_string(store_.featureCount()) + " values, got " +
                                 std::to_string(features.size()));
-  if (!prepared) throw std::invalid_argument("keyframe without a prepared scan");
+  if (!prepared && !scan) throw std::invalid_argument("keyframe without a prepared scan or a scan to prepare");
   store_.add(features.data());
-  prepared_.push_back(std::move(prepared));
-  return prepared_.size() - 1;
+  return prepared_.add(std::move(prepared), scan);
 }
 
 LoopClosure LoopDetector::verify(std::size_t from, std::size_t to, double score) const {
@@ -238,7 +233,7 @@ ContextCheckResult LoopDetector::checkContextWith(LoopClosure& loop, std::size_t
     std::vector<ContextScan> found;
     for (const ContextKeyframe& k : of(keyframe, older_than, options_.context.distance, options_.context.spacing)) {
       if (!store.hasPrepared(k.keyframe) || !isFinite(k.pose)) continue;
-      const PreparedScan& scan = *store.prepared_[k.keyframe];
+      const PreparedScan& scan = store.prepared(k.keyframe);
       found.push_back({&scan.points, k.pose, &scan.icp_target.normals});
     }
     return found;

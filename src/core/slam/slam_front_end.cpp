@@ -36,10 +36,16 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
     for (std::size_t i = 0; !recompute && i < fresh.size(); ++i)
       recompute = std::abs(fresh[i] - features.front()[i]) > 1e-5 * (1.0 + std::abs(fresh[i]));
   }
+  // With a prepared cache the restored keyframes are prepared when first aligned.
+  const bool lazy = detector.options().prepared_cache > 0;
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
-    auto prepared = detector.aligner().prepare(keyframes[k].scan);
-    if (recompute) detector.add(keyframes[k].scan, prepared);
-    else detector.addWithFeatures(features[k], prepared);
+    if (recompute) {
+      detector.add(keyframes[k].scan, lazy ? nullptr : detector.aligner().prepare(keyframes[k].scan));
+    } else if (lazy) {
+      detector.addWithFeatures(features[k], nullptr, &keyframes[k].scan);
+    } else {
+      detector.addWithFeatures(features[k], detector.aligner().prepare(keyframes[k].scan));
+    }
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
@@ -425,7 +431,8 @@ std::size_t SlamFrontEnd::addKeyframeMadeElsewhere(const Scan& scan, const std::
   // Features of another length (another feature set on the robot) or not finite are made again here.
   const bool usable = features.size() == detector_.featureCount() &&
                       std::all_of(features.begin(), features.end(), [](double f) { return std::isfinite(f); });
-  const std::size_t index = usable ? detector_.addWithFeatures(features, std::move(prepared))
+  const Scan* kept = detector_.options().prepared_cache > 0 ? &scan : nullptr;
+  const std::size_t index = usable ? detector_.addWithFeatures(features, std::move(prepared), kept)
                                 : detector_.add(scan, std::move(prepared));
   extendChains(index, index == 0 ? Pose2{} : motion, scan.full_circle);
   ++counters_.keyframes;

@@ -15,6 +15,7 @@
 #include "laser_loop_closure/core/alignment/context_check.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/classifier/threshold_calibration.hpp"
+#include "laser_loop_closure/core/slam/prepared_scan_cache.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
@@ -42,6 +43,10 @@ struct LoopDetectorOptions {
   /// 0: every nearby keyframe searched.
   double nearby_min_predicted_fit = 0.3;
   std::size_t threads = 1;            ///< threads of the classifier query
+  /// Keyframes kept prepared for alignment (points, normals, search structures: most of a
+  /// keyframe's memory), the most recently aligned; the others keep their scan and are prepared
+  /// again when aligned, with the same result. 0: every keyframe kept prepared.
+  std::size_t prepared_cache = 300;
   /// Floors added to ICP's covariance of a loop (which only knows the residuals, and is
   /// optimistic): standard deviations, as the back end's chi-square gate sees them.
   double translation_sigma = 0.05;  ///< m
@@ -101,14 +106,21 @@ class LoopDetector {
   const ScanAligner& aligner() const { return aligner_; }
   const ClassifierModel& model() const { return model_; }
   std::size_t size() const { return prepared_.size(); }
+  /// Keyframes prepared now, and scans prepared again after the cache let them go.
+  std::size_t heldPrepared() const { return prepared_.heldPrepared(); }
+  std::size_t preparedAgain() const { return prepared_.preparedAgain(); }
   /// Values in each stored feature vector (what addWithFeatures takes).
   std::size_t featureCount() const { return store_.featureCount(); }
 
   /// Stores a keyframe: its features and its scan prepared for alignment (prepared by
-  /// aligner(), or nullptr to prepare it here). Returns its index.
+  /// aligner(), or nullptr to prepare it when first aligned; with prepared_cache 0, here); with
+  /// prepared_cache > 0 it keeps a copy of the scan to prepare it again. Returns its index.
   std::size_t add(const Scan& scan, std::shared_ptr<const PreparedScan> prepared = nullptr);
-  /// Stores a keyframe whose features are already known (a loaded session).
-  std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared);
+  /// Stores a keyframe whose features are already known (a loaded session, a keyframe made
+  /// elsewhere): `prepared` (by aligner()) and/or `scan` (to prepare it when needed; without
+  /// it, the prepared scan is kept for ever). Throws std::invalid_argument when both are null.
+  std::size_t addWithFeatures(const std::vector<double>& features, std::shared_ptr<const PreparedScan> prepared,
+                              const Scan* scan = nullptr);
   /// Classifies keyframe `index` against every keyframe older than min_keyframe_gap and aligns
   /// the best candidates, each after `check` (when given) let it through. When none gave a
   /// loop, the keyframes `nearby` (when given) offers are checked and aligned the same way
@@ -147,14 +159,19 @@ class LoopDetector {
   std::vector<double> features(std::size_t index) const { return store_.features(index); }
   /// The feature vector the detector would store for this scan.
   std::vector<double> describe(const Scan& scan) { return extractor_.extract(scan); }
-  /// Throws std::out_of_range for an unknown keyframe or one whose scan was let go.
-  const PreparedScan& prepared(std::size_t index) const;
+  /// Throws std::out_of_range for an unknown keyframe or one whose scan was let go. Prepares
+  /// it again when the cache let it go; the reference stays valid until the next add (or
+  /// other non-const call), as PreparedScanCache says. Safe from several threads.
+  const PreparedScan& prepared(std::size_t index) const { return prepared_.get(index, aligner_); }
+  /// Lets go of the least recently aligned prepared scans beyond prepared_cache (add() does it;
+  /// a store that takes no more keyframes, a localiser's map, calls it between its steps).
+  void trimPrepared() { prepared_.trim(); }
   /// Lets go of keyframe `index`'s prepared scan (points, normals, search structures: most of
   /// a keyframe's memory); its features stay, so it is still classified and counted, but it
   /// can no longer be aligned. For stores whose old keyframes are never aligned again (a
   /// localising robot's own). Unknown indices are ignored.
   void releasePrepared(std::size_t index);
-  bool hasPrepared(std::size_t index) const { return index < prepared_.size() && prepared_[index] != nullptr; }
+  bool hasPrepared(std::size_t index) const { return prepared_.has(index); }
   /// Swaps in another model of the same feature parameters; throws std::invalid_argument else.
   /// The calibration starts again (its scores were the old model's).
   void setModel(const ClassifierModel& model);
@@ -187,7 +204,7 @@ class LoopDetector {
   ScanAligner aligner_;
   FeatureExtractor extractor_;
   KeyframeStore store_;
-  std::vector<std::shared_ptr<const PreparedScan>> prepared_;
+  PreparedScanCache prepared_;
   ThresholdCalibrator calibrator_;
 };
 

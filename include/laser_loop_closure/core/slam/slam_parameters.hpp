@@ -108,6 +108,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("loops/nearby_max_std", loops.nearby_max_std);
   visit("loops/nearby_min_predicted_fit", loops.nearby_min_predicted_fit);
   visit("loops/threads", loops.threads);
+  visit("loops/prepared_cache", loops.prepared_cache);
   visit("loops/translation_sigma", loops.translation_sigma);
   visit("loops/rotation_sigma", loops.rotation_sigma);
   visit("loops/calibration/enabled", loops.calibration.enabled);

@@ -1,0 +1,138 @@
+#include "laser_loop_closure/core/slam/prepared_scan_cache.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace llc {
+
+PreparedScanCache::PreparedScanCache(const PreparedScanCache& other) { *this = other; }
+
+PreparedScanCache& PreparedScanCache::operator=(const PreparedScanCache& other) {
+  if (this == &other) return *this;
+  std::scoped_lock lock(mutex_, other.mutex_);
+  capacity_ = other.capacity_;
+  entries_ = other.entries_;
+  held_ = other.held_;
+  clock_ = other.clock_;
+  trimmed_at_ = other.trimmed_at_;
+  prepared_again_ = other.prepared_again_;
+  return *this;
+}
+
+namespace {
+
+/// Every value a float exactly (NaN and infinities included): stored as floats, read back the same.
+bool singlePrecision(const std::vector<double>& values) {
+  return std::all_of(values.begin(), values.end(), [](double v) { return std::isnan(v) || double(float(v)) == v; });
+}
+
+}  // namespace
+
+std::shared_ptr<const PreparedScanCache::RestingScan> PreparedScanCache::RestingScan::of(const Scan& scan) {
+  auto rest = std::make_shared<RestingScan>();
+  rest->stamp = scan.stamp;
+  rest->full_circle = scan.full_circle;
+  if (singlePrecision(scan.ranges) && singlePrecision(scan.bearings)) {
+    rest->ranges_single.assign(scan.ranges.begin(), scan.ranges.end());
+    rest->bearings_single.assign(scan.bearings.begin(), scan.bearings.end());
+  } else {
+    rest->ranges = scan.ranges;
+    rest->bearings = scan.bearings;
+  }
+  return rest;
+}
+
+Scan PreparedScanCache::RestingScan::scan() const {
+  Scan scan;
+  scan.stamp = stamp;
+  scan.full_circle = full_circle;
+  if (ranges.empty() && bearings.empty()) {
+    scan.ranges.assign(ranges_single.begin(), ranges_single.end());
+    scan.bearings.assign(bearings_single.begin(), bearings_single.end());
+  } else {
+    scan.ranges = ranges;
+    scan.bearings = bearings;
+  }
+  return scan;
+}
+
+std::size_t PreparedScanCache::add(std::shared_ptr<const PreparedScan> prepared, const Scan* scan) {
+  if (!prepared && !scan) throw std::invalid_argument("keyframe without a prepared scan or a scan to prepare");
+  std::shared_ptr<const RestingScan> rest = scan ? RestingScan::of(*scan) : nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (prepared) ++held_;
+    entries_.push_back({std::move(prepared), std::move(rest), ++clock_});
+  }
+  trim();
+  return entries_.size() - 1;
+}
+
+const PreparedScan& PreparedScanCache::get(std::size_t index, const ScanAligner& aligner) const {
+  std::shared_ptr<const RestingScan> scan;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (index >= entries_.size()) throw std::out_of_range("no keyframe " + std::to_string(index));
+    Entry& entry = entries_[index];
+    if (entry.prepared) {
+      entry.last_asked = ++clock_;
+      return *entry.prepared;
+    }
+    if (!entry.scan) throw std::out_of_range("keyframe " + std::to_string(index) + ": its scan was let go (releasePrepared)");
+    scan = entry.scan;
+  }
+  // Prepared outside the lock: other threads' keyframes need not wait for this one.
+  std::shared_ptr<const PreparedScan> made = aligner.prepare(scan->scan());
+  std::lock_guard<std::mutex> lock(mutex_);
+  Entry& entry = entries_[index];
+  if (!entry.prepared) {  // else another thread prepared it meanwhile: the same scan, theirs kept
+    entry.prepared = std::move(made);
+    ++held_;
+    ++prepared_again_;
+  }
+  entry.last_asked = ++clock_;
+  return *entry.prepared;
+}
+
+bool PreparedScanCache::has(std::size_t index) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return index < entries_.size() && (entries_[index].prepared || entries_[index].scan);
+}
+
+void PreparedScanCache::release(std::size_t index) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (index >= entries_.size()) return;
+  if (entries_[index].prepared) --held_;
+  entries_[index].prepared.reset();
+  entries_[index].scan.reset();
+}
+
+void PreparedScanCache::trim() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (capacity_ > 0 && held_ > capacity_) {
+    std::vector<std::pair<std::uint64_t, std::size_t>> idle;  // (last asked, index)
+    for (std::size_t k = 0; k < entries_.size(); ++k)
+      if (entries_[k].prepared && entries_[k].scan && entries_[k].last_asked <= trimmed_at_)
+        idle.emplace_back(entries_[k].last_asked, k);
+    const std::size_t excess = std::min(held_ - capacity_, idle.size());
+    std::nth_element(idle.begin(), idle.begin() + long(excess), idle.end());
+    for (std::size_t i = 0; i < excess; ++i) entries_[idle[i].second].prepared.reset();
+    held_ -= excess;
+  }
+  trimmed_at_ = clock_;
+}
+
+std::size_t PreparedScanCache::heldPrepared() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return held_;
+}
+
+std::size_t PreparedScanCache::preparedAgain() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return prepared_again_;
+}
+
+}  // namespace llc
