@@ -16,6 +16,27 @@
 #include "laser_loop_closure/ros/io/tf_bridge.hpp"
 
 namespace llc_ros {
+namespace {
+
+/// Moves the keyframe's scan out (its stamp and full_circle stay): the node holds each scan once.
+std::shared_ptr<const llc::Scan> withoutScan(llc::Keyframe* keyframe) {
+  auto scan = std::make_shared<const llc::Scan>(std::move(keyframe->scan));
+  keyframe->scan = llc::Scan{};
+  keyframe->scan.stamp = scan->stamp;
+  keyframe->scan.full_circle = scan->full_circle;
+  return scan;
+}
+
+/// The session with each keyframe's scan put back from the node's.
+llc::SlamSession withScans(llc::SlamSession session, const std::vector<std::shared_ptr<const llc::Scan>>& scans) {
+  if (scans.size() != session.keyframes.size())
+    throw std::logic_error("esdf_backend: " + std::to_string(scans.size()) + " scans held for " +
+                           std::to_string(session.keyframes.size()) + " keyframes");
+  for (std::size_t k = 0; k < scans.size(); ++k) session.keyframes[k].scan = *scans[k];
+  return session;
+}
+
+}  // namespace
 
 std::string EsdfBackendNodeOptions::validate() const {
   if (map_frame.empty() || odom_frame.empty()) return "map_frame and odom_frame must not be empty";
@@ -124,6 +145,8 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
   if (msg.index != expected) {
     error = "keyframe " + std::to_string(msg.index) + " arrived, " + std::to_string(expected) + " expected";
   } else if (fromKeyframeMsg(msg, &keyframe, &motion, &covariance, &error)) {
+    // The scan is held once, here, for the map and sessions: the pose graph needs none.
+    std::shared_ptr<const llc::Scan> scan = withoutScan(&keyframe);
     // Kept whatever its odometry: a note says what was unusable and replaced.
     const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
     if (!note.empty()) {
@@ -131,7 +154,7 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
       ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
     }
     features_.push_back(msg.features);
-    map_scans_.push_back(std::make_shared<const llc::Scan>(back_->keyframes().back().scan));
+    map_scans_.push_back(std::move(scan));
   }
   if (!error.empty()) {
     ++refused_keyframes_;
@@ -354,7 +377,7 @@ bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& reque
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string path = request.path.empty() ? options_.session_path : request.path;
   try {
-    llc::saveSession(llc::sessionOf(*back_, features_, &robots_), path);
+    llc::saveSession(withScans(llc::sessionOf(*back_, features_, &robots_), map_scans_), path);
     response.success = true;
     response.keyframes = std::uint32_t(back_->keyframes().size());
     response.loops = std::uint32_t(back_->loops().size());
@@ -378,6 +401,8 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   } catch (const llc::SessionError& e) {
     response.message = e.what();
   }
+  std::vector<std::shared_ptr<const llc::Scan>> scans;  // held once, here (the back end restores none)
+  for (llc::Keyframe& k : session.keyframes) scans.push_back(withoutScan(&k));
   if (response.message.empty()) {
     const std::string error = back_->restore(session);
     if (!error.empty()) response.message = path + ": not restored: " + error;
@@ -389,8 +414,7 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   }
   features_ = session.features;
   robots_ = llc::KeyframeRobots::afterRestore(session, request.continue_odometry);
-  map_scans_.clear();
-  for (const llc::Keyframe& k : back_->keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
+  map_scans_ = std::move(scans);
   pending_loops_.clear();
   refused_by_alignment_.clear();
   refused_keyframes_ = 0;
@@ -412,7 +436,9 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     msg.path = path;
     msg.continue_odometry = request.continue_odometry;
     for (std::size_t k = part * per_part; k < std::min(n, (part + 1) * per_part); ++k) {
-      msg.keyframes.push_back(toKeyframeMsg(session.keyframes[k], k, llc::OdometryStep{}, ""));
+      llc::Keyframe keyframe = session.keyframes[k];
+      keyframe.scan = *map_scans_[k];
+      msg.keyframes.push_back(toKeyframeMsg(keyframe, k, llc::OdometryStep{}, ""));
       msg.keyframes.back().features = session.features[k];
     }
     session_pub_.publish(msg);
