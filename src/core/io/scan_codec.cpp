@@ -1,4 +1,5 @@
 #include "laser_loop_closure/core/io/scan_codec.hpp"
+#include "laser_loop_closure/core/geometry/se2.hpp"
 
 #include <zlib.h>
 
@@ -60,8 +61,6 @@ T getRaw(const std::vector<std::uint8_t>& in, std::size_t at) {
   return value;
 }
 
-double wrapAngle(double angle) { return std::remainder(angle, 2.0 * M_PI); }
-
 struct Point {
   double x = 0.0, y = 0.0;
 };
@@ -82,7 +81,7 @@ struct DirectionCode {
 };
 
 DirectionCode codeDirection(const SourceTrack& track, double increment, double bearing_step, double direction) {
-  const double turn = wrapAngle(direction - track.direction);
+  const double turn = normalizeAngle(direction - track.direction);
   DirectionCode code;
   code.beams = std::llround(turn / increment);
   code.rest = std::llround((turn - double(code.beams) * increment) / bearing_step);
@@ -96,7 +95,7 @@ template <class Even>
 double beamIncrement(const std::vector<double>& seen, Even&& even, double bearing_step) {
   std::vector<double> steps, all;
   for (std::size_t k = 0; k + 1 < seen.size(); ++k) {
-    const double step = wrapAngle(seen[k + 1] - seen[k]);
+    const double step = normalizeAngle(seen[k + 1] - seen[k]);
     all.push_back(step);
     if (even(k)) steps.push_back(step);
   }
@@ -126,7 +125,7 @@ bool fitScannerOrigin(const std::vector<Point>& run, double tolerance, Point* or
     }
     double a = 0.0, b = 0.0, c = 0.0, gx = 0.0, gy = 0.0, sum = 0.0;
     for (std::size_t k = 1; k + 1 < n; ++k) {
-      const double e = wrapAngle(direction[k + 1] - direction[k]) - wrapAngle(direction[k] - direction[k - 1]);
+      const double e = normalizeAngle(direction[k + 1] - direction[k]) - normalizeAngle(direction[k] - direction[k - 1]);
       const double jx = dx[k + 1] - 2.0 * dx[k] + dx[k - 1], jy = dy[k + 1] - 2.0 * dy[k] + dy[k - 1];
       a += jx * jx, b += jx * jy, c += jy * jy, gx += jx * e, gy += jy * e, sum += e * e;
     }
@@ -215,7 +214,7 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
       seen[s][k] = returned[k] ? std::atan2(points[k].y - origins[s].y, points[k].x - origins[s].x) : bearings[k];  // no return: its ray
   auto even = [&](std::size_t s, std::size_t first) {  // beams first .. first + 2 step evenly from source s
     return first + 2 < n &&
-           std::abs(wrapAngle(seen[s][first + 2] - seen[s][first + 1]) - wrapAngle(seen[s][first + 1] - seen[s][first])) <
+           std::abs(normalizeAngle(seen[s][first + 2] - seen[s][first + 1]) - normalizeAngle(seen[s][first + 1] - seen[s][first])) <
                0.5 * options.bearing_step;
   };
   std::vector<double> increments;
@@ -333,7 +332,7 @@ bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string
     const std::size_t s = plain[k] & ~kNoReturn;
     const double direction = direction_of[k];
     if (plain[k] & kNoReturn) {
-      out.bearings.push_back(wrapAngle(direction));
+      out.bearings.push_back(normalizeAngle(direction));
       out.ranges.push_back(std::numeric_limits<double>::infinity());
       continue;
     }
@@ -352,8 +351,12 @@ bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string
   std::vector<std::size_t> order(beams);
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return out.bearings[a] < out.bearings[b]; });
-  Scan sorted = out;
-  for (std::size_t k = 0; k < order.size(); ++k) sorted.bearings[k] = out.bearings[order[k]], sorted.ranges[k] = out.ranges[order[k]];
+  Scan sorted;
+  sorted.full_circle = out.full_circle;
+  sorted.stamp = out.stamp;
+  sorted.bearings.reserve(beams);
+  sorted.ranges.reserve(beams);
+  for (const std::size_t k : order) sorted.bearings.push_back(out.bearings[k]), sorted.ranges.push_back(out.ranges[k]);
   *scan = std::move(sorted);
   return true;
 }
