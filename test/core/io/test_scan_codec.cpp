@@ -147,6 +147,13 @@ TEST(ScanCodec, AnythingElseIsRefusedNotThrown) {
     if (trial % 5 == 0) mutated.resize(random() % (mutated.size() + 1));
     EXPECT_NO_THROW(llc::unpackScan(mutated, &scan, &error));
   }
+  // What a robot sends at worst: no beams, or no return at all: packed and read back, not refused.
+  for (const llc::Scan& odd : {llc::Scan{}, llc_test::ringScan(std::vector<double>(90, std::numeric_limits<double>::infinity()))}) {
+    llc::Scan back;
+    ASSERT_TRUE(llc::unpackScan(llc::packScan(odd), &back, &error)) << error;
+    EXPECT_EQ(back.size(), odd.size());
+    for (const double r : back.ranges) EXPECT_TRUE(std::isinf(r));
+  }
   llc::Scan bad;
   bad.ranges = {1.0, 2.0};
   bad.bearings = {0.0};
