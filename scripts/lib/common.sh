@@ -19,7 +19,7 @@ LLC_PACKAGES=(build-essential cmake ros-base-dev ros-core-python-dev
   pluginlib-dev libnodeletlib-dev libnodeletlib-tools libmessage-filters-dev
   libdiagnostic-updater-dev librosbag-storage-dev librosbag-dev libnav-msgs-dev libtf2-msgs-dev
   python3-rosbag python3-matplotlib python3-numpy
-  rviz xvfb imagemagick x11-apps libvisualization-msgs-dev libstd-srvs-dev)
+  rviz xvfb imagemagick x11-apps libvisualization-msgs-dev libstd-srvs-dev libmap-msgs-dev)
 
 llc_install_missing() {
   local missing=() p

@@ -31,6 +31,7 @@
 #include "laser_loop_closure/core/slam/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 #include "health_watch.hpp"
+#include "map_follower.hpp"
 #include "wall_bounded.hpp"
 
 namespace {
@@ -145,6 +146,8 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   });
 
   const llc_test::HealthWatch front_end_health(nh, "loop closure");
+  // Follows /map from the start by its parts (/map_updates), as rviz does.
+  const llc_test::MapFollower follower(nh);
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
@@ -165,8 +168,17 @@ TEST(BagRun, MapsTheSimulatedDrive) {
 
   // The front end's health after the drive (told every second of wall time).
   ros::WallDuration(1.5).sleep();
-  // A subscriber that comes after the map was published still gets it: /map is latched.
+  // The map settles (keyframes moved by the last loops are drawn a bounded number per update).
+  const ros::WallTime settling = ros::WallTime::now();
+  while (follower.quietSeconds() < 8.0 && (ros::WallTime::now() - settling).toSec() < 120.0) ros::WallDuration(0.5).sleep();
+  const nav_msgs::OccupancyGrid followed = follower.grid();
+  // A subscriber that comes after the map was published still gets it: /map is latched. It is
+  // then sent whole again (the latched one may be older than the parts sent since).
   nav_msgs::OccupancyGrid::ConstPtr map = llc_test::waitForMessageWithin<nav_msgs::OccupancyGrid>("/map", 10.0);
+  const ros::WallTime resent = ros::WallTime::now();
+  while (follower.wholes() < 2 && (ros::WallTime::now() - resent).toSec() < 30.0) ros::WallDuration(0.2).sleep();
+  const std::size_t map_wholes = follower.wholes(), map_parts = follower.parts();
+  const nav_msgs::OccupancyGrid whole_again = follower.grid();
   spinner.stop();
 
   std::lock_guard<std::mutex> lock(seen.mutex);
@@ -174,6 +186,19 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   ASSERT_GT(keyframes, 100u) << "the front end made too few keyframes";
   ASSERT_NE(map, nullptr) << "no latched /map";
   EXPECT_GT(map->info.width * map->info.height, 10000u);
+  // The map followed by its parts is the map sent whole: no part lost or misplaced.
+  EXPECT_GT(map_parts, 10u) << "/map_updates sent no parts";
+  EXPECT_EQ(follower.misfits(), 0u) << "parts outside the whole map";
+  EXPECT_GT(map_wholes, 1u) << "no whole /map for a new subscriber";
+  EXPECT_EQ(followed.info.width, whole_again.info.width);
+  EXPECT_EQ(followed.info.height, whole_again.info.height);
+  EXPECT_EQ(followed.info.origin.position.x, whole_again.info.origin.position.x);
+  std::size_t cells_differing = 0;
+  for (std::size_t i = 0; i < std::min(followed.data.size(), whole_again.data.size()); ++i)
+    cells_differing += followed.data[i] != whole_again.data[i];
+  EXPECT_EQ(cells_differing, 0u) << "of " << whole_again.data.size();
+  RecordProperty("map_wholes", int(map_wholes));
+  RecordProperty("map_parts", int(map_parts));
   EXPECT_GT(seen.map_to_odom, 100u) << "map -> odom not on /tf";
   EXPECT_GT(seen.map_to_odom_future, seen.map_to_odom / 2) << "map -> odom is not dated ahead (transform_tolerance)";
   // Broadcast every 0.05 s of the ROS clock (12.5 ms of wall time at 4x). Gaps between

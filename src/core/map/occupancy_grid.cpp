@@ -1,6 +1,7 @@
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
 
 #include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/map/incremental_grid.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -14,20 +15,6 @@
 
 namespace llc {
 namespace {
-
-/// Grid cells crossed from (x0, y0) to (x1, y1), end cell excluded (integer DDA, Bresenham).
-template <typename Visit>
-void traverse(int x0, int y0, int x1, int y1, Visit&& visit) {
-  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
-  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
-  int error = dx + dy;
-  while (x0 != x1 || y0 != y1) {
-    visit(x0, y0);
-    const int twice = 2 * error;
-    if (twice >= dy) error += dy, x0 += sx;
-    if (twice <= dx) error += dx, y0 += sy;
-  }
-}
 
 std::string baseName(const std::string& path) {
   const std::size_t slash = path.find_last_of('/');
@@ -52,79 +39,28 @@ std::string OccupancyGridOptions::validate() const {
   if (!(margin >= 0.0)) return "margin must be >= 0";
   if (!(no_return_free_range >= 0.0)) return "no_return_free_range must be >= 0";
   if (max_cells == 0) return "max_cells must be > 0";
+  if (!(redraw_distance > 0.0) || !(redraw_angle > 0.0)) return "redraw_distance and redraw_angle must be > 0";
+  if (max_draws_per_update < 1) return "max_draws_per_update must be at least 1";
+  if (!(grow_step >= 0.0)) return "grow_step must be >= 0";
+  if (!(hit_log_odds <= 100.0 && miss_log_odds >= -100.0 && clamp_log_odds <= 100.0))
+    return "|log-odds| above 100 (a probability of 1 - 1e-43) mean nothing more";
   return "";
 }
 
 OccupancyGrid buildOccupancyGrid(const std::vector<const Scan*>& scans, const std::vector<Pose2>& poses,
                                  const OccupancyGridOptions& options) {
-  const std::string error = options.validate();
-  if (!error.empty()) throw std::invalid_argument("occupancy grid options: " + error);
   if (scans.size() != poses.size()) throw std::invalid_argument("occupancy grid: as many poses as scans needed");
-  // Bounds: every pose and every return that will be drawn.
-  double min_x = std::numeric_limits<double>::infinity(), min_y = min_x, max_x = -min_x, max_y = -min_x;
-  auto include = [&](double x, double y) {
-    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
-    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
-  };
-  for (std::size_t k = 0; k < scans.size(); ++k) {
-    const Pose2& pose = poses[k];
-    if (!scans[k] || !std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.theta)) continue;
-    include(pose.x, pose.y);
-    const Scan& scan = *scans[k];
-    for (std::size_t i = 0; i < scan.size() && i < scan.bearings.size(); ++i) {
-      const double r = scan.ranges[i];
-      if (!(r > 0.0 && r < options.max_range) || !std::isfinite(scan.bearings[i])) continue;
-      const double angle = pose.theta + scan.bearings[i];
-      include(pose.x + r * std::cos(angle), pose.y + r * std::sin(angle));
-    }
-  }
-  OccupancyGrid grid;
-  grid.resolution = options.resolution;
-  if (!(min_x <= max_x)) return grid;  // nothing observed
-  grid.origin_x = std::floor((min_x - options.margin) / options.resolution) * options.resolution;
-  grid.origin_y = std::floor((min_y - options.margin) / options.resolution) * options.resolution;
-  const double cols = std::ceil((max_x + options.margin - grid.origin_x) / options.resolution) + 1.0;
-  const double rows = std::ceil((max_y + options.margin - grid.origin_y) / options.resolution) + 1.0;
-  if (cols * rows > double(options.max_cells))
-    throw std::invalid_argument("occupancy grid: " + std::to_string(long(cols)) + " x " + std::to_string(long(rows)) +
-                                " cells exceed max_cells; use a coarser resolution");
-  grid.width = int(cols);
-  grid.height = int(rows);
-  std::vector<float> log_odds(std::size_t(grid.width) * std::size_t(grid.height), 0.0f);
-  const float hit = float(options.hit_log_odds), miss = float(options.miss_log_odds), clamp = float(options.clamp_log_odds);
-  auto cellOf = [&](double v, double origin) { return int(std::floor((v - origin) / options.resolution)); };
-  auto inside = [&](int c, int r) { return c >= 0 && r >= 0 && c < grid.width && r < grid.height; };
-  for (std::size_t k = 0; k < scans.size(); ++k) {
-    const Pose2& pose = poses[k];
-    if (!scans[k] || !std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.theta)) continue;
-    const Scan& scan = *scans[k];
-    const int c0 = cellOf(pose.x, grid.origin_x), r0 = cellOf(pose.y, grid.origin_y);
-    for (std::size_t i = 0; i < scan.size() && i < scan.bearings.size(); ++i) {
-      const double r = scan.ranges[i];
-      // REP-117: +inf (and anything at or beyond max_range) is no return: free space up to
-      // no_return_free_range at most; NaN, -inf, zero and negative ranges say nothing.
-      if (!(r > 0.0) || std::isnan(scan.bearings[i]) || std::isinf(scan.bearings[i])) continue;
-      const bool returned = r < options.max_range;
-      if (!returned && !(options.no_return_free_range > 0.0)) continue;
-      const double length = returned ? r : std::min(options.no_return_free_range, options.max_range);
-      const double angle = pose.theta + scan.bearings[i];
-      const int c1 = cellOf(pose.x + length * std::cos(angle), grid.origin_x);
-      const int r1 = cellOf(pose.y + length * std::sin(angle), grid.origin_y);
-      traverse(c0, r0, c1, r1, [&](int c, int row) {
-        if (!inside(c, row)) return;
-        float& cell = log_odds[std::size_t(row) * std::size_t(grid.width) + std::size_t(c)];
-        cell = std::max(-clamp, cell + miss);
-      });
-      if (returned && inside(c1, r1)) {
-        float& cell = log_odds[std::size_t(r1) * std::size_t(grid.width) + std::size_t(c1)];
-        cell = std::min(clamp, cell + hit);
-      }
-    }
-  }
-  grid.cells.assign(log_odds.size(), -1);
-  for (std::size_t i = 0; i < log_odds.size(); ++i)
-    if (log_odds[i] != 0.0f) grid.cells[i] = std::int8_t(std::lround(100.0 / (1.0 + std::exp(-double(log_odds[i])))));
-  return grid;
+  OccupancyGridOptions exact = options;
+  exact.grow_step = 0.0;  // bounds: what was observed and the margin
+  IncrementalOccupancyGrid grid(exact);
+  std::vector<std::shared_ptr<const Scan>> shared;
+  shared.reserve(scans.size());
+  for (const Scan* scan : scans) shared.emplace_back(std::shared_ptr<const Scan>(), scan);  // not owned
+  const GridUpdateResult drawn = grid.update(shared, poses);
+  if (drawn.too_large > 0 || grid.bounds().cells() > double(options.max_cells))
+    throw std::invalid_argument("occupancy grid: more cells than max_cells (" + std::to_string(options.max_cells) +
+                                "); use a coarser resolution");
+  return grid.region(grid.bounds());
 }
 
 void saveMapFiles(const OccupancyGrid& grid, const std::string& stem, const OccupancyGridOptions& options) {

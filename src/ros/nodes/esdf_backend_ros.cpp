@@ -61,7 +61,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
-  map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
@@ -83,7 +83,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
                                                          [this](const ros::TimerEvent&) { publishTransform(); });
     transform_thread_.start();
   }
-  // The map is rebuilt on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
+  // The map is updated on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
   // held every keyframe behind it, and the front end's place checks timed out meanwhile.
   map_timer_ = map_thread_.handle(nh).createWallTimer(ros::WallDuration(options_.map_publish_period),
                                                       [this](const ros::WallTimerEvent&) { publishMap(); });
@@ -296,10 +296,10 @@ void EsdfBackendRos::publishPoses() {
 }
 
 void EsdfBackendRos::publishMap() {
-  // A snapshot under the lock (poses, loops and shared scans: cheap), the rebuild outside it:
-  // keyframes, loops and place checks go on meanwhile (a 10 km map takes seconds).
+  // A snapshot under the lock (poses, loops and shared scans: cheap), the update outside it:
+  // keyframes, loops and place checks go on meanwhile.
   std::lock_guard<std::mutex> building(map_building_);
-  // Throttled by its own cost (map_cpu_share): a large map is rebuilt less often; it stays dirty.
+  // Throttled by its own cost (map_cpu_share): a large map is updated less often; it stays dirty.
   if (std::chrono::steady_clock::now() < next_map_allowed_) return;
   std::vector<llc::Pose2> poses;
   std::vector<std::shared_ptr<const llc::Scan>> scans_held;
@@ -307,7 +307,7 @@ void EsdfBackendRos::publishMap() {
   std_msgs::Header header;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!map_dirty_ || back_->keyframes().empty()) return;
+    if ((!map_dirty_ && !map_updates_->wholeDue()) || back_->keyframes().empty()) return;
     map_dirty_ = false;
     header = mapHeader();
     poses = back_->poses();
@@ -316,25 +316,35 @@ void EsdfBackendRos::publishMap() {
     loops.insert(loops.end(), back_->loops().begin(), back_->loops().end());
   }
   const auto start = std::chrono::steady_clock::now();
-  marker_pub_.publish(graphMarkers(poses, loops, header));
-  std::vector<const llc::Scan*> scans;
-  for (const auto& scan : scans_held) scans.push_back(scan.get());
   std::string problem;
+  MapUpdatePublisher::Published published;
   try {
-    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, poses, system_.map), header));
+    published = map_updates_->publish(scans_held, poses, header);
   } catch (const std::exception& e) {
     problem = std::string("map: ") + e.what();
-    ROS_WARN_THROTTLE(30.0, "esdf_backend: map not rebuilt: %s", e.what());
+    ROS_WARN_THROTTLE(30.0, "esdf_backend: map not updated: %s", e.what());
   }
+  if (published.update.too_large > 0)
+    ROS_WARN_THROTTLE(30.0, "esdf_backend: %zu keyframes not drawn on /map: it would exceed map/max_cells",
+                      published.update.too_large);
+  const double map_seconds = llc::secondsSince(start);
+  marker_pub_.publish(graphMarkers(poses, loops, header));
   // The cloud of every return costs as much as the grid: built only for someone listening.
-  if (cloud_pub_.getNumSubscribers() > 0)
+  if (cloud_pub_.getNumSubscribers() > 0) {
+    std::vector<const llc::Scan*> scans;
+    for (const auto& scan : scans_held) scans.push_back(scan.get());
     cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
+  }
   const double took = llc::secondsSince(start);
   next_map_allowed_ = std::chrono::steady_clock::now() +
                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                           std::chrono::duration<double>(took / options_.map_cpu_share - took));
   std::lock_guard<std::mutex> lock(mutex_);
-  last_map_seconds_ = took;
+  last_map_seconds_ = map_seconds;
+  longest_map_seconds_ = std::max(longest_map_seconds_, map_seconds);
+  map_keyframes_waiting_ = published.update.waiting;
+  map_bytes_ = map_updates_->bytes();
+  if (published.update.waiting > 0) map_dirty_ = true;  // the rest at the next update
   if (!problem.empty()) last_problem_ = problem;
 }
 
@@ -483,7 +493,10 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops waiting for keyframes", pending_loops_.size());
   status.add("loops dropped", dropped_loops_);
   status.add("seconds in the filter", c.seconds);
-  status.add("seconds of the last map rebuild", last_map_seconds_);
+  status.add("seconds of the last map update", last_map_seconds_);
+  status.add("seconds of the longest map update", longest_map_seconds_);
+  status.add("keyframes waiting to be drawn on the map", map_keyframes_waiting_);
+  status.add("bytes of the map's grid", map_bytes_);
   // Loops the back end refused, by why (llc::LoopRefusal's names).
   for (llc::LoopRefusal kind : {llc::LoopRefusal::kBackEndGate, llc::LoopRefusal::kBackEndUnsolvable,
                                 llc::LoopRefusal::kBackEndMalformed})

@@ -112,7 +112,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
           return true;
         });
   }
-  map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map);
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   save_session_srv_ = service_nh.advertiseService("save_session", &MultiRobotBackendRos::saveSession, this);
   save_map_srv_ = service_nh.advertiseService("save_map", &MultiRobotBackendRos::saveMap, this);
@@ -377,7 +377,7 @@ void MultiRobotBackendRos::publishMap() {
   header.frame_id = options_.map_frame;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!map_dirty_) return;
+    if (!map_dirty_ && !map_updates_->wholeDue()) return;
     map_dirty_ = false;
     const llc::SlamBackEnd& map = slam_->map();
     poses = map.poses();
@@ -406,12 +406,14 @@ void MultiRobotBackendRos::publishMap() {
     if (!paths[r].poses.empty()) robots_[r].path_pub.publish(paths[r]);
   if (poses.empty()) return;
   marker_pub_.publish(graphMarkers(poses, loops, header, fleet));
-  std::vector<const llc::Scan*> scans;
-  for (const auto& scan : scans_held) scans.push_back(scan.get());
   try {
-    map_pub_.publish(toOccupancyGridMsg(llc::buildOccupancyGrid(scans, poses, system_.map), header));
+    const MapUpdatePublisher::Published published = map_updates_->publish(scans_held, poses, header);
+    if (published.update.waiting > 0) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      map_dirty_ = true;  // the rest at the next update
+    }
   } catch (const std::exception& e) {
-    ROS_WARN_THROTTLE(30.0, "multi_robot_backend: map not rebuilt: %s", e.what());
+    ROS_WARN_THROTTLE(30.0, "multi_robot_backend: map not updated: %s", e.what());
   }
 }
 

@@ -1,5 +1,5 @@
-// An occupancy grid rebuilt from keyframe scans at their (optimised) poses, by ray casting
-// with log-odds, and the map_server file format (PGM + YAML) it is saved in.
+// An occupancy grid of keyframe scans at their (optimised) poses, by ray casting with
+// log-odds (drawn by IncrementalOccupancyGrid), and the map_server file format (PGM + YAML).
 #pragma once
 
 #include <cstdint>
@@ -19,11 +19,20 @@ struct OccupancyGridOptions {
   double no_return_free_range = 0.0;
   double hit_log_odds = 0.85;    ///< added to the cell a beam ends in
   double miss_log_odds = -0.4;   ///< added to every cell a beam crosses
-  double clamp_log_odds = 5.0;   ///< |log-odds| never exceeds this (a changing world can change the map)
+  /// |log-odds| shown never exceeds this. The sum itself is kept unclamped (in steps of 0.001), so
+  /// that a keyframe drawn once can be taken out exactly when its pose moves.
+  double clamp_log_odds = 5.0;
   double occupied_threshold = 0.65;  ///< probability above which a cell is occupied (map_server's occupied_thresh)
   double free_threshold = 0.196;     ///< below which it is free (map_server's free_thresh)
   double margin = 2.0;           ///< m of unknown border around everything observed
   std::size_t max_cells = 200000000;  ///< refuse a grid larger than this (memory), instead of swapping
+  // The back ends' /map, kept up to date by IncrementalOccupancyGrid:
+  double redraw_distance = 0.05;  ///< m; a keyframe whose pose moved further since it was drawn is drawn again
+  double redraw_angle = 0.005;    ///< rad; or whose heading turned further (0.15 m at 30 m)
+  /// keyframes drawn or redrawn per /map update at most (new ones first, then the most moved):
+  /// an update costs the same on a large map; the rest wait for the next update
+  int max_draws_per_update = 100;
+  double grow_step = 20.0;        ///< m; when the map outgrows its bounds they grow this much further (a whole /map is sent then)
   [[nodiscard]] std::string validate() const;
 };
 
@@ -37,8 +46,9 @@ struct OccupancyGrid {
   std::int8_t at(int col, int row) const { return cells[std::size_t(row) * std::size_t(width) + std::size_t(col)]; }
 };
 
-/// Builds the grid from scans[i] seen at poses[i] (base frame in map frame). Throws
-/// std::invalid_argument on bad options, mismatched sizes, or a grid above max_cells.
+/// Builds the grid from scans[i] seen at poses[i] (base frame in map frame): every keyframe
+/// drawn into an IncrementalOccupancyGrid, its bounds everything observed plus the margin.
+/// Throws std::invalid_argument on bad options, mismatched sizes, or a grid above max_cells.
 OccupancyGrid buildOccupancyGrid(const std::vector<const Scan*>& scans, const std::vector<Pose2>& poses,
                                  const OccupancyGridOptions& options = {});
 

@@ -223,6 +223,10 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("map/occupied_threshold", map.occupied_threshold);
   visit("map/free_threshold", map.free_threshold);
   visit("map/margin", map.margin);
+  visit("map/redraw_distance", map.redraw_distance);
+  visit("map/redraw_angle", map.redraw_angle);
+  visit("map/max_draws_per_update", map.max_draws_per_update);
+  visit("map/grow_step", map.grow_step);
 }
 
 /// Every parameter name, in the order above.

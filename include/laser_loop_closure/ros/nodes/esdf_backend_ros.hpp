@@ -28,6 +28,7 @@
 #include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/ros/io/callback_thread.hpp"
+#include "laser_loop_closure/ros/io/map_updates.hpp"
 #include "laser_loop_closure/ros/io/callback_timing.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 
@@ -39,8 +40,8 @@ struct EsdfBackendNodeOptions {
   bool publish_tf = true;              ///< publish map -> odom (needs keyframes with an odometry pose: wheels, or loop_closure's publish_odometry_tf)
   double transform_tolerance = 0.1;    ///< s the published transform is dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
-  double map_publish_period = 2.0;     ///< s of wall time between rebuilds of /map, the cloud and the markers (when changed)
-  /// At most this share of one core rebuilds /map, the cloud and the markers: after a rebuild of
+  double map_publish_period = 2.0;     ///< s of wall time between updates of /map, the cloud and the markers (when changed)
+  /// At most this share of one core updates /map, the cloud and the markers: after an update of
   /// t s the next waits max(map_publish_period, t / map_cpu_share) s (a large map comes less often).
   double map_cpu_share = 0.25;
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
@@ -131,7 +132,7 @@ class EsdfBackendRos {
   CallbackThread transform_thread_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   ros::Subscriber keyframe_sub_, loop_sub_;
-  ros::Publisher path_pub_, pose_pub_, map_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
+  ros::Publisher path_pub_, pose_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
   ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_, nearby_srv_;
   ros::Timer tf_timer_;  // on transform_thread_
   // Wall time: the last keyframes of a bag reach /map, and the health is told, after the clock stopped.
@@ -163,7 +164,9 @@ class EsdfBackendRos {
   /// Keyframes refused since the last one taken: the graph is stopped while above 0 (a load's
   /// race with the front end refuses a few, then mapping goes on and this is 0 again).
   std::size_t refused_in_a_row_ = 0;
-  double last_map_seconds_ = 0.0;
+  double last_map_seconds_ = 0.0, longest_map_seconds_ = 0.0;  ///< /map's update: drawing and sending
+  std::size_t map_keyframes_waiting_ = 0, map_bytes_ = 0;
+  std::unique_ptr<MapUpdatePublisher> map_updates_;  ///< used under map_building_
   std::chrono::steady_clock::time_point next_map_allowed_;  ///< map_cpu_share's throttle (under map_building_)
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< loops the back end refused, by llc::LoopRefusal
   std::uint32_t session_loads_ = 0;                           ///< ~load_session calls that restored a session

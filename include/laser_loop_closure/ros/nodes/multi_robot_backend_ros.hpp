@@ -30,6 +30,7 @@
 #include "laser_loop_closure/core/slam/scan_odometry.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 #include "laser_loop_closure/ros/io/callback_thread.hpp"
+#include "laser_loop_closure/ros/io/map_updates.hpp"
 
 namespace llc_ros {
 
@@ -157,7 +158,8 @@ class MultiRobotBackendRos {
   CallbackThread service_thread_, map_thread_, transform_thread_;
   std::vector<Robot> robots_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
-  ros::Publisher map_pub_, marker_pub_;
+  ros::Publisher marker_pub_;
+  std::unique_ptr<MapUpdatePublisher> map_updates_;  ///< used on map_thread_ only
   ros::ServiceServer save_session_srv_, save_map_srv_;
   ros::Timer tf_timer_;
   ros::WallTimer map_timer_, diagnostics_timer_;
