@@ -19,6 +19,7 @@
 #include "laser_loop_closure/core/backend/esdf.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
+#include "laser_loop_closure/core/map/incremental_grid.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
 #include "laser_loop_closure/core/sim/sim_world.hpp"
 #include "laser_loop_closure/core/slam/localizer.hpp"
@@ -339,5 +340,49 @@ void BM_EsdfJointMarginal(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(esdf->jointCovariance(last / 2, last));
 }
 BENCHMARK(BM_EsdfJointMarginal)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+/// A map of N keyframes of 722 beams, 1.4 m apart along a square city block's streets.
+struct DrawnMap {
+  std::vector<std::shared_ptr<const llc::Scan>> scans;
+  std::vector<llc::Pose2> poses;
+  llc::IncrementalOccupancyGrid grid{llc::OccupancyGridOptions{}};
+};
+std::unique_ptr<DrawnMap> drawnMap(std::size_t keyframes) {
+  auto map = std::make_unique<DrawnMap>();
+  for (std::size_t k = 0; k < keyframes; ++k) {
+    const double s = 1.4 * double(k), side = 1000.0;  // around a 1 km square, then again
+    const int edge = int(std::fmod(s, 4 * side) / side);
+    const double along = std::fmod(s, side);
+    const double x[4] = {along, side, side - along, 0.0}, y[4] = {0.0, along, side, side - along};
+    map->poses.push_back(llc::Pose2{x[edge], y[edge], edge * M_PI / 2});
+    map->scans.push_back(std::make_shared<const llc::Scan>(roomScan(722, k + 1)));
+  }
+  map->grid.update(map->scans, map->poses);
+  return map;
+}
+
+/// One /map update after a loop moved every keyframe: max_draws_per_update (100) redrawn.
+void BM_MapUpdateAfterALoop(benchmark::State& state) {
+  const auto map = drawnMap(std::size_t(state.range(0)));
+  const std::size_t max_draws = std::size_t(llc::OccupancyGridOptions{}.max_draws_per_update);
+  double shift = 0.1;
+  for (auto _ : state) {
+    state.PauseTiming();
+    for (llc::Pose2& pose : map->poses) pose.x += shift;
+    shift = -shift;
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(map->grid.update(map->scans, map->poses, max_draws).redrawn);
+  }
+  state.counters["grid_MB"] = double(map->grid.bytes()) / 1e6;
+}
+BENCHMARK(BM_MapUpdateAfterALoop)->Arg(700)->Arg(7000)->Unit(benchmark::kMillisecond);
+
+/// The whole /map (sent when it grows or someone subscribes).
+void BM_MapWhole(benchmark::State& state) {
+  const auto map = drawnMap(std::size_t(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(map->grid.region(map->grid.bounds()).cells.data());
+  state.counters["cells_M"] = map->grid.bounds().cells() / 1e6;
+}
+BENCHMARK(BM_MapWhole)->Arg(700)->Arg(7000)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -26,7 +26,14 @@ void traverse(long x0, long y0, long x1, long y1, Visit&& visit) {
 
 constexpr long kTile = IncrementalOccupancyGrid::kTileCells;
 
-long floorDiv(long a, long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+constexpr int kTileShift = 6;  // kTile = 64 = 1 << 6: a cell's tile by an arithmetic shift, floor for negatives too
+static_assert(kTile == 1L << kTileShift, "kTileCells must be 1 << kTileShift");
+long tileOf(long cell) { return cell >> kTileShift; }
+
+/// Log-odds are kept in steps of 0.01 in 16 bits: exact sums up to +-327 (385 hits of 0.85),
+/// saturating beyond (a cell that sure stays sure when a few keyframes are taken out).
+constexpr double kLogOddsStep = 0.01;
+constexpr std::int32_t kMostLogOdds = 32767;
 
 std::uint64_t tileKey(long tile_col, long tile_row) {
   return (std::uint64_t(std::uint32_t(tile_col)) << 32) | std::uint64_t(std::uint32_t(tile_row));
@@ -57,35 +64,49 @@ bool finite(const Pose2& pose) { return std::isfinite(pose.x) && std::isfinite(p
 }  // namespace
 
 struct IncrementalOccupancyGrid::Tile {
-  std::array<std::int32_t, kTile * kTile> sum{};  ///< log-odds in steps of 0.001, unclamped
+  std::array<std::int16_t, kTile * kTile> sum{};  ///< log-odds in steps of kLogOddsStep, unclamped
+  std::uint32_t epoch = 0;                          ///< the last update that changed it
 };
 
 IncrementalOccupancyGrid::IncrementalOccupancyGrid(const OccupancyGridOptions& options) : options_(options) {
   const std::string error = options.validate();
   if (!error.empty()) throw std::invalid_argument("occupancy grid options: " + error);
-  hit_ = std::int32_t(std::lround(options.hit_log_odds * 1000.0));
-  miss_ = std::int32_t(std::lround(options.miss_log_odds * 1000.0));
-  clamp_ = std::int32_t(std::lround(options.clamp_log_odds * 1000.0));
+  hit_ = std::int32_t(std::lround(options.hit_log_odds / kLogOddsStep));
+  miss_ = std::int32_t(std::lround(options.miss_log_odds / kLogOddsStep));
+  clamp_ = std::int32_t(std::lround(options.clamp_log_odds / kLogOddsStep));
+  if (hit_ == 0 || miss_ == 0 || clamp_ == 0)
+    throw std::invalid_argument("occupancy grid options: hit, miss and clamp log-odds must be at least 0.01");
   percent_.resize(std::size_t(2 * clamp_ + 1));
   for (std::int32_t v = -clamp_; v <= clamp_; ++v)
-    percent_[std::size_t(v + clamp_)] = std::int8_t(std::lround(100.0 / (1.0 + std::exp(-double(v) / 1000.0))));
+    percent_[std::size_t(v + clamp_)] = std::int8_t(std::lround(100.0 / (1.0 + std::exp(-double(v) * kLogOddsStep))));
 }
 
 IncrementalOccupancyGrid::~IncrementalOccupancyGrid() = default;
 IncrementalOccupancyGrid::IncrementalOccupancyGrid(IncrementalOccupancyGrid&&) noexcept = default;
 IncrementalOccupancyGrid& IncrementalOccupancyGrid::operator=(IncrementalOccupancyGrid&&) noexcept = default;
 
-std::int32_t* IncrementalOccupancyGrid::cellFor(long col, long row) {
-  const long tile_col = floorDiv(col, kTile), tile_row = floorDiv(row, kTile);
+void IncrementalOccupancyGrid::add(long col, long row, std::int32_t delta) {
+  std::int16_t& cell = *cellFor(col, row);
+  cell = std::int16_t(std::clamp(std::int32_t(cell) + delta, -kMostLogOdds, kMostLogOdds));
+}
+
+std::int16_t* IncrementalOccupancyGrid::cellFor(long col, long row) {
+  const long tile_col = tileOf(col), tile_row = tileOf(row);
   const std::uint64_t key = tileKey(tile_col, tile_row);
-  if (!last_tile_ || key != last_key_) {
+  if (key == last_key_ && last_tile_) return &last_tile_->sum[std::size_t(((row & (kTile - 1)) << kTileShift) | (col & (kTile - 1)))];
+  auto& cached = cache_[std::size_t((std::uint64_t(tile_col) * 31u) ^ std::uint64_t(tile_row)) % kCachedTiles];
+  if (!cached.second || cached.first != key) {
     std::unique_ptr<Tile>& tile = tiles_[key];
     if (!tile) tile = std::make_unique<Tile>();
-    last_tile_ = tile.get();
-    last_key_ = key;
-    touched_.insert(key);
+    cached = {key, tile.get()};
   }
-  return &last_tile_->sum[std::size_t((row - tile_row * kTile) * kTile + (col - tile_col * kTile))];
+  Tile* tile = cached.second;
+  if (tile->epoch != epoch_) {
+    tile->epoch = epoch_;
+    touched_.push_back(key);
+  }
+  last_key_ = key, last_tile_ = tile;
+  return &tile->sum[std::size_t(((row & (kTile - 1)) << kTileShift) | (col & (kTile - 1)))];
 }
 
 void IncrementalOccupancyGrid::draw(const Scan& scan, const Pose2& pose, int sign) {
@@ -104,8 +125,8 @@ void IncrementalOccupancyGrid::draw(const Scan& scan, const Pose2& pose, int sig
     const double length = returned ? r : std::min(options_.no_return_free_range, options_.max_range);
     const double angle = pose.theta + scan.bearings[i];
     const long c1 = cellOf(pose.x + length * std::cos(angle)), r1 = cellOf(pose.y + length * std::sin(angle));
-    traverse(c0, r0, c1, r1, [&](long c, long row) { *cellFor(c, row) += miss; });
-    if (returned) *cellFor(c1, r1) += hit;
+    traverse(c0, r0, c1, r1, [&](long c, long row) { add(c, row, miss); });
+    if (returned) add(c1, r1, hit);
     min_col = std::min(min_col, c1), max_col = std::max(max_col, c1);
     min_row = std::min(min_row, r1), max_row = std::max(max_row, r1);
   }
@@ -129,7 +150,20 @@ bool IncrementalOccupancyGrid::fits(const Pose2& pose) const {
 
 void IncrementalOccupancyGrid::growBounds(const CellBox& needed, double step_cells, GridUpdateResult* result) {
   if (needed.empty() || contains(bounds_, needed)) return;
-  CellBox next = unite(bounds_, grown(needed, long(std::ceil(step_cells))));
+  // Each side that is too short grows by the step, or by a quarter of the map's size when that
+  // is more: a map that keeps growing is sent whole a number of times that grows as a logarithm.
+  if (step_cells > 0.0 && !bounds_.empty()) step_cells = std::max(step_cells, 0.25 * double(std::max(bounds_.cols, bounds_.rows)));
+  const long step = long(std::ceil(step_cells));
+  CellBox next = needed;
+  if (!bounds_.empty()) {
+    const long left = needed.col < bounds_.col ? needed.col - step : bounds_.col;
+    const long bottom = needed.row < bounds_.row ? needed.row - step : bounds_.row;
+    const long right = needed.col + needed.cols > bounds_.col + bounds_.cols ? needed.col + needed.cols + step : bounds_.col + bounds_.cols;
+    const long top = needed.row + needed.rows > bounds_.row + bounds_.rows ? needed.row + needed.rows + step : bounds_.row + bounds_.rows;
+    next = {left, bottom, right - left, top - bottom};
+  } else {
+    next = grown(needed, step);
+  }
   if (next.cells() > double(options_.max_cells)) next = unite(bounds_, needed);  // no room to spare
   bounds_ = next;
   result->bounds_grew = true;
@@ -140,7 +174,8 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
   if (scans.size() != poses.size()) throw std::invalid_argument("occupancy grid: as many poses as scans needed");
   GridUpdateResult result;
   touched_.clear();
-  last_tile_ = nullptr;
+  ++epoch_;
+  last_tile_ = nullptr;  // its tile must be marked touched in this update again
   for (std::size_t k = drawn_.size(); k-- > scans.size();) {
     if (drawn_[k].scan) draw(*drawn_[k].scan, drawn_[k].pose, -1), ++result.removed;
   }
@@ -185,7 +220,7 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
   const long margin_cells = long(std::ceil(options_.margin / options_.resolution - 1e-9));
   growBounds(grown(observed_, margin_cells), options_.grow_step / options_.resolution, &result);
   // Changed tiles, clipped to the bounds, merged into runs along each row of tiles.
-  std::vector<std::uint64_t> keys(touched_.begin(), touched_.end());
+  std::vector<std::uint64_t>& keys = touched_;
   std::sort(keys.begin(), keys.end(), [](std::uint64_t a, std::uint64_t b) {
     return std::make_pair(tileRowOf(a), tileColOf(a)) < std::make_pair(tileRowOf(b), tileColOf(b));
   });
@@ -197,7 +232,6 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
     if (!clipped.empty()) result.changed.push_back(clipped);
     i = j;
   }
-  last_tile_ = nullptr;
   return result;
 }
 
@@ -210,8 +244,8 @@ OccupancyGrid IncrementalOccupancyGrid::region(const CellBox& box) const {
   grid.width = int(box.cols);
   grid.height = int(box.rows);
   grid.cells.assign(std::size_t(box.cols) * std::size_t(box.rows), -1);
-  for (long tile_row = floorDiv(box.row, kTile); tile_row * kTile < box.row + box.rows; ++tile_row)
-    for (long tile_col = floorDiv(box.col, kTile); tile_col * kTile < box.col + box.cols; ++tile_col) {
+  for (long tile_row = tileOf(box.row); tile_row * kTile < box.row + box.rows; ++tile_row)
+    for (long tile_col = tileOf(box.col); tile_col * kTile < box.col + box.cols; ++tile_col) {
       const auto found = tiles_.find(tileKey(tile_col, tile_row));
       if (found == tiles_.end()) continue;
       const CellBox part = intersect(box, {tile_col * kTile, tile_row * kTile, kTile, kTile});

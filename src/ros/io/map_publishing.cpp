@@ -11,7 +11,7 @@
 
 namespace llc_ros {
 
-nav_msgs::OccupancyGrid toOccupancyGridMsg(const llc::OccupancyGrid& grid, const std_msgs::Header& header) {
+nav_msgs::OccupancyGrid toOccupancyGridMsg(llc::OccupancyGrid grid, const std_msgs::Header& header) {
   nav_msgs::OccupancyGrid msg;
   msg.header = header;
   msg.info.map_load_time = header.stamp;
@@ -21,7 +21,7 @@ nav_msgs::OccupancyGrid toOccupancyGridMsg(const llc::OccupancyGrid& grid, const
   msg.info.origin.position.x = grid.origin_x;
   msg.info.origin.position.y = grid.origin_y;
   msg.info.origin.orientation.w = 1.0;
-  msg.data = grid.cells;
+  msg.data = std::move(grid.cells);
   return msg;
 }
 

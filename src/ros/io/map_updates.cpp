@@ -4,7 +4,7 @@
 
 namespace llc_ros {
 
-map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(const llc::OccupancyGrid& part, const llc::CellBox& box,
+map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(llc::OccupancyGrid part, const llc::CellBox& box,
                                                        const llc::CellBox& whole, const std_msgs::Header& header) {
   map_msgs::OccupancyGridUpdate msg;
   msg.header = header;
@@ -12,7 +12,7 @@ map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(const llc::OccupancyGrid&
   msg.y = std::int32_t(box.row - whole.row);
   msg.width = std::uint32_t(part.width);
   msg.height = std::uint32_t(part.height);
-  msg.data = part.cells;
+  msg.data = std::move(part.cells);
   return msg;
 }
 

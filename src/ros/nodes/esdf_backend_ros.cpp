@@ -85,7 +85,9 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   }
   // The map is updated on its own thread: on the nodelet's queue a rebuild of a 10 km map (3 s)
   // held every keyframe behind it, and the front end's place checks timed out meanwhile.
-  map_timer_ = map_thread_.handle(nh).createWallTimer(ros::WallDuration(options_.map_publish_period),
+  // Ticks often: keyframes left waiting to be drawn (max_draws_per_update) go at the next tick
+  // that map_cpu_share allows; the rest of the map every map_publish_period.
+  map_timer_ = map_thread_.handle(nh).createWallTimer(ros::WallDuration(std::min(options_.map_publish_period, 0.1)),
                                                       [this](const ros::WallTimerEvent&) { publishMap(); });
   map_thread_.start();
   diagnostics_.setHardwareID("none");
@@ -300,15 +302,20 @@ void EsdfBackendRos::publishMap() {
   // keyframes, loops and place checks go on meanwhile.
   std::lock_guard<std::mutex> building(map_building_);
   // Throttled by its own cost (map_cpu_share): a large map is updated less often; it stays dirty.
-  if (std::chrono::steady_clock::now() < next_map_allowed_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (now < next_map_allowed_) return;
   std::vector<llc::Pose2> poses;
   std::vector<std::shared_ptr<const llc::Scan>> scans_held;
   std::vector<llc::LoopRecord> loops;
   std_msgs::Header header;
+  bool graph_changed = false;  // else only keyframes left waiting to be drawn, or a new subscriber
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if ((!map_dirty_ && !map_updates_->wholeDue()) || back_->keyframes().empty()) return;
-    map_dirty_ = false;
+    const bool due = now >= last_map_update_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                   std::chrono::duration<double>(options_.map_publish_period));
+    graph_changed = map_dirty_ && due;
+    if (!(graph_changed || map_keyframes_waiting_ > 0 || map_updates_->wholeDue()) || back_->keyframes().empty()) return;
+    if (graph_changed) map_dirty_ = false, last_map_update_ = now;
     header = mapHeader();
     poses = back_->poses();
     scans_held = map_scans_;
@@ -328,9 +335,9 @@ void EsdfBackendRos::publishMap() {
     ROS_WARN_THROTTLE(30.0, "esdf_backend: %zu keyframes not drawn on /map: it would exceed map/max_cells",
                       published.update.too_large);
   const double map_seconds = llc::secondsSince(start);
-  marker_pub_.publish(graphMarkers(poses, loops, header));
+  if (graph_changed) marker_pub_.publish(graphMarkers(poses, loops, header));
   // The cloud of every return costs as much as the grid: built only for someone listening.
-  if (cloud_pub_.getNumSubscribers() > 0) {
+  if (graph_changed && cloud_pub_.getNumSubscribers() > 0) {
     std::vector<const llc::Scan*> scans;
     for (const auto& scan : scans_held) scans.push_back(scan.get());
     cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
@@ -341,10 +348,12 @@ void EsdfBackendRos::publishMap() {
                           std::chrono::duration<double>(took / options_.map_cpu_share - took));
   std::lock_guard<std::mutex> lock(mutex_);
   last_map_seconds_ = map_seconds;
-  longest_map_seconds_ = std::max(longest_map_seconds_, map_seconds);
+  last_map_whole_ = published.whole;
+  whole_maps_sent_ += published.whole;
+  double& longest = published.whole ? longest_whole_map_seconds_ : longest_map_parts_seconds_;
+  longest = std::max(longest, map_seconds);
   map_keyframes_waiting_ = published.update.waiting;
   map_bytes_ = map_updates_->bytes();
-  if (published.update.waiting > 0) map_dirty_ = true;  // the rest at the next update
   if (!problem.empty()) last_problem_ = problem;
 }
 
@@ -494,7 +503,10 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("loops dropped", dropped_loops_);
   status.add("seconds in the filter", c.seconds);
   status.add("seconds of the last map update", last_map_seconds_);
-  status.add("seconds of the longest map update", longest_map_seconds_);
+  status.add("the last map update was whole", last_map_whole_);
+  status.add("seconds of the longest map update by parts", longest_map_parts_seconds_);
+  status.add("seconds of the longest whole map", longest_whole_map_seconds_);
+  status.add("whole maps sent", whole_maps_sent_);
   status.add("keyframes waiting to be drawn on the map", map_keyframes_waiting_);
   status.add("bytes of the map's grid", map_bytes_);
   // Loops the back end refused, by why (llc::LoopRefusal's names).

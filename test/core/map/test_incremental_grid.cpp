@@ -204,5 +204,5 @@ TEST(IncrementalOccupancyGrid, BoundsGrowInStepsAndChangesAreTheTilesTouched) {
   EXPECT_TRUE(old_place);
   EXPECT_TRUE(new_place);
   EXPECT_TRUE(grid.update(scans, {Pose2{40.0, 0.0, 0.0}}).bounds_grew);
-  EXPECT_GT(grid.bytes(), grid.tiles() * sizeof(std::int32_t) * 64 * 64);
+  EXPECT_GT(grid.bytes(), grid.tiles() * sizeof(std::int16_t) * 64 * 64);
 }

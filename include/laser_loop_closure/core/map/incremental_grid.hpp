@@ -2,11 +2,11 @@
 // when their pose moves, so that an update costs what changed, not the size of the map.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
@@ -68,17 +68,23 @@ class IncrementalOccupancyGrid {
     Pose2 pose;
   };
   void draw(const Scan& scan, const Pose2& pose, int sign);
-  std::int32_t* cellFor(long col, long row);
+  std::int16_t* cellFor(long col, long row);
+  void add(long col, long row, std::int32_t delta);
   bool fits(const Pose2& pose) const;
   void growBounds(const CellBox& needed, double step_cells, GridUpdateResult* result);
 
   OccupancyGridOptions options_;
-  std::int32_t hit_ = 0, miss_ = 0, clamp_ = 0;  ///< log-odds in steps of 0.001
+  std::int32_t hit_ = 0, miss_ = 0, clamp_ = 0;  ///< log-odds in steps of 0.01
   std::vector<std::int8_t> percent_;               ///< percent occupied for a clamped sum, from -clamp_
   std::unordered_map<std::uint64_t, std::unique_ptr<Tile>> tiles_;
-  std::unordered_set<std::uint64_t> touched_;  ///< tiles changed in the current update
-  Tile* last_tile_ = nullptr;                  ///< most rays stay in one tile: looked up once
-  std::uint64_t last_key_ = 0;
+  std::vector<std::uint64_t> touched_;  ///< tiles changed in the current update
+  std::uint32_t epoch_ = 1;             ///< the current update's number (a tile touched in it holds it)
+  /// Tiles recently used, by their key's low bits: a ray crosses a few tiles, and the rays of one
+  /// keyframe the same few again (tiles are never freed, so an entry never dangles).
+  static constexpr std::size_t kCachedTiles = 256;
+  std::array<std::pair<std::uint64_t, Tile*>, kCachedTiles> cache_{};
+  std::uint64_t last_key_ = 0;  ///< the tile of the last cell (most steps of a ray stay in it)
+  Tile* last_tile_ = nullptr;   ///< set only after its epoch was checked in this update
   std::vector<Drawn> drawn_;
   CellBox observed_;  ///< every pose and beam end drawn so far
   CellBox bounds_;

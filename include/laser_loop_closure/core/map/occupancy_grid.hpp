@@ -19,8 +19,8 @@ struct OccupancyGridOptions {
   double no_return_free_range = 0.0;
   double hit_log_odds = 0.85;    ///< added to the cell a beam ends in
   double miss_log_odds = -0.4;   ///< added to every cell a beam crosses
-  /// |log-odds| shown never exceeds this. The sum itself is kept unclamped (in steps of 0.001), so
-  /// that a keyframe drawn once can be taken out exactly when its pose moves.
+  /// |log-odds| shown never exceeds this. The sum itself is kept unclamped (in steps of 0.01, up
+  /// to +-327), so that a keyframe drawn once can be taken out exactly when its pose moves.
   double clamp_log_odds = 5.0;
   double occupied_threshold = 0.65;  ///< probability above which a cell is occupied (map_server's occupied_thresh)
   double free_threshold = 0.196;     ///< below which it is free (map_server's free_thresh)
@@ -30,9 +30,12 @@ struct OccupancyGridOptions {
   double redraw_distance = 0.05;  ///< m; a keyframe whose pose moved further since it was drawn is drawn again
   double redraw_angle = 0.005;    ///< rad; or whose heading turned further (0.15 m at 30 m)
   /// keyframes drawn or redrawn per /map update at most (new ones first, then the most moved):
-  /// an update costs the same on a large map; the rest wait for the next update
-  int max_draws_per_update = 100;
-  double grow_step = 20.0;        ///< m; when the map outgrows its bounds they grow this much further (a whole /map is sent then)
+  /// an update costs the same on a large map (~0.8 ms per keyframe moved); the rest wait for
+  /// the next update, which then comes as soon as map_cpu_share allows
+  int max_draws_per_update = 50;
+  /// m; when the map outgrows its bounds, the sides too short grow this much further, or a
+  /// quarter of the map's size when that is more (a whole /map is sent then)
+  double grow_step = 20.0;
   [[nodiscard]] std::string validate() const;
 };
 

@@ -17,7 +17,8 @@
 
 namespace llc_ros {
 
-nav_msgs::OccupancyGrid toOccupancyGridMsg(const llc::OccupancyGrid& grid, const std_msgs::Header& header);
+/// Takes the grid by value: a whole map of 10^8 cells is moved into the message, not copied.
+nav_msgs::OccupancyGrid toOccupancyGridMsg(llc::OccupancyGrid grid, const std_msgs::Header& header);
 
 /// One pose per keyframe, stamped with the keyframe's stamp.
 nav_msgs::Path toPathMsg(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,

@@ -15,7 +15,7 @@
 
 namespace llc_ros {
 
-map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(const llc::OccupancyGrid& part, const llc::CellBox& box,
+map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(llc::OccupancyGrid part, const llc::CellBox& box,
                                                        const llc::CellBox& whole, const std_msgs::Header& header);
 
 class MapUpdatePublisher {

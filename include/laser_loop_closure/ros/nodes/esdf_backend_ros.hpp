@@ -164,10 +164,14 @@ class EsdfBackendRos {
   /// Keyframes refused since the last one taken: the graph is stopped while above 0 (a load's
   /// race with the front end refuses a few, then mapping goes on and this is 0 again).
   std::size_t refused_in_a_row_ = 0;
-  double last_map_seconds_ = 0.0, longest_map_seconds_ = 0.0;  ///< /map's update: drawing and sending
-  std::size_t map_keyframes_waiting_ = 0, map_bytes_ = 0;
+  /// /map's update (drawing what changed and sending it): the last, the longest sent by parts,
+  /// the longest sent whole (on growth or for a new subscriber: its cost is the map's area)
+  double last_map_seconds_ = 0.0, longest_map_parts_seconds_ = 0.0, longest_whole_map_seconds_ = 0.0;
+  bool last_map_whole_ = false;
+  std::size_t whole_maps_sent_ = 0, map_keyframes_waiting_ = 0, map_bytes_ = 0;
   std::unique_ptr<MapUpdatePublisher> map_updates_;  ///< used under map_building_
   std::chrono::steady_clock::time_point next_map_allowed_;  ///< map_cpu_share's throttle (under map_building_)
+  std::chrono::steady_clock::time_point last_map_update_;   ///< map_publish_period's (under mutex_)
   std::array<std::size_t, llc::kLoopRefusalKinds> refusals_{};  ///< loops the back end refused, by llc::LoopRefusal
   std::uint32_t session_loads_ = 0;                           ///< ~load_session calls that restored a session
   CallbackTiming callback_timing_;  ///< onKeyframe and onLoop (lock wait and the ESDF update included)
