@@ -285,6 +285,12 @@ std::string timeOffsetProbeLines(const llc::OdometryTimeOffsetProbeResult& r) {
 }  // namespace
 
 int runSlam(const Args& args) {
+  if (args.has("lifelong")) {  // one map for months: the run joins the saved map as a fleet's robot would
+    if (!args.has("load-session") || !args.has("save-session"))
+      throw UsageError("--lifelong extends a saved map: give --load-session S and --save-session S2");
+    if (args.has("continue-odometry")) throw UsageError("--lifelong starts with no pose: --continue-odometry does not apply");
+    return runMultiRobotSlam(args);
+  }
   if (args.all("log").size() + args.all("bag").size() > 1 || args.has("split")) return runMultiRobotSlam(args);
   if (args.has("bag") == args.has("log")) throw UsageError("give --bag BAG or --log LOG (several of them: several robots)");
   const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");

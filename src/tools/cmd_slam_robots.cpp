@@ -67,7 +67,8 @@ std::vector<RobotInput> loadRobots(const Args& args, const llc::SlamOptions& sla
       robots.push_back(std::move(robot));
     }
   }
-  if (robots.size() < 2) throw UsageError("several robots need two inputs or more (--log A --log B), or --split N");
+  if (robots.size() < 2 && !args.has("lifelong"))
+    throw UsageError("several robots need two inputs or more (--log A --log B), or --split N");
   for (std::size_t r = 0; r < robots.size(); ++r) {
     RobotInput& robot = robots[r];
     if (drift) {  // each robot's wheels drift their own way

@@ -98,7 +98,7 @@ const std::vector<Command>& commands() {
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
              "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan", "split", "seed"},
             with(kInputFlags, llc::systemParameterNames())),
-       {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry", "simultaneous"},
+       {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry", "simultaneous", "lifelong"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
        "      [--SECTION/FIELD VALUE ...]   (any pipeline parameter, named as in config/slam.yaml; after --config)\n"
        "      [--no-wheel-odometry] [--quiet] [--evaluate]   (writes trajectory.csv, scans.csv, loops.csv,\n"
@@ -130,7 +130,10 @@ const std::vector<Command>& commands() {
        "       one map of the joined robots, report.txt: robots, robots_joined, cross_robot_loops, per robot;\n"
        "       --save-session: the map with each keyframe's robot)\n"
        "      [--load-session FILE]   (a saved map of the fleet: every input joins it, its frame the map's; the\n"
-       "       outputs keep its keyframes' robots and number the inputs after them)"},
+       "       outputs keep its keyframes' robots and number the inputs after them)\n"
+       "   one map for months: slam (--log LOG | --bag BAG) --load-session S --lifelong --save-session S2 --out DIR\n"
+       "      (the run starts with no pose and joins the saved map at its first confirmed fix, as a robot of a fleet;\n"
+       "       S2: the map extended by it, loops between old and new; written atomically, S2 may be S)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
