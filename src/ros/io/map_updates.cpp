@@ -16,13 +16,14 @@ map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(llc::OccupancyGrid part, 
   return msg;
 }
 
-MapUpdatePublisher::MapUpdatePublisher(ros::NodeHandle nh, const llc::OccupancyGridOptions& options)
+MapUpdatePublisher::MapUpdatePublisher(ros::NodeHandle nh, const llc::OccupancyGridOptions& options, bool latch)
     : options_(options), grid_(options) {
-  // A new subscriber to /map gets the latched message, which updates may have outdated since:
-  // the next publish sends it whole again.
+  // A new subscriber to /map gets it whole at the next update, made then: the latched one may be
+  // older than the parts sent since. (Another subscriber in a process that already has one
+  // makes no new connection: it gets the latched one, or, unlatched, waits for the next whole.)
   map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>(
       "map", 1, [this](const ros::SingleSubscriberPublisher&) { whole_due_ = true; }, ros::SubscriberStatusCallback(),
-      ros::VoidConstPtr(), true);
+      ros::VoidConstPtr(), latch);
   // Parts come in bursts after a loop moves many keyframes: a deep queue loses none.
   update_pub_ = nh.advertise<map_msgs::OccupancyGridUpdate>("map_updates", 1000);
 }

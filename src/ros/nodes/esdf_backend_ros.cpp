@@ -61,7 +61,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
 
   path_pub_ = nh.advertise<nav_msgs::Path>("path", 2);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
-  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map);
+  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map, options_.latch_map);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);

@@ -112,7 +112,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
           return true;
         });
   }
-  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map);
+  map_updates_ = std::make_unique<MapUpdatePublisher>(nh, system_.map, options_.latch_map);
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   save_session_srv_ = service_nh.advertiseService("save_session", &MultiRobotBackendRos::saveSession, this);
   save_map_srv_ = service_nh.advertiseService("save_map", &MultiRobotBackendRos::saveMap, this);

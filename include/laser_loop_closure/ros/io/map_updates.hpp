@@ -1,5 +1,5 @@
 // /map kept up to date by parts: the back ends' occupancy grid (llc::IncrementalOccupancyGrid)
-// published whole on /map (latched) and by its changed parts on /map_updates, as rviz's map
+// published whole on /map (latched, and to each new subscriber) and by its changed parts on /map_updates, as rviz's map
 // display and costmap_2d's static layer read them.
 #pragma once
 
@@ -20,8 +20,9 @@ map_msgs::OccupancyGridUpdate toOccupancyGridUpdateMsg(llc::OccupancyGrid part, 
 
 class MapUpdatePublisher {
  public:
-  /// Advertises map (latched) and map_updates on nh. Throws std::invalid_argument on bad options.
-  MapUpdatePublisher(ros::NodeHandle nh, const llc::OccupancyGridOptions& options);
+  /// Advertises map (latched when `latch`) and map_updates on nh. Throws std::invalid_argument
+  /// on bad options.
+  MapUpdatePublisher(ros::NodeHandle nh, const llc::OccupancyGridOptions& options, bool latch);
 
   struct Published {
     llc::GridUpdateResult update;
@@ -32,7 +33,7 @@ class MapUpdatePublisher {
   /// std::invalid_argument when the sizes differ.
   Published publish(const std::vector<std::shared_ptr<const llc::Scan>>& scans, const std::vector<llc::Pose2>& poses,
                     const std_msgs::Header& header);
-  /// Someone subscribed to /map since it was last sent whole (the latched one is out of date).
+  /// Someone subscribed to /map since it was last sent whole.
   bool wholeDue() const { return whole_due_; }
   std::size_t bytes() const { return grid_.bytes(); }
 

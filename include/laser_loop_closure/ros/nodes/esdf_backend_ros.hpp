@@ -44,6 +44,10 @@ struct EsdfBackendNodeOptions {
   /// At most this share of one core updates /map, the cloud and the markers: after an update of
   /// t s the next waits max(map_publish_period, t / map_cpu_share) s (a large map comes less often).
   double map_cpu_share = 0.25;
+  /// latch /map (the ROS convention); false: a new subscriber gets it whole at the next update,
+  /// and no serialised copy of the whole grid (1 byte per cell) is kept, but a second subscriber
+  /// in a process that already has one waits for the next whole map (its growth)
+  bool latch_map = true;
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
@@ -62,6 +66,7 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
   visit("tf_publish_period", o.tf_publish_period);
   visit("map_publish_period", o.map_publish_period);
   visit("map_cpu_share", o.map_cpu_share);
+  visit("latch_map", o.latch_map);
   visit("cloud_voxel_size", o.cloud_voxel_size);
   visit("map_path", o.map_path);
   visit("session_path", o.session_path);
@@ -72,7 +77,7 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
 
 class EsdfBackendRos {
  public:
-  /// Subscribes keyframes and loop_closures; publishes path, pose, map (latched), map_cloud,
+  /// Subscribes keyframes and loop_closures; publishes path, pose, map (latch_map), map_updates, map_cloud,
   /// graph_markers, ~loop_records and session (in parts, after a load); serves ~save_map,
   /// ~save_session and ~load_session. Throws std::runtime_error on bad parameters.
   EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh);

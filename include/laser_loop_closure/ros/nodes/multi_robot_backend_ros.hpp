@@ -45,7 +45,8 @@ struct MultiRobotBackendNodeOptions {
   bool publish_tf = true;              ///< publish map -> <robot>/odom for every joined robot
   double transform_tolerance = 0.1;    ///< s the published transforms are dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
-  double map_publish_period = 2.0;     ///< s of wall time between rebuilds of /map and the markers (when changed)
+  double map_publish_period = 2.0;     ///< s of wall time between updates of /map and the markers (when changed)
+  bool latch_map = true;               ///< latch /map (as esdf_backend's latch_map)
   double answer_timeout = 2.0;         ///< s of wall time a robot's place check waits for the state it names
   /// s of wall time keyframes that came after a gap wait for the missing ones, asked again of the
   /// robot's front end (<robot>/resend_request), before the gap is bridged by its odometry.
@@ -67,6 +68,7 @@ void visitMultiRobotBackendParameters(MultiRobotBackendNodeOptions& o, Visit&& v
   visit("transform_tolerance", o.transform_tolerance);
   visit("tf_publish_period", o.tf_publish_period);
   visit("map_publish_period", o.map_publish_period);
+  visit("latch_map", o.latch_map);
   visit("answer_timeout", o.answer_timeout);
   visit("resend_wait", o.resend_wait);
   visit("map_path", o.map_path);
