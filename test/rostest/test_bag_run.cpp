@@ -15,6 +15,8 @@
 #include <ros/ros.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -30,6 +32,7 @@
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
 #include "laser_loop_closure/core/slam/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
+#include "child_process.hpp"
 #include "health_watch.hpp"
 #include "map_follower.hpp"
 #include "wall_bounded.hpp"
@@ -173,11 +176,17 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   while (follower.quietSeconds() < 8.0 && (ros::WallTime::now() - settling).toSec() < 120.0) ros::WallDuration(0.5).sleep();
   const nav_msgs::OccupancyGrid followed = follower.grid();
   const std::size_t wholes_followed = follower.wholes();
-  // A subscriber that comes after the map was published still gets it: /map is latched. It is
-  // also sent whole again to every subscriber (the latched one may be older than the parts).
+  // A subscriber that comes after the map was published still gets it: /map is latched.
   nav_msgs::OccupancyGrid::ConstPtr map = llc_test::waitForMessageWithin<nav_msgs::OccupancyGrid>("/map", 10.0);
+  // A new subscriber in another process (a new connection; one in this process shares the
+  // follower's) makes the back end send /map whole again, to every subscriber: the latched one
+  // may be older than the parts sent since.
   const ros::WallTime resent = ros::WallTime::now();
-  while (follower.wholes() == wholes_followed && (ros::WallTime::now() - resent).toSec() < 30.0) ros::WallDuration(0.2).sleep();
+  {
+    llc_test::ChildProcess late_subscriber({"rostopic", "echo", "-n", "2", "/map/info"}, 
+                                             "/tmp/llc_bag_run_late_map_" + std::to_string(getpid()) + ".log");
+    while (follower.wholes() == wholes_followed && (ros::WallTime::now() - resent).toSec() < 60.0) ros::WallDuration(0.2).sleep();
+  }
   const std::size_t map_wholes = follower.wholes(), map_parts = follower.parts();
   const nav_msgs::OccupancyGrid whole_again = follower.grid();
   spinner.stop();
