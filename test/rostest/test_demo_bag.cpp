@@ -1,7 +1,7 @@
 // rostest: laser_scan_matcher's demo bag through the three nodelets with only scan_front given
 // (demo_bag.test). The bag has one /scan in frame "/laser" and no tf at all: the merger must
 // take tf1's slash, put the scanner at the fallback mount, and loop_closure must map without
-// wheels. Asserts: no scan skipped, keyframes made, and a latched /map with walls in it.
+// wheels. Asserts: no scan skipped, keyframes made, and /map (sent whole to a new subscriber) with walls in it.
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
@@ -47,7 +47,7 @@ TEST(DemoBag, MapsTheRoomOutOfTheBox) {
   EXPECT_EQ(merger.value("scanner frames on the fallback mount"), 1.0);
   EXPECT_EQ(front_end.value("scans without wheel odometry"), 0.0) << "scans lost waiting for wheels that never come";
   EXPECT_GE(back_end.value("keyframes"), 10.0);
-  ASSERT_NE(map, nullptr) << "no latched /map";
+  ASSERT_NE(map, nullptr) << "no /map for a new subscriber";
   std::size_t occupied = 0;
   for (const auto cell : map->data) occupied += cell >= 65;
   RecordProperty("occupied_cells", int(occupied));

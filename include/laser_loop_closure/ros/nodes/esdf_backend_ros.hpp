@@ -44,10 +44,11 @@ struct EsdfBackendNodeOptions {
   /// At most this share of one core updates /map, the cloud and the markers: after an update of
   /// t s the next waits max(map_publish_period, t / map_cpu_share) s (a large map comes less often).
   double map_cpu_share = 0.25;
-  /// latch /map (the ROS convention); false: a new subscriber gets it whole at the next update,
-  /// and no serialised copy of the whole grid (1 byte per cell) is kept, but a second subscriber
-  /// in a process that already has one waits for the next whole map (its growth)
-  bool latch_map = true;
+  /// false (as costmap_2d's map and updates): a new subscriber gets /map whole at the next
+  /// update (0.1 s), and no serialised copy of the whole grid (1 byte per cell) is kept; but a
+  /// second subscriber in a process that already has one waits for the next whole map. true: a
+  /// new subscriber first gets the last whole map, which the parts sent since may have outdated
+  bool latch_map = false;
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session

@@ -46,7 +46,7 @@ struct MultiRobotBackendNodeOptions {
   double transform_tolerance = 0.1;    ///< s the published transforms are dated into the future
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
   double map_publish_period = 2.0;     ///< s of wall time between updates of /map and the markers (when changed)
-  bool latch_map = true;               ///< latch /map (as esdf_backend's latch_map)
+  bool latch_map = false;              ///< latch /map (as esdf_backend's latch_map)
   double answer_timeout = 2.0;         ///< s of wall time a robot's place check waits for the state it names
   /// s of wall time keyframes that came after a gap wait for the missing ones, asked again of the
   /// robot's front end (<robot>/resend_request), before the gap is bridged by its odometry.
