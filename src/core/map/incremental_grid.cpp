@@ -29,6 +29,8 @@ constexpr long kTile = IncrementalOccupancyGrid::kTileCells;
 constexpr int kTileShift = 6;  // kTile = 64 = 1 << 6: a cell's tile by an arithmetic shift, floor for negatives too
 static_assert(kTile == 1L << kTileShift, "kTileCells must be 1 << kTileShift");
 long tileOf(long cell) { return cell >> kTileShift; }
+/// A cell's place within its tile.
+std::size_t indexInTile(long col, long row) { return std::size_t(((row & (kTile - 1)) << kTileShift) | (col & (kTile - 1))); }
 
 /// Log-odds are kept in steps of 0.01 in 16 bits: exact sums up to +-327 (385 hits of 0.85),
 /// saturating beyond (a cell that sure stays sure when a few keyframes are taken out).
@@ -93,20 +95,16 @@ void IncrementalOccupancyGrid::add(long col, long row, std::int32_t delta) {
 std::int16_t* IncrementalOccupancyGrid::cellFor(long col, long row) {
   const long tile_col = tileOf(col), tile_row = tileOf(row);
   const std::uint64_t key = tileKey(tile_col, tile_row);
-  if (key == last_key_ && last_tile_) return &last_tile_->sum[std::size_t(((row & (kTile - 1)) << kTileShift) | (col & (kTile - 1)))];
-  auto& cached = cache_[std::size_t((std::uint64_t(tile_col) * 31u) ^ std::uint64_t(tile_row)) % kCachedTiles];
-  if (!cached.second || cached.first != key) {
-    std::unique_ptr<Tile>& tile = tiles_[key];
-    if (!tile) tile = std::make_unique<Tile>();
-    cached = {key, tile.get()};
-  }
-  Tile* tile = cached.second;
+  if (key == last_key_ && last_tile_) return &last_tile_->sum[indexInTile(col, row)];
+  std::unique_ptr<Tile>& held = tiles_[key];
+  if (!held) held = std::make_unique<Tile>();
+  Tile* tile = held.get();
   if (tile->epoch != epoch_) {
     tile->epoch = epoch_;
     touched_.push_back(key);
   }
   last_key_ = key, last_tile_ = tile;
-  return &tile->sum[std::size_t(((row & (kTile - 1)) << kTileShift) | (col & (kTile - 1)))];
+  return &tile->sum[indexInTile(col, row)];
 }
 
 void IncrementalOccupancyGrid::draw(const Scan& scan, const Pose2& pose, int sign) {
@@ -251,7 +249,7 @@ OccupancyGrid IncrementalOccupancyGrid::region(const CellBox& box) const {
       const CellBox part = intersect(box, {tile_col * kTile, tile_row * kTile, kTile, kTile});
       for (long row = part.row; row < part.row + part.rows; ++row)
         for (long col = part.col; col < part.col + part.cols; ++col) {
-          const std::int32_t v = found->second->sum[std::size_t((row - tile_row * kTile) * kTile + (col - tile_col * kTile))];
+          const std::int32_t v = found->second->sum[indexInTile(col, row)];
           if (v == 0) continue;  // never seen (or hits and misses that cancel exactly)
           grid.cells[std::size_t(row - box.row) * std::size_t(box.cols) + std::size_t(col - box.col)] =
               percent_[std::size_t(std::clamp(v, -clamp_, clamp_) + clamp_)];

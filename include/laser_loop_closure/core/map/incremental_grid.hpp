@@ -2,7 +2,6 @@
 // when their pose moves, so that an update costs what changed, not the size of the map.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -54,7 +53,7 @@ class IncrementalOccupancyGrid {
   CellBox bounds() const { return bounds_; }
   /// The cells of `box` (bounds() for the whole grid): -1 unknown, else percent occupied.
   OccupancyGrid region(const CellBox& box) const;
-  /// Observed cells and the number of tiles holding them.
+  /// Tiles allocated (each holds kTileCells^2 cells).
   std::size_t tiles() const { return tiles_.size(); }
   /// Bytes held: tiles and the record of what was drawn where (scans are shared, not counted).
   std::size_t bytes() const;
@@ -79,10 +78,6 @@ class IncrementalOccupancyGrid {
   std::unordered_map<std::uint64_t, std::unique_ptr<Tile>> tiles_;
   std::vector<std::uint64_t> touched_;  ///< tiles changed in the current update
   std::uint32_t epoch_ = 1;             ///< the current update's number (a tile touched in it holds it)
-  /// Tiles recently used, by their key's low bits: a ray crosses a few tiles, and the rays of one
-  /// keyframe the same few again (tiles are never freed, so an entry never dangles).
-  static constexpr std::size_t kCachedTiles = 256;
-  std::array<std::pair<std::uint64_t, Tile*>, kCachedTiles> cache_{};
   std::uint64_t last_key_ = 0;  ///< the tile of the last cell (most steps of a ray stay in it)
   Tile* last_tile_ = nullptr;   ///< set only after its epoch was checked in this update
   std::vector<Drawn> drawn_;
