@@ -125,9 +125,7 @@ Esdf::Esdf(const Pose2& first, const EsdfOptions& options) : options_(options), 
 
 Esdf::~Esdf() = default;
 
-namespace {
-/// Error of an edge at poses (g2o's convention) and its Jacobians.
-Eigen::Vector3d linearize(const PoseEdge& e, const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
+Eigen::Vector3d linearizeEdge(const PoseEdge& e, const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
   const Pose2 predicted = between(a, b);
   Eigen::Matrix3d j_outer, j_a, j_b;
   composeJacobians(inverse(e.measurement), predicted, nullptr, &j_outer);
@@ -136,6 +134,8 @@ Eigen::Vector3d linearize(const PoseEdge& e, const Pose2& a, const Pose2& b, Eig
   *jb = j_outer * j_b;
   return toVector(between(e.measurement, predicted));
 }
+
+namespace {
 
 /// g2o's information is that of the error e = (-)Z (+) h, which lives in the frame of the
 /// measured pose Z; a covariance of Z's own (x, y, theta), as odometry and scan matching give
@@ -182,7 +182,7 @@ Eigen::Vector3d Esdf::edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matri
   const auto& [at_from, at_to] = edge_points_[k];
   // e(x) ~ r + Ja (x_from - at_from) + Jb (x_to - at_to), and the unknowns are the steps
   // from linearization_: move r there so that every edge speaks of the same steps.
-  return linearize(e, at_from, at_to, ja, jb) + *ja * poseDifference(linearization_[e.from], at_from) +
+  return linearizeEdge(e, at_from, at_to, ja, jb) + *ja * poseDifference(linearization_[e.from], at_from) +
          *jb * poseDifference(linearization_[e.to], at_to);
 }
 
@@ -625,7 +625,7 @@ double Esdf::innovationChi2(std::size_t from, std::size_t to, const Pose2& measu
 double Esdf::innovationChi2(const PoseEdge& e) {
   const Eigen::Matrix<double, 6, 6> joint = jointCovariance(e.from, e.to);
   Eigen::Matrix3d ja, jb;
-  const Eigen::Vector3d r = linearize(e, mean_[e.from], mean_[e.to], &ja, &jb);
+  const Eigen::Vector3d r = linearizeEdge(e, mean_[e.from], mean_[e.to], &ja, &jb);
   Eigen::Matrix<double, 3, 6> j;
   j << ja, jb;
   // Innovation covariance: the poses' joint uncertainty seen through the error, plus the

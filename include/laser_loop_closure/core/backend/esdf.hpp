@@ -64,6 +64,10 @@ struct [[nodiscard]] EsdfUpdateResult {
   std::string reject_reason;     ///< the same for people; empty when applied
 };
 
+/// Error of an edge at poses (a, b) in g2o's convention, e = t2v(Z^-1 (a^-1 b)), and its
+/// Jacobians with respect to additive steps of a's and b's (x, y, theta).
+Eigen::Vector3d linearizeEdge(const PoseEdge& e, const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb);
+
 /// An upper bound, with no trigonometry, of how far the first-order model of a relative-pose
 /// error (g2o's t2v(Z^-1 (A^-1 B))) taken at poses (at_from, at_to) misses the true error at
 /// (from, to), as a squared Mahalanobis distance in an information whose x, y block has

@@ -1,0 +1,119 @@
+// A session at bounded size (slam/session_pruning): two laps of one square keep one keyframe
+// per place and heading, the newest, and what is left restores, saves and loads.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <tuple>
+
+#include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/slam/session_pruning.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
+#include "../test_util.hpp"
+
+namespace {
+
+using llc::Pose2;
+
+/// Two laps (robot 0, then robot 1) of an 8 m square turned by 0.3 rad, a keyframe per metre,
+/// odometry between consecutive keyframes and a loop from each keyframe of lap 2 to lap 1's.
+llc::SlamSession twoLaps() {
+  llc::SlamSession s;
+  const Eigen::Matrix3d information = Eigen::Vector3d(100.0, 400.0, 900.0).asDiagonal();
+  Pose2 pose{0.0, 0.0, 0.3};
+  const std::size_t per_lap = 32;
+  for (std::size_t k = 0; k < 2 * per_lap; ++k) {
+    llc::Keyframe key;
+    key.scan_index = k;
+    key.stamp = double(k);
+    key.scan = llc_test::ringScan({1.0, 2.0, 3.0});
+    s.keyframes.push_back(key);
+    s.features.push_back({double(k % per_lap), 1.0});
+    s.robots.push_back(k < per_lap ? 0 : 1);
+    s.poses.push_back(pose);
+    const Pose2 step{1.0, 0.0, (k + 1) % 8 == 0 ? M_PI / 2 : 0.0};
+    if (k + 1 < 2 * per_lap) s.constraints.push_back({k, k + 1, step, information});
+    pose = llc::compose(pose, step);
+  }
+  for (std::size_t k = per_lap; k < 2 * per_lap; ++k) {
+    s.constraints.push_back({k - per_lap, k, Pose2{0.0, 0.0, 0.0}, information});
+    llc::LoopRecord record;
+    record.loop.from = k - per_lap;
+    record.loop.to = k;
+    record.applied = true;
+    s.loops.push_back(record);
+  }
+  return s;
+}
+
+TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
+  const llc::SlamSession before = twoLaps();
+  ASSERT_EQ(before.validate(), "");
+  llc::SessionPruningResult r;
+  const llc::SlamSession after = llc::pruneSession(before, llc::SessionPruningOptions{}, &r);
+  ASSERT_EQ(after.validate(), "");
+  EXPECT_EQ(r.keyframes_before, 64u);
+  EXPECT_EQ(r.keyframes_after, after.keyframes.size());
+  EXPECT_EQ(r.keyframes_after, r.places + 1);  // one per place and heading, and keyframe 0
+  EXPECT_LT(r.keyframes_after, 32u);           // lap 1 gone, and lap 2's keyframes sharing a place
+  EXPECT_EQ(r.kept_unfactorizable, 0u);
+  // The newest were kept: every kept keyframe but the anchor is lap 2's (robot 1).
+  EXPECT_EQ(after.robots.front(), 0u);
+  std::set<std::tuple<long, long, long>> places;
+  for (std::size_t i = 1; i < after.keyframes.size(); ++i) {
+    EXPECT_EQ(after.robots[i], 1u);
+    EXPECT_GE(after.keyframes[i].scan_index, 32u);
+    const Pose2& p = after.poses[i];
+    const long sector = long((llc::normalizeAngle(p.theta) + M_PI) / (2 * M_PI) * 4);
+    EXPECT_TRUE(places.insert({long(std::floor(p.x / 2.0)), long(std::floor(p.y / 2.0)), sector}).second)
+        << "two keyframes kept in one place";
+  }
+  // Loop records name kept keyframes only (only those from keyframe 0 are left), renumbered.
+  EXPECT_EQ(after.loops.size() + r.loops_dropped, before.loops.size());
+  for (const llc::LoopRecord& record : after.loops) {
+    EXPECT_EQ(record.loop.from, 0u);
+    EXPECT_EQ(after.keyframes[record.loop.to].scan_index, 32u);
+  }
+  // It restores into a back end, solved where it was (the laps agree exactly), and round-trips.
+  llc::SlamBackEnd back;
+  ASSERT_EQ(back.restore(after), "");
+  for (std::size_t i = 0; i < after.poses.size(); ++i) {
+    EXPECT_NEAR(back.poses()[i].x, after.poses[i].x, 1e-3);
+    EXPECT_NEAR(back.poses()[i].y, after.poses[i].y, 1e-3);
+  }
+  llc_test::TempDir dir;
+  const std::string path = dir.file("pruned.llcsession");
+  llc::saveSession(after, path);
+  const llc::SlamSession loaded = llc::loadSession(path);
+  EXPECT_EQ(loaded.keyframes.size(), after.keyframes.size());
+  EXPECT_EQ(loaded.constraints.size(), after.constraints.size());
+  // Pruned again, nothing more goes.
+  llc::SessionPruningResult again;
+  llc::pruneSession(after, llc::SessionPruningOptions{}, &again);
+  EXPECT_EQ(again.keyframes_after, again.keyframes_before);
+}
+
+TEST(SessionPruning, KeepingNoneMeansNoPruningAndBadOptionsAreRefused) {
+  const llc::SlamSession before = twoLaps();
+  llc::SessionPruningOptions off;
+  off.keep_per_place = 0;
+  llc::SessionPruningResult r;
+  const llc::SlamSession same = llc::pruneSession(before, off, &r);
+  EXPECT_EQ(same.keyframes.size(), before.keyframes.size());
+  EXPECT_EQ(same.constraints.size(), before.constraints.size());
+  EXPECT_EQ(same.loops.size(), before.loops.size());
+  llc::SessionPruningOptions bad;
+  bad.place_size = 0.0;
+  EXPECT_THROW(llc::pruneSession(before, bad, nullptr), std::invalid_argument);
+  bad = {};
+  bad.heading_sectors = 0;
+  EXPECT_THROW(llc::pruneSession(before, bad, nullptr), std::invalid_argument);
+  llc::SlamSession broken = before;
+  broken.poses.pop_back();
+  EXPECT_THROW(llc::pruneSession(broken, {}, nullptr), std::invalid_argument);
+}
+
+}  // namespace
