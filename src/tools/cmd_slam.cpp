@@ -286,10 +286,10 @@ std::string timeOffsetProbeLines(const llc::OdometryTimeOffsetProbeResult& r) {
 
 int runSlam(const Args& args) {
   if (args.has("lifelong")) {  // one map for months: the run joins the saved map as a fleet's robot would
-    if (!args.has("load-session") || !args.has("save-session"))
-      throw UsageError("--lifelong extends a saved map: give --load-session S and --save-session S2");
+    if (!args.has("save-session"))
+      throw UsageError("--lifelong keeps a map at bounded size: give --save-session S (and --load-session S0 to extend one)");
     if (args.has("continue-odometry")) throw UsageError("--lifelong starts with no pose: --continue-odometry does not apply");
-    return runMultiRobotSlam(args);
+    if (args.has("load-session")) return runMultiRobotSlam(args);
   }
   if (args.all("log").size() + args.all("bag").size() > 1 || args.has("split")) return runMultiRobotSlam(args);
   if (args.has("bag") == args.has("log")) throw UsageError("give --bag BAG or --log LOG (several of them: several robots)");
@@ -439,7 +439,10 @@ int runSlam(const Args& args) {
     ++refusals[std::size_t(record.refusal)];
   }
   writeOutputs(slam, options.map, dir);
-  if (args.has("save-session")) {
+  std::string session_lines;  // --lifelong: what pruning the saved session did
+  if (args.has("save-session") && args.has("lifelong")) {
+    session_lines = saveLifelongSession(slam.session(), options.lifelong, args.get("save-session", ""), dir);
+  } else if (args.has("save-session")) {
     try {
       llc::saveSession(slam.session(), args.get("save-session", ""));
     } catch (const llc::SessionError& e) {
@@ -520,6 +523,7 @@ int runSlam(const Args& args) {
   for (std::size_t kind = 1; kind < llc::kOdometryRefusalKinds; ++kind)
     report << "odometry_steps_not_matched_" << llc::odometryRefusalName(llc::OdometryRefusal(kind)) << "="
            << c.steps_not_matched[kind] << "\n";
+  report << session_lines;
   report << "seconds_odometry=" << c.seconds_odometry << "\n"
          << "seconds_classify=" << c.seconds_classify << "\n"
          << "seconds_align=" << c.seconds_align << "\n"

@@ -320,7 +320,10 @@ int runMultiRobotSlam(const Args& args) {
   loops.commit();
   writeMapFiles(map.keyframes(), map.poses(), picture_loops, options.map, dir);
 
-  if (args.has("save-session")) {  // the map: every joined robot, each keyframe's robot named
+  std::string session_lines;  // --lifelong: what pruning the saved session did
+  if (args.has("save-session") && args.has("lifelong")) {
+    session_lines = saveLifelongSession(slam.session(), options.lifelong, args.get("save-session", ""), dir);
+  } else if (args.has("save-session")) {  // the map: every joined robot, each keyframe's robot named
     try {
       llc::saveSession(slam.session(), args.get("save-session", ""));
     } catch (const llc::SessionError& e) {
@@ -387,7 +390,7 @@ int runMultiRobotSlam(const Args& args) {
            << wrong_lines.str();
   else
     report << "ground_truth=none (--evaluate or --drift compares against the inputs' poses)\n";
-  report << "seconds_cross_robot_search=" << c.seconds_search << "\n" << "seconds=" << seconds << "\n";
+  report << session_lines << "seconds_cross_robot_search=" << c.seconds_search << "\n" << "seconds=" << seconds << "\n";
   llc::writeFileAtomically(dir + "/report.txt", report.str());
   std::cout << report.str() << "Wrote " << dir << "/{trajectory.csv,scans.csv,loops.csv,map.pgm,map.yaml,map.png,report.txt}\n";
   return 0;

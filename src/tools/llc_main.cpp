@@ -131,9 +131,11 @@ const std::vector<Command>& commands() {
        "       --save-session: the map with each keyframe's robot)\n"
        "      [--load-session FILE]   (a saved map of the fleet: every input joins it, its frame the map's; the\n"
        "       outputs keep its keyframes' robots and number the inputs after them)\n"
-       "   one map for months: slam (--log LOG | --bag BAG) --load-session S --lifelong --save-session S2 --out DIR\n"
+       "   one map for months: slam (--log LOG | --bag BAG) [--load-session S] --lifelong --save-session S2 --out DIR\n"
        "      (the run starts with no pose and joins the saved map at its first confirmed fix, as a robot of a fleet;\n"
-       "       S2: the map extended by it, loops between old and new; written atomically, S2 may be S)"},
+       "       S2: the map extended by it, loops between old and new, at bounded size: per place and heading\n"
+       "       (lifelong/*) the newest keyframes kept, the others marginalised into them; DIR/session_keyframes.csv\n"
+       "       lists what S2 keeps; written atomically, S2 may be S. Without --load-session: the first day's map)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",

@@ -9,10 +9,13 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "laser_loop_closure/core/classifier/classifier_training.hpp"
 #include "laser_loop_closure/core/common/file_util.hpp"
+#include "laser_loop_closure/core/slam/session_io.hpp"
 #include "laser_loop_closure/ros/io/drive_input.hpp"
 
 namespace llc_tool {
@@ -312,6 +315,38 @@ void writeMapFiles(const std::vector<llc::Keyframe>& keyframes, const std::vecto
   } catch (const std::exception& e) {
     throw ToolError(std::string("map: ") + e.what());
   }
+}
+
+std::string saveLifelongSession(const llc::SlamSession& session, const llc::SessionPruningOptions& options,
+                                const std::string& path, const std::string& dir) {
+  llc::SessionPruningResult pruning;
+  llc::SlamSession pruned;
+  try {
+    pruned = llc::pruneSession(session, options, &pruning);
+    llc::saveSession(pruned, path);
+  } catch (const std::exception& e) {
+    throw ToolError(e.what());
+  }
+  llc::AtomicTextFile list(dir + "/session_keyframes.csv");
+  list << "robot,index,stamp,x,y,theta\n" << std::fixed << std::setprecision(6);
+  for (std::size_t k = 0; k < pruned.keyframes.size(); ++k) {
+    const llc::Pose2& p = pruned.poses[k];
+    list << (pruned.robots.empty() ? 0u : pruned.robots[k]) << "," << pruned.keyframes[k].scan_index << ","
+         << pruned.keyframes[k].stamp << "," << p.x << "," << p.y << "," << p.theta << "\n";
+  }
+  list.commit();
+  std::ostringstream lines;
+  lines << std::setprecision(4) << "session_keyframes=" << pruning.keyframes_after << "  (saved; of " << pruning.keyframes_before
+        << " in the map: the newest " << options.keep_per_place << " per place of " << options.place_size << " m and "
+        << options.heading_sectors << " headings kept, the others marginalised into them)\n"
+        << "session_constraints=" << pruning.constraints_after << "  (of " << pruning.constraints_before << ")\n"
+        << "session_loops_dropped=" << pruning.loops_dropped << "  (loop records of retired keyframes)\n"
+        << "session_pruning_kl_nats=" << pruning.mean_kl << " mean, " << pruning.max_kl
+        << " max  (per retired keyframe: what its tree of constraints lost against its dense marginal)\n"
+        << "session_pruning_seconds=" << pruning.seconds << "\n";
+  if (pruning.kept_unfactorizable > 0)
+    lines << "session_kept_unfactorizable=" << pruning.kept_unfactorizable << "  (to retire, kept: their neighbourhood's information is singular)\n";
+  return lines.str();
 }
 
 }  // namespace llc_tool

@@ -118,4 +118,10 @@ std::optional<llc::OdometryDrift> odometryDrift(const Args& args);
 void writeMapFiles(const std::vector<llc::Keyframe>& keyframes, const std::vector<llc::Pose2>& poses,
                    const std::vector<llc::PictureLoop>& loops, const llc::OccupancyGridOptions& options, const std::string& dir);
 
+/// --save-session S with --lifelong: the session pruned to options (slam/session_pruning) and
+/// saved at path, its keyframes listed in DIR/session_keyframes.csv (robot, index, stamp, x,
+/// y, theta). Returns the report's lines; ToolError when it cannot be saved.
+std::string saveLifelongSession(const llc::SlamSession& session, const llc::SessionPruningOptions& options,
+                                const std::string& path, const std::string& dir);
+
 }  // namespace llc_tool

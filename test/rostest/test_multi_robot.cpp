@@ -33,6 +33,7 @@
 #include "laser_loop_closure/SaveMap.h"
 #include "laser_loop_closure/SaveSession.h"
 #include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/core/geometry/trajectory_error.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
 #include "wall_bounded.hpp"
@@ -242,7 +243,22 @@ TEST(MultiRobot, EveryRobotJoinsOnTheTruthAndANetworkLossLosesNothing) {
   const llc::SlamSession session = llc::loadSession(stem + ".llcsession");
   std::map<std::uint32_t, std::size_t> per_robot;
   for (const std::uint32_t robot : session.robots) ++per_robot[robot];
-  for (const char* suffix : {".pgm", ".yaml", ".llcsession"}) std::remove((stem + suffix).c_str());
+  // Saved again at bounded size (prune, lifelong/*): what is kept loads and rebuilds a back end.
+  laser_loop_closure::SaveSession pruned_save;
+  pruned_save.request.path = stem + "_pruned.llcsession";
+  pruned_save.request.prune = true;
+  ASSERT_TRUE(llc_test::callWithin("/multi_robot_backend/save_session", &pruned_save, 120.0, &why)) << why;
+  ASSERT_TRUE(pruned_save.response.success) << pruned_save.response.message;
+  const llc::SlamSession pruned = llc::loadSession(stem + "_pruned.llcsession");
+  EXPECT_EQ(pruned.keyframes.size(), std::size_t(pruned_save.response.keyframes));
+  EXPECT_GT(pruned.keyframes.size(), 0u);
+  // A saved map of the same drive: every place the live robots saw is in it twice or more.
+  if (max_join_path >= 0.0) EXPECT_LT(pruned.keyframes.size(), session.keyframes.size() * 2 / 3);
+  else EXPECT_LE(pruned.keyframes.size(), session.keyframes.size());
+  llc::SlamBackEnd restored;
+  EXPECT_EQ(restored.restore(pruned), "") << "the pruned session does not rebuild a back end";
+  RecordProperty("pruned_session_keyframes", int(pruned.keyframes.size()));
+  for (const char* suffix : {".pgm", ".yaml", ".llcsession", "_pruned.llcsession"}) std::remove((stem + suffix).c_str());
 
   std::lock_guard<std::mutex> lock(mutex);
   RecordProperty("robots_joined", int(back_end.value("robots joined")));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -22,12 +23,20 @@ struct WorkingGraph {
   std::vector<PoseEdge> edges;
   std::vector<char> alive;
   std::vector<std::vector<std::size_t>> incident;  ///< per pose, its constraints (dead ones too)
+  std::vector<std::size_t> degree;                 ///< per pose, its live constraints
 
   void add(const PoseEdge& edge) {
     incident[edge.from].push_back(edges.size());
     incident[edge.to].push_back(edges.size());
+    ++degree[edge.from];
+    ++degree[edge.to];
     edges.push_back(edge);
     alive.push_back(1);
+  }
+  void remove(std::size_t e) {
+    alive[e] = 0;
+    --degree[edges[e].from];
+    --degree[edges[e].to];
   }
 };
 
@@ -48,7 +57,8 @@ Eigen::Matrix3d relativeCovariance(const Eigen::Matrix3d& ja, const Eigen::Matri
 /// Marginalises pose k out of the graph (its constraints replaced by a tree over its
 /// neighbours). False, and nothing changed, when the neighbourhood's information cannot be
 /// factorised. *kl receives what the tree lost (nats; 0 for fewer than two neighbours).
-bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_t k, double* kl) {
+bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_t k, double* kl,
+                std::vector<std::size_t>* neighbours) {
   *kl = 0.0;
   std::vector<std::size_t> touching, blanket;
   for (std::size_t e : graph.incident[k]) {
@@ -60,11 +70,12 @@ bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_
   std::sort(blanket.begin(), blanket.end());
   blanket.erase(std::unique(blanket.begin(), blanket.end()), blanket.end());
   const std::size_t m = blanket.size();
+  *neighbours = blanket;
   auto slot = [&](std::size_t pose) -> std::size_t {  // k is slot 0, its neighbours 1 .. m
     return pose == k ? 0 : std::size_t(std::lower_bound(blanket.begin(), blanket.end(), pose) - blanket.begin()) + 1;
   };
   auto kill = [&] {
-    for (std::size_t e : touching) graph.alive[e] = 0;
+    for (std::size_t e : touching) graph.remove(e);
     graph.incident[k].clear();
   };
   if (m < 2) {  // a leaf: its constraints say nothing about one neighbour alone (no absolute prior)
@@ -101,15 +112,16 @@ bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_
   if (rooted_factor.info() != Eigen::Success) return false;
   const MatrixXd sigma = rooted_factor.solve(MatrixXd::Identity(free, free));
   if (!sigma.allFinite()) return false;
-  // The tree: each neighbour but the oldest linked to the older neighbour whose relative pose
-  // is best known (smallest determinant of its marginal covariance), with that covariance.
-  // Neighbour j (0-based; 0 the root) is sigma's block j - 1.
-  std::vector<PoseEdge> tree;
-  std::vector<std::pair<std::size_t, std::size_t>> tree_slots;
+  // Candidate tree constraints: every pair of neighbours (older first), with the marginal
+  // covariance of their relative pose; the better known, the better. Neighbour j (0-based; 0
+  // the root) is sigma's block j - 1.
+  struct Candidate {
+    double log_det;
+    std::size_t p, t;
+    PoseEdge edge;
+  };
+  std::vector<Candidate> candidates;
   for (std::size_t t = 1; t < m; ++t) {
-    double best = std::numeric_limits<double>::infinity();
-    PoseEdge chosen;
-    std::size_t chosen_parent = 0;
     for (std::size_t p = 0; p < t; ++p) {
       PoseEdge edge;
       edge.from = blanket[p];
@@ -121,17 +133,43 @@ bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_
       if (factor.info() != Eigen::Success) continue;
       const Eigen::Matrix3d l = factor.matrixL();
       const double log_det = 2.0 * (std::log(l(0, 0)) + std::log(l(1, 1)) + std::log(l(2, 2)));
-      if (!(log_det < best)) continue;
-      best = log_det;
       const Eigen::Matrix3d information = factor.solve(Eigen::Matrix3d::Identity());
       edge.information = 0.5 * (information + information.transpose());
-      chosen = edge;
-      chosen_parent = p;
+      if (std::isfinite(log_det) && edge.information.allFinite()) candidates.push_back({log_det, p, t, edge});
     }
-    if (!std::isfinite(best) || !chosen.information.allFinite()) return false;
-    tree.push_back(chosen);
-    tree_slots.emplace_back(chosen_parent, t);
   }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.log_det < b.log_det; });
+  // A neighbour whose only link from an older pose went through k needs one again in the tree
+  // (so the graph can still be rebuilt pose by pose): its best older neighbour, first; then the
+  // best known pairs that join parts not yet joined (Kruskal: a maximum-information tree).
+  std::vector<std::size_t> part(m);
+  for (std::size_t i = 0; i < m; ++i) part[i] = i;
+  auto find = [&](std::size_t i) {
+    while (part[i] != i) i = part[i] = part[part[i]];
+    return i;
+  };
+  std::vector<PoseEdge> tree;
+  std::vector<std::pair<std::size_t, std::size_t>> tree_slots;
+  auto join = [&](const Candidate& c) {
+    const std::size_t a = find(c.p), b = find(c.t);
+    if (a == b) return;
+    part[a] = b;
+    tree.push_back(c.edge);
+    tree_slots.emplace_back(c.p, c.t);
+  };
+  for (std::size_t t = 1; t < m; ++t) {
+    const std::size_t pose = blanket[t];
+    bool linked = false;
+    for (std::size_t e : graph.incident[pose])
+      linked = linked || (graph.alive[e] && graph.edges[e].to == pose && graph.edges[e].from < pose &&
+                          graph.edges[e].from != k);
+    if (linked) continue;
+    const auto best = std::find_if(candidates.begin(), candidates.end(), [&](const Candidate& c) { return c.t == t; });
+    if (best == candidates.end()) return false;
+    join(*best);
+  }
+  for (const Candidate& c : candidates) join(c);
+  if (tree.size() + 1 != m) return false;
   // The tree's linear model at the current poses (rows: its constraints; columns: neighbours 1 ..).
   MatrixXd jacobian = MatrixXd::Zero(free, free), weight = MatrixXd::Zero(free, free);
   for (std::size_t i = 0; i < tree.size(); ++i) {
@@ -200,16 +238,32 @@ PoseGraphReduction marginalizePoses(const std::vector<Pose2>& poses, const std::
   checkInput(poses, edges, retire);
   WorkingGraph graph;
   graph.incident.resize(poses.size());
+  graph.degree.assign(poses.size(), 0);
   for (const PoseEdge& edge : edges) graph.add(edge);
   PoseGraphReduction out;
   std::vector<char> gone(poses.size(), 0);
   std::size_t trees = 0;
   double kl_sum = 0.0;
-  for (std::size_t k = 1; k < poses.size(); ++k) {
-    if (!retire[k]) continue;
+  // Fewest constraints first (minimum degree, as sparse elimination orders): small
+  // neighbourhoods are marginalised exactly or nearly, and no pose gathers the others' links.
+  std::set<std::pair<std::size_t, std::size_t>> queue;  // (live constraints, pose)
+  for (std::size_t k = 1; k < poses.size(); ++k)
+    if (retire[k]) queue.insert({graph.degree[k], k});
+  std::vector<std::size_t> neighbours;
+  while (!queue.empty()) {
+    const std::size_t k = queue.begin()->second;
+    queue.erase(queue.begin());
+    for (std::size_t e : graph.incident[k])
+      if (graph.alive[e]) {
+        const std::size_t other = graph.edges[e].from == k ? graph.edges[e].to : graph.edges[e].from;
+        if (retire[other] && !gone[other]) queue.erase({graph.degree[other], other});
+      }
     double kl = 0.0;
     const std::size_t edges_before = graph.edges.size();
-    if (!retirePose(graph, poses, k, &kl)) {
+    const bool retired = retirePose(graph, poses, k, &kl, &neighbours);
+    for (std::size_t other : neighbours)
+      if (retire[other] && !gone[other] && other != 0) queue.insert({graph.degree[other], other});
+    if (!retired) {
       ++out.kept_unfactorizable;
       continue;
     }

@@ -18,11 +18,13 @@ std::string SessionPruningOptions::validate() const {
 
 namespace {
 
-/// Which keyframes to retire: in each place and heading sector, all but the newest keep_per_place.
+/// Which keyframes to retire: in each place and heading sector, all but the keep_per_place newest (or oldest).
 std::vector<char> keyframesToRetire(const SlamSession& session, const SessionPruningOptions& options, std::size_t* places) {
   std::map<std::tuple<long, long, long>, std::size_t> seen;  // place -> keyframes kept there so far
   std::vector<char> retire(session.poses.size(), 0);
-  for (std::size_t i = session.poses.size(); i-- > 1;) {  // newest first; keyframe 0 anchors the map
+  const std::size_t n = session.poses.size();
+  for (std::size_t j = 1; j < n; ++j) {  // the ones to keep first; keyframe 0 anchors the map
+    const std::size_t i = options.keep_newest ? n - j : j;
     const Pose2& pose = session.poses[i];
     const double turn = (normalizeAngle(pose.theta) + M_PI) / (2.0 * M_PI);  // 0 .. 1
     const long sector = std::min(long(options.heading_sectors) - 1, long(turn * double(options.heading_sectors)));

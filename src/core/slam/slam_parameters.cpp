@@ -32,7 +32,9 @@ std::string SystemOptions::validate() const {
   error = localization.validate();
   if (!error.empty()) return "localization: " + error;
   error = multi_robot.validate();
-  return error.empty() ? "" : "multi_robot: " + error;
+  if (!error.empty()) return "multi_robot: " + error;
+  error = lifelong.validate();
+  return error.empty() ? "" : "lifelong: " + error;
 }
 
 std::vector<std::string> systemParameterNames() {

@@ -396,12 +396,15 @@ bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& reque
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string path = request.path.empty() ? options_.session_path : request.path;
   try {
-    llc::saveSession(withScans(llc::sessionOf(*back_, features_, &robots_), map_scans_), path);
+    llc::SlamSession session = withScans(llc::sessionOf(*back_, features_, &robots_), map_scans_);
+    const std::size_t held = session.keyframes.size();
+    if (request.prune) session = llc::pruneSession(session, system_.lifelong, nullptr);
+    llc::saveSession(session, path);
     response.success = true;
-    response.keyframes = std::uint32_t(back_->keyframes().size());
-    response.loops = std::uint32_t(back_->loops().size());
-    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes, " +
-                       std::to_string(response.loops) + " loops)";
+    response.keyframes = std::uint32_t(session.keyframes.size());
+    response.loops = std::uint32_t(session.loops.size());
+    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes" +
+                       (request.prune ? " kept of " + std::to_string(held) : "") + ", " + std::to_string(response.loops) + " loops)";
   } catch (const std::exception& e) {
     response.success = false;
     response.message = e.what();

@@ -422,12 +422,15 @@ bool MultiRobotBackendRos::saveSession(laser_loop_closure::SaveSession::Request&
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string path = request.path.empty() ? options_.session_path : request.path;
   try {
-    const llc::SlamSession session = slam_->session();
+    llc::SlamSession session = slam_->session();
+    const std::size_t held = session.keyframes.size();
+    if (request.prune) session = llc::pruneSession(session, system_.lifelong, nullptr);
     llc::saveSession(session, path);
     response.success = true;
     response.keyframes = std::uint32_t(session.keyframes.size());
     response.loops = std::uint32_t(session.loops.size());
-    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes of " +
+    response.message = "wrote " + path + " (" + std::to_string(response.keyframes) + " keyframes" +
+                       (request.prune ? " kept of " + std::to_string(held) : "") + " of " +
                        std::to_string(slam_->counters().robots_joined - slot_offset_) + " joined robots" +
                        (slot_offset_ > 0 ? " and the saved map)" : ")");
   } catch (const std::exception& e) {

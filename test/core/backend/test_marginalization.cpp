@@ -2,6 +2,7 @@
 // ESDF as the reference for what is kept, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <stdexcept>
@@ -99,6 +100,45 @@ TEST(Marginalization, RetiringHalfOfALoopyGraphKeepsItsOptimumAndItsCovariancesC
               "covariance trace ratio %.3f .. %.3f\n",
               reduced.retired, n, edges.size(), reduced.edges.size(), reduced.mean_kl, reduced.max_kl, worst_shift,
               best_ratio, worst_ratio);
+}
+
+TEST(Marginalization, AnyRetiredSetLeavesAGraphTheEsdfRebuildsPoseByPose) {
+  // Random chains with random loops (either way round) and random poses retired: the order of
+  // elimination and the trees must leave every kept pose reachable from an older one.
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    llc::Random random(seed);
+    const std::size_t n = 30 + random.index(40);
+    std::vector<Pose2> poses{Pose2{}};
+    std::vector<PoseEdge> edges;
+    for (std::size_t k = 1; k < n; ++k) {
+      const Pose2 step{random.uniform(0.5, 1.0), random.uniform(-0.1, 0.1), random.uniform(-0.5, 0.5)};
+      edges.push_back({k - 1, k, step, kInformation});
+      poses.push_back(llc::compose(poses.back(), step));
+    }
+    for (std::size_t l = 0; l < n; ++l) {
+      std::size_t a = random.index(n), b = random.index(n);
+      if (a == b) continue;
+      if (random.uniform(0.0, 1.0) < 0.3) std::swap(a, b);  // some loops from the newer pose
+      edges.push_back({a, b, llc::between(poses[a], poses[b]), kInformation});
+    }
+    std::vector<char> retire(n, 0);
+    for (std::size_t k = 0; k < n; ++k) retire[k] = random.uniform(0.0, 1.0) < 0.6;
+    const llc::PoseGraphReduction reduced = llc::marginalizePoses(poses, edges, retire);
+    EXPECT_EQ(reduced.kept.front(), 0u) << "pose 0 left (seed " << seed << ")";
+    EXPECT_EQ(reduced.kept.size() + reduced.retired, n);
+    EXPECT_EQ(reduced.retired + reduced.kept_unfactorizable, std::size_t(std::count(retire.begin() + 1, retire.end(), 1)));
+    std::size_t reached = 0;  // as SlamSession::validate reads the order
+    for (const PoseEdge& e : reduced.edges) {
+      if (e.to == reached + 1 && e.from < e.to) ++reached;
+      else EXPECT_LE(std::max(e.from, e.to), reached) << "seed " << seed << ": a constraint reaches a pose before it exists";
+    }
+    EXPECT_EQ(reached + 1, reduced.kept.size()) << "seed " << seed;
+    // Consistent measurements: the kept poses stay where they were.
+    const auto small = rebuild(reduced.poses, reduced.edges);
+    for (std::size_t i = 0; i < reduced.kept.size(); ++i)
+      EXPECT_LT(std::hypot(small->mean()[i].x - poses[reduced.kept[i]].x, small->mean()[i].y - poses[reduced.kept[i]].y), 1e-6)
+          << "seed " << seed << " pose " << reduced.kept[i];
+  }
 }
 
 TEST(Marginalization, ALeafLeavesWithItsConstraintsAndPoseZeroNeverLeaves) {

@@ -17,7 +17,8 @@ namespace llc {
 struct SessionPruningOptions {
   double place_size = 2.0;          ///< m; side of the square cells of the map frame a place is
   std::size_t heading_sectors = 4;  ///< sectors of heading per place, each keeping its own keyframes
-  std::size_t keep_per_place = 1;   ///< keyframes kept per place and heading sector (the newest); 0: no pruning
+  std::size_t keep_per_place = 1;   ///< keyframes kept per place and heading sector; 0: no pruning
+  bool keep_newest = true;          ///< keep a place's newest keyframes (the world as it is now); false: its oldest
   [[nodiscard]] std::string validate() const;
 };
 
@@ -31,7 +32,8 @@ struct SessionPruningResult {
   double seconds = 0.0;
 };
 
-/// The session with the keyframes beyond keep_per_place in each place retired (keyframe 0,
+/// The session with the keyframes beyond keep_per_place in each place (the oldest, or with
+/// keep_newest false the newest) retired (keyframe 0,
 /// the map's anchor, always stays): their scans, features and loop records dropped, their
 /// constraints marginalised into the others, everything renumbered. Throws
 /// std::invalid_argument on bad options or a session that does not validate().

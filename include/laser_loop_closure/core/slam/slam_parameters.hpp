@@ -15,6 +15,7 @@
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
 #include "laser_loop_closure/core/slam/localizer.hpp"
 #include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
+#include "laser_loop_closure/core/slam/session_pruning.hpp"
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 
 namespace llc {
@@ -25,6 +26,7 @@ struct SystemOptions {
   OccupancyGridOptions map{};
   LocalizerOptions localization{};  ///< llc localize and mode localization only
   MultiRobotOptions multi_robot{};  ///< llc slam with several inputs only
+  SessionPruningOptions lifelong{};  ///< llc slam --lifelong only: the session saved at bounded size
   [[nodiscard]] std::string validate() const;
 };
 
@@ -212,6 +214,11 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("multi_robot/cross_candidates", multi_robot.cross_candidates);
   visit("multi_robot/search_threads", multi_robot.search_threads);
   visitJoinParameters("multi_robot/join/", multi_robot.join, visit);
+  SessionPruningOptions& lifelong = options.lifelong;
+  visit("lifelong/place_size", lifelong.place_size);
+  visit("lifelong/heading_sectors", lifelong.heading_sectors);
+  visit("lifelong/keep_per_place", lifelong.keep_per_place);
+  visit("lifelong/keep_newest", lifelong.keep_newest);
 
   OccupancyGridOptions& map = options.map;
   visit("map/resolution", map.resolution);
