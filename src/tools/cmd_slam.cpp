@@ -292,6 +292,7 @@ int runSlam(const Args& args) {
     if (args.has("load-session")) return runMultiRobotSlam(args);
   }
   if (args.all("log").size() + args.all("bag").size() > 1 || args.has("split")) return runMultiRobotSlam(args);
+  if (args.has("start-scan")) throw UsageError("--start-scan is for a later day of a drive: --lifelong --load-session S");
   if (args.has("bag") == args.has("log")) throw UsageError("give --bag BAG or --log LOG (several of them: several robots)");
   const std::string input = args.has("bag") ? args.get("bag", "") : args.get("log", "");
   const std::string dir = args.required("out");

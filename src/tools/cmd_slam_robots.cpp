@@ -50,6 +50,15 @@ std::vector<RobotInput> loadRobots(const Args& args, const llc::SlamOptions& sla
     if (whole.scans.size() < 2) throw ToolError(path + ": fewer than 2 scans");
     const bool truth = args.has("evaluate") || drift || hasTruthBesideOdometry(whole);
     llc::shiftOdometry(&whole, chooseOdometryOffset(args, whole, slam).offset);
+    // --lifelong on a part of a drive (a day of it): scans start-scan .. end-scan - 1, each
+    // keeping its number in the input.
+    const long first = args.integer("start-scan", 0), last = args.integer("end-scan", long(whole.scans.size()));
+    if (first < 0 || last > long(whole.scans.size()) || last - first < 2)
+      throw UsageError("--start-scan and --end-scan must leave 2 scans or more of the input's " + std::to_string(whole.scans.size()));
+    if (first > 0 || last < long(whole.scans.size())) {
+      whole.scans.erase(whole.scans.begin() + last, whole.scans.end());
+      whole.scans.erase(whole.scans.begin(), whole.scans.begin() + first);
+    }
     const std::size_t parts = std::size_t(split), per_part = whole.scans.size() / parts;
     if (per_part < 2) throw UsageError("--split: fewer than 2 scans per robot");
     for (std::size_t p = 0; p < parts; ++p) {
@@ -60,7 +69,7 @@ std::vector<RobotInput> loadRobots(const Args& args, const llc::SlamOptions& sla
       const std::size_t end = p + 1 == parts ? whole.scans.size() : (p + 1) * per_part;
       for (std::size_t i = p * per_part; i < end; ++i) {
         robot.sequence.scans.push_back(whole.scans[i]);
-        robot.input_index.push_back(i);
+        robot.input_index.push_back(i + std::size_t(first));
       }
       robot.wheels = whole.has_odometry && !args.has("no-wheel-odometry");
       robot.has_truth = truth;
@@ -185,9 +194,10 @@ std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const
 }  // namespace
 
 int runMultiRobotSlam(const Args& args) {
-  for (const char* flag : {"save-graph", "relations", "truth", "end-scan", "continue-odometry",
-                           "estimate-odometry-time-offset"})
+  for (const char* flag : {"save-graph", "relations", "truth", "continue-odometry", "estimate-odometry-time-offset"})
     if (args.has(flag)) throw UsageError(std::string("--") + flag + " is for one robot (one input, no --split)");
+  for (const char* flag : {"start-scan", "end-scan"})
+    if (args.has(flag) && !args.has("lifelong")) throw UsageError(std::string("--") + flag + " is for one robot (one input, no --split)");
   const std::string dir = args.required("out");
   const double wrong_m = args.number("wrong-loop-m", 1.0), wrong_rad = args.number("wrong-loop-deg", 5.73) * M_PI / 180.0;
   if (!(wrong_m > 0.0 && wrong_rad > 0.0)) throw UsageError("--wrong-loop-m and --wrong-loop-deg must be > 0");

@@ -96,7 +96,7 @@ const std::vector<Command>& commands() {
        with({"bag", "log", "out", "model", "config", "positive-distance", "positive-heading-deg", "load-session",
              "save-session", "save-graph", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "relations", "truth", "wrong-loop-m",
-             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan", "split", "seed"},
+             "wrong-loop-deg", "seq-reorder-scans", "estimate-odometry-time-offset", "end-scan", "start-scan", "split", "seed"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry", "quiet", "evaluate", "continue-odometry", "simultaneous", "lifelong"},
        "slam (--bag BAG | --log LOG) --out DIR [--model MODEL.yaml] [--config config/slam.yaml]\n"
@@ -135,7 +135,8 @@ const std::vector<Command>& commands() {
        "      (the run starts with no pose and joins the saved map at its first confirmed fix, as a robot of a fleet;\n"
        "       S2: the map extended by it, loops between old and new, at bounded size: per place and heading\n"
        "       (lifelong/*) the newest keyframes kept, the others marginalised into them; DIR/session_keyframes.csv\n"
-       "       lists what S2 keeps; written atomically, S2 may be S. Without --load-session: the first day's map)"},
+       "       lists what S2 keeps; written atomically, S2 may be S. Without --load-session: the first day's map)\n"
+       "      [--start-scan N] [--end-scan M]   (with --load-session: scans N .. M-1 of the input alone, a later day of a drive)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
              "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
