@@ -30,6 +30,7 @@
 #include "laser_loop_closure/Session.h"
 #include "laser_loop_closure/TrainClassifier.h"
 #include "laser_loop_closure/core/slam/session_io.hpp"
+#include "laser_loop_closure/core/slam/slam_back_end.hpp"
 #include "laser_loop_closure/core/classifier/classifier_model.hpp"
 #include "laser_loop_closure/core/slam/slam_evaluation.hpp"
 #include "laser_loop_closure/ros/io/msg_conversion.hpp"
@@ -300,6 +301,19 @@ TEST(BagRun, MapsTheSimulatedDrive) {
   ASSERT_EQ(saved.keyframes.size(), keyframes);
   EXPECT_EQ(saved.features.front().size(), llc::featureCount(llc::FeatureSet::kExtended));
   EXPECT_EQ(saved.constraints.size(), keyframes - 1 + check.applied);
+  // Saved at bounded size (prune): one keyframe per place and heading kept, and it rebuilds.
+  laser_loop_closure::SaveSession pruned_save;
+  pruned_save.request.path = std::string(folder) + "/run_pruned.llcsession";
+  pruned_save.request.prune = true;
+  ASSERT_TRUE(llc_test::callWithin("/esdf_backend/save_session", &pruned_save, 30.0, &why)) << why;
+  ASSERT_TRUE(pruned_save.response.success) << pruned_save.response.message;
+  const llc::SlamSession pruned = llc::loadSession(pruned_save.request.path);
+  EXPECT_EQ(pruned.keyframes.size(), std::size_t(pruned_save.response.keyframes));
+  EXPECT_LT(pruned.keyframes.size(), keyframes) << "keyframes 1.4 m apart share 2 m places";
+  EXPECT_GT(pruned.keyframes.size(), keyframes / 4);
+  llc::SlamBackEnd restored;
+  EXPECT_EQ(restored.restore(pruned), "") << "the pruned session does not rebuild a back end";
+  RecordProperty("pruned_session_keyframes", int(pruned.keyframes.size()));
   laser_loop_closure::LoadSession load;
   load.request.path = std::string(folder) + "/none.llcsession";
   ASSERT_TRUE(llc_test::callWithin("/esdf_backend/load_session", &load, 5.0, &why)) << why;
