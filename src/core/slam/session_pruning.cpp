@@ -20,17 +20,18 @@ namespace {
 
 /// Which keyframes to retire: in each place and heading sector, all but the keep_per_place newest (or oldest).
 std::vector<char> keyframesToRetire(const SlamSession& session, const SessionPruningOptions& options, std::size_t* places) {
+  auto placeOf = [&](const Pose2& pose) {
+    const double turn = (normalizeAngle(pose.theta) + M_PI) / (2.0 * M_PI);  // 0 .. 1
+    const long sector = std::min(long(options.heading_sectors) - 1, long(turn * double(options.heading_sectors)));
+    return std::make_tuple(long(std::floor(pose.x / options.place_size)), long(std::floor(pose.y / options.place_size)), sector);
+  };
   std::map<std::tuple<long, long, long>, std::size_t> seen;  // place -> keyframes kept there so far
   std::vector<char> retire(session.poses.size(), 0);
   const std::size_t n = session.poses.size();
-  for (std::size_t j = 1; j < n; ++j) {  // the ones to keep first; keyframe 0 anchors the map
+  if (n > 0) seen[placeOf(session.poses[0])] = 1;  // keyframe 0 anchors the map: it stays, and fills its place
+  for (std::size_t j = 1; j < n; ++j) {  // the ones to keep first
     const std::size_t i = options.keep_newest ? n - j : j;
-    const Pose2& pose = session.poses[i];
-    const double turn = (normalizeAngle(pose.theta) + M_PI) / (2.0 * M_PI);  // 0 .. 1
-    const long sector = std::min(long(options.heading_sectors) - 1, long(turn * double(options.heading_sectors)));
-    const auto place = std::make_tuple(long(std::floor(pose.x / options.place_size)),
-                                       long(std::floor(pose.y / options.place_size)), sector);
-    if (++seen[place] > options.keep_per_place) retire[i] = 1;
+    if (++seen[placeOf(session.poses[i])] > options.keep_per_place) retire[i] = 1;
   }
   *places = seen.size();
   return retire;

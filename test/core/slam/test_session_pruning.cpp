@@ -23,7 +23,7 @@ using llc::Pose2;
 llc::SlamSession twoLaps() {
   llc::SlamSession s;
   const Eigen::Matrix3d information = Eigen::Vector3d(100.0, 400.0, 900.0).asDiagonal();
-  Pose2 pose{0.0, 0.0, 0.3};
+  Pose2 pose{0.7, 0.3, 0.3};  // off the cells' edges, where rounding would split a place
   const std::size_t per_lap = 32;
   for (std::size_t k = 0; k < 2 * per_lap; ++k) {
     llc::Keyframe key;
@@ -57,22 +57,23 @@ TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
   ASSERT_EQ(after.validate(), "");
   EXPECT_EQ(r.keyframes_before, 64u);
   EXPECT_EQ(r.keyframes_after, after.keyframes.size());
-  EXPECT_EQ(r.keyframes_after, r.places + 1);  // one per place and heading, and keyframe 0
+  EXPECT_EQ(r.keyframes_after, r.places);  // one per place and heading (keyframe 0 fills its own)
   EXPECT_LT(r.keyframes_after, 32u);           // lap 1 gone, and lap 2's keyframes sharing a place
   EXPECT_EQ(r.kept_unfactorizable, 0u);
   // The newest were kept: every kept keyframe but the anchor is lap 2's (robot 1).
   EXPECT_EQ(after.robots.front(), 0u);
   std::set<std::tuple<long, long, long>> places;
-  for (std::size_t i = 1; i < after.keyframes.size(); ++i) {
-    EXPECT_EQ(after.robots[i], 1u);
-    EXPECT_GE(after.keyframes[i].scan_index, 32u);
+  for (std::size_t i = 0; i < after.keyframes.size(); ++i) {
+    if (i > 0) EXPECT_EQ(after.robots[i], 1u);
+    if (i > 0) EXPECT_GE(after.keyframes[i].scan_index, 32u);
     const Pose2& p = after.poses[i];
     const long sector = long((llc::normalizeAngle(p.theta) + M_PI) / (2 * M_PI) * 4);
     EXPECT_TRUE(places.insert({long(std::floor(p.x / 2.0)), long(std::floor(p.y / 2.0)), sector}).second)
         << "two keyframes kept in one place";
   }
-  // Loop records name kept keyframes only (only those from keyframe 0 are left), renumbered.
+  // Loop records name kept keyframes only, renumbered: of lap 1 only keyframe 0 is left.
   EXPECT_EQ(after.loops.size() + r.loops_dropped, before.loops.size());
+  EXPECT_LE(after.loops.size(), 1u);
   for (const llc::LoopRecord& record : after.loops) {
     EXPECT_EQ(record.loop.from, 0u);
     EXPECT_EQ(after.keyframes[record.loop.to].scan_index, 32u);
@@ -94,6 +95,25 @@ TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
   llc::SessionPruningResult again;
   llc::pruneSession(after, llc::SessionPruningOptions{}, &again);
   EXPECT_EQ(again.keyframes_after, again.keyframes_before);
+}
+
+TEST(SessionPruning, KeepingTheOldestKeepsTheFirstLap) {
+  const llc::SlamSession before = twoLaps();
+  llc::SessionPruningOptions oldest;
+  oldest.keep_newest = false;
+  llc::SessionPruningResult r;
+  const llc::SlamSession after = llc::pruneSession(before, oldest, &r);
+  ASSERT_EQ(after.validate(), "");
+  EXPECT_EQ(r.keyframes_after, r.places);
+  for (std::size_t i = 0; i < after.keyframes.size(); ++i) {
+    EXPECT_EQ(after.robots[i], 0u) << "a keyframe of lap 2 kept where lap 1 had one";
+    EXPECT_LT(after.keyframes[i].scan_index, 32u);
+  }
+  // Lap 2's loops went with its keyframes; what they said of lap 1 stays in its constraints.
+  EXPECT_TRUE(after.loops.empty());
+  EXPECT_GE(after.constraints.size(), after.keyframes.size() - 1);
+  llc::SlamBackEnd back;
+  EXPECT_EQ(back.restore(after), "");
 }
 
 TEST(SessionPruning, KeepingNoneMeansNoPruningAndBadOptionsAreRefused) {

@@ -25,7 +25,7 @@ struct SessionPruningOptions {
 struct SessionPruningResult {
   std::size_t keyframes_before = 0, keyframes_after = 0;
   std::size_t constraints_before = 0, constraints_after = 0;
-  std::size_t places = 0;              ///< places and heading sectors with a keyframe
+  std::size_t places = 0;              ///< places and heading sectors with a keyframe (keyframe 0's included)
   std::size_t loops_dropped = 0;       ///< loop records that named a retired keyframe
   std::size_t kept_unfactorizable = 0; ///< to retire, but kept (PoseGraphReduction)
   double mean_kl = 0.0, max_kl = 0.0;  ///< nats per retired keyframe: what sparsifying lost
