@@ -134,7 +134,7 @@ const std::vector<Command>& commands() {
        "   one map for months: slam (--log LOG | --bag BAG) [--load-session S] --lifelong --save-session S2 --out DIR\n"
        "      (the run starts with no pose and joins the saved map at its first confirmed fix, as a robot of a fleet;\n"
        "       S2: the map extended by it, loops between old and new, at bounded size: per place and heading\n"
-       "       (lifelong/*) the newest keyframes kept, the others marginalised into them; DIR/session_keyframes.csv\n"
+       "       (lifelong/*) the oldest keyframes kept, the others marginalised into them; DIR/session_keyframes.csv\n"
        "       lists what S2 keeps; written atomically, S2 may be S. Without --load-session: the first day's map)\n"
        "      [--start-scan N] [--end-scan M]   (with --load-session: scans N .. M-1 of the input alone, a later day of a drive)"},
       {"localize", llc_tool::runLocalize,

@@ -337,7 +337,7 @@ std::string saveLifelongSession(const llc::SlamSession& session, const llc::Sess
   list.commit();
   std::ostringstream lines;
   lines << std::setprecision(4) << "session_keyframes=" << pruning.keyframes_after << "  (saved; of " << pruning.keyframes_before
-        << " in the map: the newest " << options.keep_per_place << " per place of " << options.place_size << " m and "
+        << " in the map: the " << (options.keep_newest ? "newest " : "oldest ") << options.keep_per_place << " per place of " << options.place_size << " m and "
         << options.heading_sectors << " headings kept, the others marginalised into them)\n"
         << "session_constraints=" << pruning.constraints_after << "  (of " << pruning.constraints_before << ")\n"
         << "session_loops_dropped=" << pruning.loops_dropped << "  (loop records of retired keyframes)\n"

@@ -1,5 +1,5 @@
 // A session at bounded size (slam/session_pruning): two laps of one square keep one keyframe
-// per place and heading, the newest, and what is left restores, saves and loads.
+// per place and heading, the newest or the oldest, and what is left restores, saves and loads.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -52,8 +52,10 @@ llc::SlamSession twoLaps() {
 TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
   const llc::SlamSession before = twoLaps();
   ASSERT_EQ(before.validate(), "");
+  llc::SessionPruningOptions newest;
+  newest.keep_newest = true;
   llc::SessionPruningResult r;
-  const llc::SlamSession after = llc::pruneSession(before, llc::SessionPruningOptions{}, &r);
+  const llc::SlamSession after = llc::pruneSession(before, newest, &r);
   ASSERT_EQ(after.validate(), "");
   EXPECT_EQ(r.keyframes_before, 64u);
   EXPECT_EQ(r.keyframes_after, after.keyframes.size());
@@ -93,14 +95,13 @@ TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
   EXPECT_EQ(loaded.constraints.size(), after.constraints.size());
   // Pruned again, nothing more goes.
   llc::SessionPruningResult again;
-  llc::pruneSession(after, llc::SessionPruningOptions{}, &again);
+  llc::pruneSession(after, newest, &again);
   EXPECT_EQ(again.keyframes_after, again.keyframes_before);
 }
 
 TEST(SessionPruning, KeepingTheOldestKeepsTheFirstLap) {
   const llc::SlamSession before = twoLaps();
-  llc::SessionPruningOptions oldest;
-  oldest.keep_newest = false;
+  const llc::SessionPruningOptions oldest;  // the default
   llc::SessionPruningResult r;
   const llc::SlamSession after = llc::pruneSession(before, oldest, &r);
   ASSERT_EQ(after.validate(), "");
