@@ -54,6 +54,70 @@ Eigen::Matrix3d relativeCovariance(const Eigen::Matrix3d& ja, const Eigen::Matri
   return 0.5 * (c + c.transpose());
 }
 
+/// A candidate tree constraint between neighbours p < t (slots of the neighbourhood, 0 its
+/// root): their relative pose now, with its marginal covariance's inverse, and how well it is
+/// known (the log-determinant of that covariance: smaller is better).
+struct Candidate {
+  double log_det;
+  std::size_t p, t;
+  PoseEdge edge;
+};
+
+/// Every pair of neighbours (`blanket`, oldest first) as a candidate, best known first; sigma
+/// is the covariance of neighbours 1 .. with neighbour 0 held fixed (block j - 1: neighbour j).
+std::vector<Candidate> candidatePairs(const std::vector<std::size_t>& blanket, const std::vector<Pose2>& poses,
+                                      const MatrixXd& sigma) {
+  std::vector<Candidate> candidates;
+  for (std::size_t t = 1; t < blanket.size(); ++t) {
+    for (std::size_t p = 0; p < t; ++p) {
+      PoseEdge edge;
+      edge.from = blanket[p];
+      edge.to = blanket[t];
+      edge.measurement = between(poses[edge.from], poses[edge.to]);
+      Eigen::Matrix3d ja, jb;
+      linearizeEdge(edge, poses[edge.from], poses[edge.to], &ja, &jb);
+      const Eigen::LLT<Eigen::Matrix3d> factor(relativeCovariance(ja, jb, p, t, sigma));
+      if (factor.info() != Eigen::Success) continue;
+      const Eigen::Matrix3d l = factor.matrixL();
+      const double log_det = 2.0 * (std::log(l(0, 0)) + std::log(l(1, 1)) + std::log(l(2, 2)));
+      const Eigen::Matrix3d information = factor.solve(Eigen::Matrix3d::Identity());
+      edge.information = 0.5 * (information + information.transpose());
+      if (std::isfinite(log_det) && edge.information.allFinite()) candidates.push_back({log_det, p, t, edge});
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.log_det < b.log_det; });
+  return candidates;
+}
+
+/// The tree over the neighbours: each one with needs_older[t] first linked to its best older
+/// neighbour, then the best known pairs that join parts not yet joined (Kruskal: a
+/// maximum-information spanning tree). False when the candidates span no tree.
+bool spanningTree(const std::vector<Candidate>& candidates, const std::vector<char>& needs_older,
+                  std::vector<PoseEdge>* tree, std::vector<std::pair<std::size_t, std::size_t>>* slots) {
+  const std::size_t m = needs_older.size();
+  std::vector<std::size_t> part(m);
+  for (std::size_t i = 0; i < m; ++i) part[i] = i;
+  auto find = [&](std::size_t i) {
+    while (part[i] != i) i = part[i] = part[part[i]];
+    return i;
+  };
+  auto join = [&](const Candidate& c) {
+    const std::size_t a = find(c.p), b = find(c.t);
+    if (a == b) return;
+    part[a] = b;
+    tree->push_back(c.edge);
+    slots->emplace_back(c.p, c.t);
+  };
+  for (std::size_t t = 1; t < m; ++t) {
+    if (!needs_older[t]) continue;
+    const auto best = std::find_if(candidates.begin(), candidates.end(), [&](const Candidate& c) { return c.t == t; });
+    if (best == candidates.end()) return false;
+    join(*best);
+  }
+  for (const Candidate& c : candidates) join(c);
+  return tree->size() + 1 == m;
+}
+
 /// Marginalises pose k out of the graph (its constraints replaced by a tree over its
 /// neighbours). False, and nothing changed, when the neighbourhood's information cannot be
 /// factorised. *kl receives what the tree lost (nats; 0 for fewer than two neighbours).
@@ -112,64 +176,20 @@ bool retirePose(WorkingGraph& graph, const std::vector<Pose2>& poses, std::size_
   if (rooted_factor.info() != Eigen::Success) return false;
   const MatrixXd sigma = rooted_factor.solve(MatrixXd::Identity(free, free));
   if (!sigma.allFinite()) return false;
-  // Candidate tree constraints: every pair of neighbours (older first), with the marginal
-  // covariance of their relative pose; the better known, the better. Neighbour j (0-based; 0
-  // the root) is sigma's block j - 1.
-  struct Candidate {
-    double log_det;
-    std::size_t p, t;
-    PoseEdge edge;
-  };
-  std::vector<Candidate> candidates;
-  for (std::size_t t = 1; t < m; ++t) {
-    for (std::size_t p = 0; p < t; ++p) {
-      PoseEdge edge;
-      edge.from = blanket[p];
-      edge.to = blanket[t];
-      edge.measurement = between(poses[edge.from], poses[edge.to]);
-      Eigen::Matrix3d ja, jb;
-      linearizeEdge(edge, poses[edge.from], poses[edge.to], &ja, &jb);
-      const Eigen::LLT<Eigen::Matrix3d> factor(relativeCovariance(ja, jb, p, t, sigma));
-      if (factor.info() != Eigen::Success) continue;
-      const Eigen::Matrix3d l = factor.matrixL();
-      const double log_det = 2.0 * (std::log(l(0, 0)) + std::log(l(1, 1)) + std::log(l(2, 2)));
-      const Eigen::Matrix3d information = factor.solve(Eigen::Matrix3d::Identity());
-      edge.information = 0.5 * (information + information.transpose());
-      if (std::isfinite(log_det) && edge.information.allFinite()) candidates.push_back({log_det, p, t, edge});
-    }
-  }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.log_det < b.log_det; });
-  // A neighbour whose only link from an older pose went through k needs one again in the tree
-  // (so the graph can still be rebuilt pose by pose): its best older neighbour, first; then the
-  // best known pairs that join parts not yet joined (Kruskal: a maximum-information tree).
-  std::vector<std::size_t> part(m);
-  for (std::size_t i = 0; i < m; ++i) part[i] = i;
-  auto find = [&](std::size_t i) {
-    while (part[i] != i) i = part[i] = part[part[i]];
-    return i;
-  };
-  std::vector<PoseEdge> tree;
-  std::vector<std::pair<std::size_t, std::size_t>> tree_slots;
-  auto join = [&](const Candidate& c) {
-    const std::size_t a = find(c.p), b = find(c.t);
-    if (a == b) return;
-    part[a] = b;
-    tree.push_back(c.edge);
-    tree_slots.emplace_back(c.p, c.t);
-  };
+  // A neighbour whose only link from an older pose went through k needs one again in the tree,
+  // so that the graph can still be rebuilt pose by pose.
+  std::vector<char> needs_older(m, 0);
   for (std::size_t t = 1; t < m; ++t) {
     const std::size_t pose = blanket[t];
     bool linked = false;
     for (std::size_t e : graph.incident[pose])
       linked = linked || (graph.alive[e] && graph.edges[e].to == pose && graph.edges[e].from < pose &&
                           graph.edges[e].from != k);
-    if (linked) continue;
-    const auto best = std::find_if(candidates.begin(), candidates.end(), [&](const Candidate& c) { return c.t == t; });
-    if (best == candidates.end()) return false;
-    join(*best);
+    needs_older[t] = !linked;
   }
-  for (const Candidate& c : candidates) join(c);
-  if (tree.size() + 1 != m) return false;
+  std::vector<PoseEdge> tree;
+  std::vector<std::pair<std::size_t, std::size_t>> tree_slots;
+  if (!spanningTree(candidatePairs(blanket, poses, sigma), needs_older, &tree, &tree_slots)) return false;
   // The tree's linear model at the current poses (rows: its constraints; columns: neighbours 1 ..).
   MatrixXd jacobian = MatrixXd::Zero(free, free), weight = MatrixXd::Zero(free, free);
   for (std::size_t i = 0; i < tree.size(); ++i) {
