@@ -267,22 +267,21 @@ PoseGraphReduction marginalizePoses(const std::vector<Pose2>& poses, const std::
   // Fewest constraints first (minimum degree, as sparse elimination orders): small
   // neighbourhoods are marginalised exactly or nearly, and no pose gathers the others' links.
   std::set<std::pair<std::size_t, std::size_t>> queue;  // (live constraints, pose)
+  std::vector<std::size_t> queued_degree(poses.size(), 0);  // the key each retired-to-be pose is queued under
   for (std::size_t k = 1; k < poses.size(); ++k)
-    if (retire[k]) queue.insert({graph.degree[k], k});
+    if (retire[k]) queue.insert({queued_degree[k] = graph.degree[k], k});
   std::vector<std::size_t> neighbours;
   while (!queue.empty()) {
     const std::size_t k = queue.begin()->second;
     queue.erase(queue.begin());
-    for (std::size_t e : graph.incident[k])
-      if (graph.alive[e]) {
-        const std::size_t other = graph.edges[e].from == k ? graph.edges[e].to : graph.edges[e].from;
-        if (retire[other] && !gone[other]) queue.erase({graph.degree[other], other});
-      }
     double kl = 0.0;
     const std::size_t edges_before = graph.edges.size();
     const bool retired = retirePose(graph, poses, k, &kl, &neighbours);
-    for (std::size_t other : neighbours)
-      if (retire[other] && !gone[other] && other != 0) queue.insert({graph.degree[other], other});
+    for (std::size_t other : neighbours)  // their degrees changed: (again) in the queue under the new one
+      if (retire[other] && !gone[other] && other != 0) {
+        queue.erase({queued_degree[other], other});
+        queue.insert({queued_degree[other] = graph.degree[other], other});
+      }
     if (!retired) {
       ++out.kept_unfactorizable;
       continue;
