@@ -343,7 +343,7 @@ BENCHMARK(BM_EsdfJointMarginal)->Arg(10000)->Arg(100000)->Unit(benchmark::kMilli
 
 /// A map of N keyframes of 722 beams, 1.4 m apart along a square city block's streets.
 struct DrawnMap {
-  std::vector<std::shared_ptr<const llc::Scan>> scans;
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans;
   std::vector<llc::Pose2> poses;
   llc::IncrementalOccupancyGrid grid{llc::OccupancyGridOptions{}};
 };
@@ -355,7 +355,7 @@ std::unique_ptr<DrawnMap> drawnMap(std::size_t keyframes) {
     const double along = std::fmod(s, side);
     const double x[4] = {along, side, side - along, 0.0}, y[4] = {0.0, along, side, side - along};
     map->poses.push_back(llc::Pose2{x[edge], y[edge], edge * M_PI / 2});
-    map->scans.push_back(std::make_shared<const llc::Scan>(roomScan(722, k + 1)));
+    map->scans.push_back(std::make_shared<const llc::CompactScan>(roomScan(722, k + 1)));
   }
   map->grid.update(map->scans, map->poses);
   return map;

@@ -123,6 +123,21 @@ Esdf::Esdf(const Pose2& first, const EsdfOptions& options) : options_(options), 
   impl_->block(0, 0) += options_.prior_information * Eigen::Matrix3d::Identity();
 }
 
+std::size_t Esdf::bytes() const {
+  auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  std::size_t bytes = sizeof(*this) + sizeof(Impl) + held(mean_) + held(linearization_) + held(edges_) + held(edge_points_) +
+                      held(largest_information_) + held(weights_) + held(robust_) + held(edge_models_) +
+                      held(impl_->upper) + held(impl_->augmentation_edge) + held(impl_->leaf_states) +
+                      held(impl_->inverse_permutation) + std::size_t(impl_->gradient.size()) * sizeof(double);
+  constexpr std::size_t kMapNode = 4 * sizeof(void*) + sizeof(std::pair<const std::size_t, Eigen::Matrix3d>);
+  for (const auto& row : impl_->upper) bytes += row.size() * kMapNode;
+  if (const cholmod_factor* factor = impl_->factor) {
+    // Simplicial LDL': values and row indices per entry; column pointers, counts, links, permutation.
+    bytes += factor->nzmax * (sizeof(double) + sizeof(int)) + factor->n * 6 * sizeof(int);
+  }
+  return bytes;
+}
+
 Esdf::~Esdf() = default;
 
 Eigen::Vector3d linearizeEdge(const PoseEdge& e, const Pose2& a, const Pose2& b, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {

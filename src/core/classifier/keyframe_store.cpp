@@ -179,6 +179,13 @@ void KeyframeStore::reserve(std::size_t keyframes) {
   if (profile_size_ > 0) profile_presence_.reserve(keyframes);
 }
 
+std::size_t KeyframeStore::bytes() const {
+  std::size_t bytes = profiles_.capacity() * sizeof(float) + profile_presence_.capacity() * sizeof(std::uint64_t);
+  for (const auto& column : columns_) bytes += column.capacity() * sizeof(float);
+  for (const auto& magnitude : magnitudes_) bytes += magnitude.capacity() * sizeof(double);
+  return bytes;
+}
+
 std::size_t KeyframeStore::add(const double* features) {
   for (std::size_t f = 0; f < columns_.size(); ++f) columns_[f].push_back(float(features[f]));
   for (std::size_t p = 0; p < profile_size_; ++p) profiles_.push_back(float(features[columns_.size() + p]));

@@ -167,7 +167,7 @@ void IncrementalOccupancyGrid::growBounds(const CellBox& needed, double step_cel
   result->bounds_grew = true;
 }
 
-GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_ptr<const Scan>>& scans,
+GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_ptr<const CompactScan>>& scans,
                                                   const std::vector<Pose2>& poses, std::size_t max_draws) {
   if (scans.size() != poses.size()) throw std::invalid_argument("occupancy grid: as many poses as scans needed");
   GridUpdateResult result;
@@ -175,7 +175,7 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
   ++epoch_;
   last_tile_ = nullptr;  // its tile must be marked touched in this update again
   for (std::size_t k = drawn_.size(); k-- > scans.size();) {
-    if (drawn_[k].scan) draw(*drawn_[k].scan, drawn_[k].pose, -1), ++result.removed;
+    if (drawn_[k].scan) draw(drawn_[k].scan->scan(), drawn_[k].pose, -1), ++result.removed;
   }
   drawn_.resize(scans.size());
   // New keyframes (and those given another scan) first, oldest first; then the most moved.
@@ -209,9 +209,9 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
       continue;
     }
     Drawn& was = drawn_[k];
-    if (was.scan) draw(*was.scan, was.pose, -1), ++result.redrawn;
+    if (was.scan) draw(was.scan->scan(), was.pose, -1), ++result.redrawn;
     else ++result.drawn;
-    draw(*scans[k], poses[k], +1);
+    draw(scans[k]->scan(), poses[k], +1);
     was = {scans[k], poses[k]};
     ++draws;
   }

@@ -49,14 +49,23 @@ std::string OccupancyGridOptions::validate() const {
 
 OccupancyGrid buildOccupancyGrid(const std::vector<const Scan*>& scans, const std::vector<Pose2>& poses,
                                  const OccupancyGridOptions& options) {
+  std::vector<std::shared_ptr<const CompactScan>> compact;
+  compact.reserve(scans.size());
+  const CompactScan* before = nullptr;  // bearings are shared where the same
+  for (const Scan* scan : scans) {
+    compact.push_back(scan ? std::make_shared<const CompactScan>(*scan, before) : nullptr);
+    if (scan) before = compact.back().get();
+  }
+  return buildOccupancyGrid(compact, poses, options);
+}
+
+OccupancyGrid buildOccupancyGrid(const std::vector<std::shared_ptr<const CompactScan>>& scans,
+                                 const std::vector<Pose2>& poses, const OccupancyGridOptions& options) {
   if (scans.size() != poses.size()) throw std::invalid_argument("occupancy grid: as many poses as scans needed");
   OccupancyGridOptions exact = options;
   exact.grow_step = 0.0;  // bounds: what was observed and the margin
   IncrementalOccupancyGrid grid(exact);
-  std::vector<std::shared_ptr<const Scan>> shared;
-  shared.reserve(scans.size());
-  for (const Scan* scan : scans) shared.emplace_back(std::shared_ptr<const Scan>(), scan);  // not owned
-  const GridUpdateResult drawn = grid.update(shared, poses);
+  const GridUpdateResult drawn = grid.update(scans, poses);
   if (drawn.too_large > 0 || grid.bounds().cells() > double(options.max_cells))
     throw std::invalid_argument("occupancy grid: more cells than max_cells (" + std::to_string(options.max_cells) +
                                 "); use a coarser resolution");

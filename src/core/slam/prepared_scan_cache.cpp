@@ -19,51 +19,21 @@ PreparedScanCache& PreparedScanCache::operator=(const PreparedScanCache& other) 
   clock_ = other.clock_;
   trimmed_at_ = other.trimmed_at_;
   prepared_again_ = other.prepared_again_;
+  resting_bytes_ = other.resting_bytes_;
   return *this;
-}
-
-namespace {
-
-/// Every value a float exactly (NaN and infinities included): stored as floats, read back the same.
-bool singlePrecision(const std::vector<double>& values) {
-  return std::all_of(values.begin(), values.end(), [](double v) { return std::isnan(v) || double(float(v)) == v; });
-}
-
-}  // namespace
-
-std::shared_ptr<const PreparedScanCache::RestingScan> PreparedScanCache::RestingScan::of(const Scan& scan) {
-  auto rest = std::make_shared<RestingScan>();
-  rest->stamp = scan.stamp;
-  rest->full_circle = scan.full_circle;
-  if (singlePrecision(scan.ranges) && singlePrecision(scan.bearings)) {
-    rest->ranges_single.assign(scan.ranges.begin(), scan.ranges.end());
-    rest->bearings_single.assign(scan.bearings.begin(), scan.bearings.end());
-  } else {
-    rest->ranges = scan.ranges;
-    rest->bearings = scan.bearings;
-  }
-  return rest;
-}
-
-Scan PreparedScanCache::RestingScan::scan() const {
-  Scan scan;
-  scan.stamp = stamp;
-  scan.full_circle = full_circle;
-  if (ranges.empty() && bearings.empty()) {
-    scan.ranges.assign(ranges_single.begin(), ranges_single.end());
-    scan.bearings.assign(bearings_single.begin(), bearings_single.end());
-  } else {
-    scan.ranges = ranges;
-    scan.bearings = bearings;
-  }
-  return scan;
 }
 
 std::size_t PreparedScanCache::add(std::shared_ptr<const PreparedScan> prepared, const Scan* scan) {
   if (!prepared && !scan) throw std::invalid_argument("keyframe without a prepared scan or a scan to prepare");
-  std::shared_ptr<const RestingScan> rest = scan ? RestingScan::of(*scan) : nullptr;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    std::shared_ptr<const CompactScan> rest;
+    if (scan) {
+      // The newest entry's scan (entries are only added under this lock): its bearings are likely the same.
+      const CompactScan* before = !entries_.empty() ? entries_.back().scan.get() : nullptr;
+      rest = std::make_shared<const CompactScan>(*scan, before);
+      resting_bytes_ += rest->bytes();
+    }
     if (prepared) ++held_;
     entries_.push_back({std::move(prepared), std::move(rest), ++clock_});
   }
@@ -72,7 +42,7 @@ std::size_t PreparedScanCache::add(std::shared_ptr<const PreparedScan> prepared,
 }
 
 const PreparedScan& PreparedScanCache::get(std::size_t index, const ScanAligner& aligner) const {
-  std::shared_ptr<const RestingScan> scan;
+  std::shared_ptr<const CompactScan> scan;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (index >= entries_.size()) throw std::out_of_range("no keyframe " + std::to_string(index));
@@ -106,6 +76,7 @@ void PreparedScanCache::release(std::size_t index) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (index >= entries_.size()) return;
   if (entries_[index].prepared) --held_;
+  if (entries_[index].scan) resting_bytes_ -= entries_[index].scan->bytes();
   entries_[index].prepared.reset();
   entries_[index].scan.reset();
 }
@@ -128,6 +99,11 @@ void PreparedScanCache::trim() {
 std::size_t PreparedScanCache::heldPrepared() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return held_;
+}
+
+std::size_t PreparedScanCache::restingBytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return resting_bytes_;
 }
 
 std::size_t PreparedScanCache::preparedAgain() const {

@@ -97,16 +97,14 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
   return graphMarkers(poses, loops, header, FleetGraph{});
 }
 
-bool saveMapOf(const std::vector<std::shared_ptr<const llc::Scan>>& scans, const std::vector<llc::Pose2>& poses,
+bool saveMapOf(const std::vector<std::shared_ptr<const llc::CompactScan>>& scans, const std::vector<llc::Pose2>& poses,
                const llc::OccupancyGridOptions& options, const std::string& stem, std::string* message) {
   if (scans.empty()) {
     *message = "no keyframe yet: nothing to save";
     return false;
   }
-  std::vector<const llc::Scan*> raw;
-  for (const auto& scan : scans) raw.push_back(scan.get());
   try {
-    llc::saveMapFiles(llc::buildOccupancyGrid(raw, poses, options), stem, options);
+    llc::saveMapFiles(llc::buildOccupancyGrid(scans, poses, options), stem, options);
   } catch (const std::exception& e) {
     *message = e.what();
     return false;

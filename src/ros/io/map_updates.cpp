@@ -28,7 +28,7 @@ MapUpdatePublisher::MapUpdatePublisher(ros::NodeHandle nh, const llc::OccupancyG
   update_pub_ = nh.advertise<map_msgs::OccupancyGridUpdate>("map_updates", 1000);
 }
 
-MapUpdatePublisher::Published MapUpdatePublisher::publish(const std::vector<std::shared_ptr<const llc::Scan>>& scans,
+MapUpdatePublisher::Published MapUpdatePublisher::publish(const std::vector<std::shared_ptr<const llc::CompactScan>>& scans,
                                                           const std::vector<llc::Pose2>& poses,
                                                           const std_msgs::Header& header) {
   Published published;

@@ -18,21 +18,24 @@
 namespace llc_ros {
 namespace {
 
-/// Moves the keyframe's scan out (its stamp and full_circle stay): the node holds each scan once.
-std::shared_ptr<const llc::Scan> withoutScan(llc::Keyframe* keyframe) {
-  auto scan = std::make_shared<const llc::Scan>(std::move(keyframe->scan));
+/// Takes the keyframe's scan out (its stamp and full_circle stay): the node holds each scan once,
+/// compact, its bearings shared with `before`'s when the same.
+std::shared_ptr<const llc::CompactScan> withoutScan(llc::Keyframe* keyframe, const std::vector<std::shared_ptr<const llc::CompactScan>>& before) {
+  auto scan = std::make_shared<const llc::CompactScan>(keyframe->scan, before.empty() ? nullptr : before.back().get());
+  const double stamp = keyframe->scan.stamp;
+  const bool full_circle = keyframe->scan.full_circle;
   keyframe->scan = llc::Scan{};
-  keyframe->scan.stamp = scan->stamp;
-  keyframe->scan.full_circle = scan->full_circle;
+  keyframe->scan.stamp = stamp;
+  keyframe->scan.full_circle = full_circle;
   return scan;
 }
 
 /// The session with each keyframe's scan put back from the node's.
-llc::SlamSession withScans(llc::SlamSession session, const std::vector<std::shared_ptr<const llc::Scan>>& scans) {
+llc::SlamSession withScans(llc::SlamSession session, const std::vector<std::shared_ptr<const llc::CompactScan>>& scans) {
   if (scans.size() != session.keyframes.size())
     throw std::logic_error("esdf_backend: " + std::to_string(scans.size()) + " scans held for " +
                            std::to_string(session.keyframes.size()) + " keyframes");
-  for (std::size_t k = 0; k < scans.size(); ++k) session.keyframes[k].scan = *scans[k];
+  for (std::size_t k = 0; k < scans.size(); ++k) session.keyframes[k].scan = scans[k]->scan();
   return session;
 }
 
@@ -148,14 +151,14 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
     error = "keyframe " + std::to_string(msg.index) + " arrived, " + std::to_string(expected) + " expected";
   } else if (fromKeyframeMsg(msg, &keyframe, &motion, &covariance, &error)) {
     // The scan is held once, here, for the map and sessions: the pose graph needs none.
-    std::shared_ptr<const llc::Scan> scan = withoutScan(&keyframe);
+    std::shared_ptr<const llc::CompactScan> scan = withoutScan(&keyframe, map_scans_);
     // Kept whatever its odometry: a note says what was unusable and replaced.
     const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
     if (!note.empty()) {
       last_problem_ = "keyframe " + std::to_string(msg.index) + ": " + note;
       ROS_WARN_THROTTLE(5.0, "esdf_backend: %s", last_problem_.c_str());
     }
-    features_.push_back(msg.features);
+    features_.emplace_back(msg.features.begin(), msg.features.end());
     map_scans_.push_back(std::move(scan));
   }
   if (!error.empty()) {
@@ -305,7 +308,7 @@ void EsdfBackendRos::publishMap() {
   const auto now = std::chrono::steady_clock::now();
   if (now < next_map_allowed_) return;
   std::vector<llc::Pose2> poses;
-  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans_held;
   std::vector<llc::LoopRecord> loops;
   std_msgs::Header header;
   bool graph_changed = false;  // else only keyframes left waiting to be drawn, or a new subscriber
@@ -338,8 +341,11 @@ void EsdfBackendRos::publishMap() {
   if (graph_changed) marker_pub_.publish(graphMarkers(poses, loops, header));
   // The cloud of every return costs as much as the grid: built only for someone listening.
   if (graph_changed && cloud_pub_.getNumSubscribers() > 0) {
+    std::vector<llc::Scan> expanded;
+    expanded.reserve(scans_held.size());
+    for (const auto& scan : scans_held) expanded.push_back(scan->scan());
     std::vector<const llc::Scan*> scans;
-    for (const auto& scan : scans_held) scans.push_back(scan.get());
+    for (const llc::Scan& scan : expanded) scans.push_back(&scan);
     cloud_pub_.publish(toCloudMsg(scans, poses, system_.map.max_range, options_.cloud_voxel_size, header));
   }
   const double took = llc::secondsSince(start);
@@ -380,7 +386,7 @@ void EsdfBackendRos::publishTransform() {
 bool EsdfBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
   const std::string stem = request.path.empty() ? options_.map_path : request.path;
   std::vector<llc::Pose2> poses;
-  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans_held;
   {
     std::lock_guard<std::mutex> lock(mutex_);  // a snapshot; the map is built outside the lock
     poses = back_->poses();
@@ -396,7 +402,10 @@ bool EsdfBackendRos::saveSession(laser_loop_closure::SaveSession::Request& reque
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string path = request.path.empty() ? options_.session_path : request.path;
   try {
-    llc::SlamSession session = withScans(llc::sessionOf(*back_, features_, &robots_), map_scans_);
+    std::vector<std::vector<double>> features;
+    features.reserve(features_.size());
+    for (const std::vector<float>& f : features_) features.emplace_back(f.begin(), f.end());
+    llc::SlamSession session = withScans(llc::sessionOf(*back_, features, &robots_), map_scans_);
     const std::size_t held = session.keyframes.size();
     if (request.prune) session = llc::pruneSession(session, system_.lifelong, nullptr);
     llc::saveSession(session, path);
@@ -423,8 +432,8 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   } catch (const llc::SessionError& e) {
     response.message = e.what();
   }
-  std::vector<std::shared_ptr<const llc::Scan>> scans;  // held once, here (the back end restores none)
-  for (llc::Keyframe& k : session.keyframes) scans.push_back(withoutScan(&k));
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans;  // held once, here (the back end restores none)
+  for (llc::Keyframe& k : session.keyframes) scans.push_back(withoutScan(&k, scans));
   if (response.message.empty()) {
     const std::string error = back_->restore(session);
     if (!error.empty()) response.message = path + ": not restored: " + error;
@@ -434,7 +443,8 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     ROS_WARN("esdf_backend: load_session: %s", response.message.c_str());
     return true;
   }
-  features_ = session.features;
+  features_.clear();
+  for (const std::vector<double>& f : session.features) features_.emplace_back(f.begin(), f.end());
   robots_ = llc::KeyframeRobots::afterRestore(session, request.continue_odometry);
   map_scans_ = std::move(scans);
   pending_loops_.clear();
@@ -459,7 +469,7 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     msg.continue_odometry = request.continue_odometry;
     for (std::size_t k = part * per_part; k < std::min(n, (part + 1) * per_part); ++k) {
       llc::Keyframe keyframe = session.keyframes[k];
-      keyframe.scan = *map_scans_[k];
+      keyframe.scan = map_scans_[k]->scan();
       msg.keyframes.push_back(toKeyframeMsg(keyframe, k, llc::OdometryStep{}, ""));
       msg.keyframes.back().features = session.features[k];
     }
@@ -512,6 +522,12 @@ void EsdfBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("whole maps sent", whole_maps_sent_);
   status.add("keyframes waiting to be drawn on the map", map_keyframes_waiting_);
   status.add("bytes of the map's grid", map_bytes_);
+  std::size_t scan_bytes = 0, feature_bytes = 0;
+  for (const auto& scan : map_scans_) scan_bytes += scan->bytes();
+  for (const auto& features : features_) feature_bytes += sizeof(features) + features.capacity() * sizeof(float);
+  status.add("bytes of the keyframes' scans", scan_bytes);
+  status.add("bytes of the keyframes' features (kept for sessions)", feature_bytes);
+  status.add("bytes of the pose graph (ESDF, about)", back_->esdf() ? back_->esdf()->bytes() : 0);
   // Loops the back end refused, by why (llc::LoopRefusal's names).
   for (llc::LoopRefusal kind : {llc::LoopRefusal::kBackEndGate, llc::LoopRefusal::kBackEndUnsolvable,
                                 llc::LoopRefusal::kBackEndMalformed})

@@ -89,6 +89,9 @@ void LoopClosureRos::work() {
 void LoopClosureRos::publishState() {
   state_.counters = front_->counters();
   state_.threshold = front_->detector().threshold();
+  state_.scan_bytes = front_->detector().scanBytes();
+  state_.feature_bytes = front_->detector().featureBytes();
+  state_.prepared_held = front_->detector().heldPrepared();
   if (const llc::OdometryTimeOffsetProbeResult* estimate = wheels_ ? wheels_->estimateResult() : nullptr) state_.estimate = *estimate;
   std::lock_guard<std::mutex> lock(state_mutex_);
   published_ = state_;
@@ -315,6 +318,9 @@ void LoopClosureRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
                                 llc::LoopRefusal::kValidation, llc::LoopRefusal::kContext, llc::LoopRefusal::kOther})
     status.add(std::string("candidates refused: ") + llc::loopRefusalName(kind), w.refusals[std::size_t(kind)]);
   status.add("keyframes of the last restored session", w.keyframes_restored);
+  status.add("bytes of the keyframes' scans at rest", w.scan_bytes);
+  status.add("bytes of the keyframes' features", w.feature_bytes);
+  status.add("keyframes kept prepared for alignment (loops/prepared_cache)", w.prepared_held);
   status.add("malformed scans", w.malformed);
   status.add("model", w.model_path);
   status.add("models trained", models_trained_.load());

@@ -69,7 +69,8 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
       const llc::SlamSession saved = llc::loadSession(options_.map_session);
       slam_ = std::make_unique<llc::MultiRobotSlam>(model, names.size() + 1, system_.slam, system_.multi_robot, &saved);
       slot_offset_ = 1;
-      for (const llc::Keyframe& k : slam_->map().keyframes()) map_scans_.push_back(std::make_shared<const llc::Scan>(k.scan));
+      for (const llc::Keyframe& k : slam_->map().keyframes())
+        map_scans_.push_back(std::make_shared<const llc::CompactScan>(k.scan, map_scans_.empty() ? nullptr : map_scans_.back().get()));
       map_dirty_ = true;
     }
   } catch (const std::exception& e) {
@@ -259,7 +260,8 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const Inbox::Taken& t
   for (auto it = r.pending_loops.begin(); it != r.pending_loops.end();)
     it = takeLoop(robot, *it) ? r.pending_loops.erase(it) : std::next(it);
   for (std::size_t m = map_scans_.size(); m < slam_->map().keyframes().size(); ++m)
-    map_scans_.push_back(std::make_shared<const llc::Scan>(slam_->map().keyframes()[m].scan));
+    map_scans_.push_back(std::make_shared<const llc::CompactScan>(slam_->map().keyframes()[m].scan,
+                                                                   map_scans_.empty() ? nullptr : map_scans_.back().get()));
   map_dirty_ = true;
   updateTransforms();
 }
@@ -369,7 +371,7 @@ void MultiRobotBackendRos::publishTransforms() {
 void MultiRobotBackendRos::publishMap() {
   // A snapshot under the lock, the rebuild outside it (keyframes and place checks go on).
   std::vector<llc::Pose2> poses;
-  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans_held;
   std::vector<llc::LoopRecord> loops;
   FleetGraph fleet;
   std::vector<nav_msgs::Path> paths(robots_.size());
@@ -444,7 +446,7 @@ bool MultiRobotBackendRos::saveSession(laser_loop_closure::SaveSession::Request&
 bool MultiRobotBackendRos::saveMap(laser_loop_closure::SaveMap::Request& request, laser_loop_closure::SaveMap::Response& response) {
   const std::string stem = request.path.empty() ? options_.map_path : request.path;
   std::vector<llc::Pose2> poses;
-  std::vector<std::shared_ptr<const llc::Scan>> scans_held;
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans_held;
   {
     std::lock_guard<std::mutex> lock(mutex_);  // a snapshot; the map is built outside the lock
     poses = slam_->map().poses();

@@ -217,6 +217,24 @@ TEST(Esdf, TimingsCountEachKindOfWorkOnlyWhenItHappens) {
   EXPECT_LE(t.rank_updates + t.solves + t.factorizations, elapsed) << "parts of the elapsed time, counted once";
 }
 
+TEST(Esdf, BytesGrowWithTheGraphAndItsFactor) {
+  // A chain's bytes per pose: two poses of 24 bytes, an edge with its linear model and a
+  // diagonal and an off-diagonal block at least; at most a few kB.
+  auto chainBytes = [](std::size_t poses, bool factorised) {
+    llc::Esdf filter;
+    for (std::size_t k = 1; k < poses; ++k) filter.augment(Pose2{1.0, 0.0, 0.01}, Eigen::Matrix3d::Identity() * 1e-4);
+    if (factorised)  // a loop from the last pose to the first: the system is factorised
+      EXPECT_TRUE(filter.update(poses - 1, 0, llc::between(filter.mean().back(), filter.mean().front()),
+                                Eigen::Matrix3d::Identity() * 1e-2, false).applied);
+    return filter.bytes();
+  };
+  const std::size_t small = chainBytes(500, false), large = chainBytes(2000, false);
+  EXPECT_GT(small, 500u * (2 * sizeof(Pose2) + sizeof(llc::PoseEdge) + 2 * 9 * sizeof(double)));
+  EXPECT_LT(small, 500u * 4000u);
+  EXPECT_NEAR(double(large) / double(small), 4.0, 0.8) << "linear in the poses";
+  EXPECT_GT(chainBytes(500, true), small) << "the factor's entries count";
+}
+
 TEST(Esdf, DefaultRelinearisationReachesTheOptimumWithFewerFactorisations) {
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     std::vector<Pose2> truth;

@@ -13,10 +13,10 @@ namespace {
 using llc::CellBox;
 using llc::IncrementalOccupancyGrid;
 using llc::Pose2;
-using Scans = std::vector<std::shared_ptr<const llc::Scan>>;
+using Scans = std::vector<std::shared_ptr<const llc::CompactScan>>;
 
-std::shared_ptr<const llc::Scan> roomScan(const Pose2& pose, std::uint64_t seed) {
-  return std::make_shared<const llc::Scan>(llc_test::scanAt(llc_test::room(), pose, 360, 0.01, seed));
+std::shared_ptr<const llc::CompactScan> roomScan(const Pose2& pose, std::uint64_t seed) {
+  return std::make_shared<const llc::CompactScan>(llc_test::scanAt(llc_test::room(), pose, 360, 0.01, seed));
 }
 
 /// The box of a grid built from scratch, in the map's cells.
@@ -51,8 +51,10 @@ void expectSameCells(const IncrementalOccupancyGrid& grid, const llc::OccupancyG
 }
 
 llc::OccupancyGrid rebuilt(const Scans& scans, const std::vector<Pose2>& poses, const llc::OccupancyGridOptions& options) {
-  std::vector<const llc::Scan*> raw;
-  for (const auto& scan : scans) raw.push_back(scan.get());
+  std::vector<llc::Scan> expanded(scans.size());  // the reference goes the plain scans' way
+  std::vector<const llc::Scan*> raw(scans.size(), nullptr);
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    if (scans[k]) expanded[k] = scans[k]->scan(), raw[k] = &expanded[k];
   return llc::buildOccupancyGrid(raw, poses, options);
 }
 
@@ -102,7 +104,7 @@ TEST(IncrementalOccupancyGrid, OneKeyframeMovedHandWorked) {
   options.grow_step = 0.0;
   IncrementalOccupancyGrid grid(options);
   // Four 1 m beams along the axes from the origin; 0.1 m cells.
-  const Scans scans{std::make_shared<const llc::Scan>(llc_test::ringScan({1.0, 1.0, 1.0, 1.0}))};
+  const Scans scans{std::make_shared<const llc::CompactScan>(llc_test::ringScan({1.0, 1.0, 1.0, 1.0}))};
   llc::GridUpdateResult result = grid.update(scans, {Pose2{0.05, 0.05, 0.0}});
   EXPECT_EQ(result.drawn, 1u);
   EXPECT_TRUE(result.bounds_grew);
@@ -133,7 +135,7 @@ TEST(IncrementalOccupancyGrid, OneKeyframeMovedHandWorked) {
   EXPECT_FALSE(result.bounds_grew);
   EXPECT_EQ(cell(4.05, 0.05), 70);
   // Another scan at the same index (a keyframe replaced): taken out and the new one drawn.
-  const Scans other{std::make_shared<const llc::Scan>(llc_test::ringScan({2.0, 2.0, 2.0, 2.0}))};
+  const Scans other{std::make_shared<const llc::CompactScan>(llc_test::ringScan({2.0, 2.0, 2.0, 2.0}))};
   result = grid.update(other, {Pose2{3.05, 0.05, 0.0}});
   EXPECT_EQ(result.redrawn, 1u);
   EXPECT_EQ(cell(4.05, 0.05), 40);
@@ -188,7 +190,7 @@ TEST(IncrementalOccupancyGrid, BoundsGrowInStepsAndChangesAreTheTilesTouched) {
   llc::OccupancyGridOptions options;
   options.grow_step = 20.0;
   IncrementalOccupancyGrid grid(options);
-  const Scans scans{std::make_shared<const llc::Scan>(llc_test::ringScan({1.0, 1.0, 1.0, 1.0}))};
+  const Scans scans{std::make_shared<const llc::CompactScan>(llc_test::ringScan({1.0, 1.0, 1.0, 1.0}))};
   EXPECT_TRUE(grid.update(scans, {Pose2{}}).bounds_grew);
   // 1 m + 2 m margin + 20 m step each way, in cells of 0.1 m.
   EXPECT_GE(grid.bounds().cols, 2 * 230);

@@ -134,7 +134,7 @@ TEST(OccupancyGrid, MapFilesRoundTripAndRefusals) {
 
 TEST(MapPicture, DrawsWithinBoundsAtAnySize) {
   llc::Scan scan = llc_test::ringScan(std::vector<double>(90, 4.0));
-  const llc::OccupancyGrid grid = llc::buildOccupancyGrid({&scan, &scan}, {llc::Pose2{}, llc::Pose2{1, 0, 0}});
+  const llc::OccupancyGrid grid = llc::buildOccupancyGrid(std::vector<const llc::Scan*>{&scan, &scan}, {llc::Pose2{}, llc::Pose2{1, 0, 0}});
   const std::vector<llc::Pose2> trajectory = {{0, 0, 0}, {1, 0, 0}};
   const llc::RgbImage small = llc::renderMapPicture(grid, trajectory, {{0, 1, true}, {0, 7, false}}, 20);
   EXPECT_LE(std::max(small.width(), small.height()), 20);

@@ -84,6 +84,9 @@ class Esdf {
   Esdf& operator=(const Esdf&) = delete;
 
   std::size_t size() const { return mean_.size(); }
+  /// About the bytes held: poses, edges and their linear models, the system's blocks (as
+  /// std::map nodes) and CHOLMOD's factor (its allocated entries).
+  std::size_t bytes() const;
   /// Augmentation by the motion model x_n = x_base (+) u (base: the last pose unless given),
   /// u's covariance in the frame of x_base. Returns the new pose's index. Its mean is exact at
   /// once: no other pose moves. Throws std::invalid_argument for a bad base or covariance.

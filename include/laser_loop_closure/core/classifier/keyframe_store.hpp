@@ -34,6 +34,8 @@ class KeyframeStore {
     return f < columns_.size() ? columns_[f][keyframe] : profiles_[keyframe * profile_size_ + f - columns_.size()];
   }
   std::vector<double> features(std::size_t keyframe) const;
+  /// Bytes held for the keyframes' features (capacity reserved included).
+  std::size_t bytes() const;
 
   /// scores[k] = classifier score of the pair (query, keyframe k) for k < limit, summed in the
   /// classifier's stump order: exactly StrongClassifier::score. Evaluates every stump on every

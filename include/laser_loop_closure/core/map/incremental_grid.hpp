@@ -8,6 +8,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "laser_loop_closure/core/geometry/compact_scan.hpp"
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
 
 namespace llc {
@@ -46,7 +47,7 @@ class IncrementalOccupancyGrid {
   /// redraw_distance / redraw_angle, or given another scan are (re)drawn, max_draws of them at
   /// most (new first, then the most moved); keyframes beyond scans.size() are taken out. A null
   /// scan is skipped. Throws std::invalid_argument when the sizes differ.
-  GridUpdateResult update(const std::vector<std::shared_ptr<const Scan>>& scans, const std::vector<Pose2>& poses,
+  GridUpdateResult update(const std::vector<std::shared_ptr<const CompactScan>>& scans, const std::vector<Pose2>& poses,
                           std::size_t max_draws = std::numeric_limits<std::size_t>::max());
 
   /// Everything observed, with the margin, grown in steps of grow_step (empty before any keyframe).
@@ -63,7 +64,7 @@ class IncrementalOccupancyGrid {
  private:
   struct Tile;
   struct Drawn {
-    std::shared_ptr<const Scan> scan;  ///< null: not on the grid
+    std::shared_ptr<const CompactScan> scan;  ///< null: not on the grid
     Pose2 pose;
   };
   void draw(const Scan& scan, const Pose2& pose, int sign);

@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "laser_loop_closure/core/geometry/compact_scan.hpp"
 #include "laser_loop_closure/core/geometry/scan.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
 
@@ -54,6 +56,9 @@ struct OccupancyGrid {
 /// Throws std::invalid_argument on bad options, mismatched sizes, or a grid above max_cells.
 OccupancyGrid buildOccupancyGrid(const std::vector<const Scan*>& scans, const std::vector<Pose2>& poses,
                                  const OccupancyGridOptions& options = {});
+/// The same from scans kept compact (a null scan is left out).
+OccupancyGrid buildOccupancyGrid(const std::vector<std::shared_ptr<const CompactScan>>& scans,
+                                 const std::vector<Pose2>& poses, const OccupancyGridOptions& options = {});
 
 /// Writes `stem`.pgm and `stem`.yaml as map_server reads them (254 free, 0 occupied, 205
 /// unknown; top image row = largest y). Each file goes to a temporary name and is renamed.

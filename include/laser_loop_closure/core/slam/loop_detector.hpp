@@ -109,6 +109,9 @@ class LoopDetector {
   /// Keyframes prepared now, and scans prepared again after the cache let them go.
   std::size_t heldPrepared() const { return prepared_.heldPrepared(); }
   std::size_t preparedAgain() const { return prepared_.preparedAgain(); }
+  /// Bytes of the keyframes' scans kept to prepare again, and of their stored features.
+  std::size_t scanBytes() const { return prepared_.restingBytes(); }
+  std::size_t featureBytes() const { return store_.bytes(); }
   /// Values in each stored feature vector (what addWithFeatures takes).
   std::size_t featureCount() const { return store_.featureCount(); }
 

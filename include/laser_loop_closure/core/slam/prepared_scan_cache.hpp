@@ -1,7 +1,7 @@
 // The keyframes' scans prepared for alignment, held within a bound. A prepared scan (points,
 // normals, k-d trees, the CRF and global-search descriptors, free space: ScanAligner::prepare)
-// is most of a keyframe's memory, about 86 kB for the simulated car's 722 beams against 11.5 kB
-// for the scan itself, and only a few keyframes are aligned at any time (the newest, loop
+// is most of a keyframe's memory, about 86 kB for the simulated car's 722 beams against 5.9 kB
+// for the scan itself at rest (CompactScan, single precision), and only a few keyframes are aligned at any time (the newest, loop
 // candidates, their context). So at most `capacity` stay prepared, the most recently asked
 // for; the others keep their scan and are prepared again when asked, which gives the same
 // PreparedScan (preparation is deterministic).
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/geometry/compact_scan.hpp"
 
 namespace llc {
 
@@ -31,8 +32,8 @@ class PreparedScanCache {
   std::size_t capacity() const { return capacity_; }
   std::size_t size() const { return entries_.size(); }
   /// Appends a keyframe's entry and trims. `prepared` may be null when `scan` is given (prepared
-  /// when first asked for); `scan` null: kept prepared for ever. The scan is copied, in single
-  /// precision when every value is one (a ROS message's: half the bytes, the same values).
+  /// when first asked for); `scan` null: kept prepared for ever. The scan is kept compact
+  /// (CompactScan: the same values, its bearings shared with the entry before's when the same).
   /// Throws std::invalid_argument when both are null. Returns its index.
   std::size_t add(std::shared_ptr<const PreparedScan> prepared, const Scan* scan);
   /// The prepared scan of entry `index`, prepared by `aligner` when it is not held. Throws
@@ -47,20 +48,12 @@ class PreparedScanCache {
   void trim();
   std::size_t heldPrepared() const;   ///< entries prepared now
   std::size_t preparedAgain() const;  ///< scans prepared again after they were let go
+  std::size_t restingBytes() const;   ///< bytes of the scans kept to prepare again (CompactScan::bytes)
 
  private:
-  /// A scan at rest: its values as float where each is one exactly, else as double.
-  struct RestingScan {
-    std::vector<float> ranges_single, bearings_single;
-    std::vector<double> ranges, bearings;
-    double stamp = 0.0;
-    bool full_circle = false;
-    static std::shared_ptr<const RestingScan> of(const Scan& scan);
-    Scan scan() const;
-  };
   struct Entry {
     std::shared_ptr<const PreparedScan> prepared;
-    std::shared_ptr<const RestingScan> scan;
+    std::shared_ptr<const CompactScan> scan;
     std::uint64_t last_asked = 0;
   };
   // get() is const and fills the cache: what it changes is mutable, under mutex_.
@@ -70,6 +63,7 @@ class PreparedScanCache {
   mutable std::uint64_t clock_ = 0;
   std::uint64_t trimmed_at_ = 0;
   mutable std::size_t prepared_again_ = 0;
+  std::size_t resting_bytes_ = 0;  ///< CompactScan::bytes of the scans held
   mutable std::mutex mutex_;
 };
 

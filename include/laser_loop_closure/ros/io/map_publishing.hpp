@@ -41,7 +41,7 @@ visualization_msgs::MarkerArray graphMarkers(const std::vector<llc::Pose2>& pose
 /// ~save_map's work, shared by the back ends: the occupancy grid of `scans` at `poses` saved as
 /// stem.pgm and stem.yaml (llc::saveMapFiles). True with what was written in *message, or false
 /// with why not (no keyframe yet, or the write failed).
-bool saveMapOf(const std::vector<std::shared_ptr<const llc::Scan>>& scans, const std::vector<llc::Pose2>& poses,
+bool saveMapOf(const std::vector<std::shared_ptr<const llc::CompactScan>>& scans, const std::vector<llc::Pose2>& poses,
                const llc::OccupancyGridOptions& options, const std::string& stem, std::string* message);
 
 /// A graph of several robots' keyframes (one map): keyframe k's odometry line runs from

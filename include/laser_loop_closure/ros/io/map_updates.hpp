@@ -31,7 +31,7 @@ class MapUpdatePublisher {
   };
   /// Draws what changed (at most max_draws_per_update keyframes) and publishes it. Throws
   /// std::invalid_argument when the sizes differ.
-  Published publish(const std::vector<std::shared_ptr<const llc::Scan>>& scans, const std::vector<llc::Pose2>& poses,
+  Published publish(const std::vector<std::shared_ptr<const llc::CompactScan>>& scans, const std::vector<llc::Pose2>& poses,
                     const std_msgs::Header& header);
   /// Someone subscribed to /map since it was last sent whole.
   bool wholeDue() const { return whole_due_; }

@@ -155,10 +155,12 @@ class EsdfBackendRos {
   std::size_t loop_order_resyncs_ = 0, place_checks_ = 0, place_checks_unanswered_ = 0;
   std::size_t nearby_asked_ = 0, nearby_unanswered_ = 0;
   std::vector<llc::LoopRecord> refused_by_alignment_;  ///< shown in grey; never applied
-  std::vector<std::vector<double>> features_;          ///< of each keyframe, from its message (for sessions)
+  /// Of each keyframe, from its message, for sessions: in single precision, as the front end
+  /// stores and classifies them (llc slam's sessions hold the same values).
+  std::vector<std::vector<float>> features_;
   llc::KeyframeRobots robots_;                         ///< who made each keyframe (a loaded session's, then this run's)
   /// Each keyframe's scan, shared with the map rebuild, which runs outside mutex_.
-  std::vector<std::shared_ptr<const llc::Scan>> map_scans_;
+  std::vector<std::shared_ptr<const llc::CompactScan>> map_scans_;
   std::mutex map_building_;  ///< one rebuild at a time
   bool map_dirty_ = false;
 

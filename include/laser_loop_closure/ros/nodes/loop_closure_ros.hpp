@@ -68,6 +68,8 @@ class LoopClosureRos {
     std::size_t malformed = 0;
     std::array<std::size_t, llc::kLoopRefusalKinds> refusals{};  ///< candidates not applied, by llc::LoopRefusal
     std::size_t keyframes_restored = 0;  ///< of the last session restored (~load_session of the back end)
+    /// Memory of the keyframes: scans kept to prepare again, features, scans kept prepared.
+    std::size_t scan_bytes = 0, feature_bytes = 0, prepared_held = 0;
     std::size_t models_swapped = 0;
     std::string model_path;  ///< of the running model
     std::string last_problem;

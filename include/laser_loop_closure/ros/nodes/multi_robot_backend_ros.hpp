@@ -174,7 +174,7 @@ class MultiRobotBackendRos {
   std::mutex transform_mutex_;
   std::vector<std::pair<std::string, llc::Pose2>> map_to_odom_;
   /// Each map keyframe's scan, shared with the map rebuild, which runs outside mutex_.
-  std::vector<std::shared_ptr<const llc::Scan>> map_scans_;  ///< per joined robot with an odometry pose (transform_mutex_)
+  std::vector<std::shared_ptr<const llc::CompactScan>> map_scans_;  ///< per joined robot with an odometry pose (transform_mutex_)
   ros::Time last_tf_time_;
   std::string last_problem_;
 };

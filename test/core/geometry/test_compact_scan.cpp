@@ -1,0 +1,97 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "laser_loop_closure/core/geometry/compact_scan.hpp"
+
+namespace {
+
+const double kInf = std::numeric_limits<double>::infinity();
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Bit for bit the same (NaN of any payload equal to NaN).
+void expectSameValues(const std::vector<double>& a, const std::vector<double>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::isnan(a[i])) {
+      EXPECT_TRUE(std::isnan(b[i])) << i;
+    } else {
+      EXPECT_EQ(std::memcmp(&a[i], &b[i], sizeof(double)), 0) << i << ": " << a[i] << " against " << b[i];
+    }
+  }
+}
+
+void expectSameScan(const llc::Scan& a, const llc::Scan& b) {
+  expectSameValues(a.ranges, b.ranges);
+  expectSameValues(a.bearings, b.bearings);
+  EXPECT_EQ(a.stamp, b.stamp);
+  EXPECT_EQ(a.full_circle, b.full_circle);
+}
+
+/// 720 beams as scan_merger resamples them, ranges as a ROS message carries them (floats).
+llc::Scan messageScan(double phase) {
+  llc::Scan scan;
+  const double step = 2.0 * M_PI / 720.0;
+  for (std::size_t j = 0; j < 720; ++j) {
+    scan.bearings.push_back(double(float(-M_PI + (double(j) + 0.5) * step)));
+    scan.ranges.push_back(double(float(2.0 + std::sin(phase + 0.01 * double(j)))));
+  }
+  scan.ranges[7] = kInf, scan.ranges[8] = kNaN, scan.ranges[9] = -1.0, scan.ranges[10] = 0.0;
+  scan.stamp = 1234.5678;
+  scan.full_circle = true;
+  return scan;
+}
+
+TEST(CompactScan, MessageScanComesBackTheSameInAQuarterOfItsBytes) {
+  const llc::Scan first = messageScan(0.0), second = messageScan(1.0);
+  const auto a = std::make_shared<const llc::CompactScan>(first);
+  const llc::CompactScan b(second, a.get());
+  expectSameScan(a->scan(), first);
+  expectSameScan(b.scan(), second);
+  // Floats: 720 ranges of 4 bytes each; the 720 bearings (2,880 bytes) counted with the first.
+  EXPECT_EQ(a->bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 4 + 720 * 4);
+  EXPECT_EQ(b.bytes(), sizeof(llc::CompactScan) + 720 * 4);
+  EXPECT_LT(b.bytes(), (720 * 16) / 3);
+}
+
+TEST(CompactScan, DoublesThatAreNoFloatsStayDoubles) {
+  llc::Scan scan;
+  scan.ranges = {0.1, 1.0 / 3.0, kInf, -kInf, kNaN, 1e300, 5e-324};  // 0.1 is no float
+  scan.bearings = {-3.0, -1.0, 0.0, 0.5, 1.0, 2.0, 3.0};            // all floats
+  scan.stamp = -2.0;
+  const llc::CompactScan compact(scan);
+  expectSameScan(compact.scan(), scan);
+  EXPECT_EQ(compact.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 7 * 8 + 7 * 4);
+}
+
+TEST(CompactScan, BearingsAreSharedOnlyWhenTheSame) {
+  llc::Scan a = messageScan(0.0), b = messageScan(0.0);
+  b.bearings[100] = std::nextafter(b.bearings[100], 10.0);  // one beam differs by one ulp
+  const llc::CompactScan first(a);
+  const llc::CompactScan second(b, &first);
+  expectSameScan(second.scan(), b);
+  EXPECT_EQ(second.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 4 + 720 * 8);  // its own bearings, as doubles
+  llc::Scan shorter = messageScan(0.0);
+  shorter.ranges.pop_back(), shorter.bearings.pop_back();
+  expectSameScan(llc::CompactScan(shorter, &first).scan(), shorter);
+  llc::Scan nan_bearing = a;
+  nan_bearing.bearings[3] = kNaN;  // kept as it came: the scan's users judge it
+  const llc::CompactScan with_nan(nan_bearing, &first);
+  expectSameScan(with_nan.scan(), nan_bearing);
+  expectSameScan(llc::CompactScan(nan_bearing, &with_nan).scan(), nan_bearing);
+}
+
+TEST(CompactScan, EmptyAndUnevenScansAreKeptAsTheyCame) {
+  const llc::Scan empty;
+  expectSameScan(llc::CompactScan(empty).scan(), empty);
+  llc::Scan uneven;  // a malformed scan: more ranges than bearings
+  uneven.ranges = {1.0, 2.0, 3.0};
+  uneven.bearings = {0.0};
+  const llc::CompactScan compact(uneven, nullptr);
+  expectSameScan(compact.scan(), uneven);
+  EXPECT_EQ(compact.size(), 3u);
+}
+
+}  // namespace
