@@ -209,9 +209,10 @@ GridUpdateResult IncrementalOccupancyGrid::update(const std::vector<std::shared_
       continue;
     }
     Drawn& was = drawn_[k];
-    if (was.scan) draw(was.scan->scan(), was.pose, -1), ++result.redrawn;
+    const Scan scan = scans[k]->scan();  // read once (a packed scan is unpacked) for both draws
+    if (was.scan) draw(was.scan == scans[k] ? scan : was.scan->scan(), was.pose, -1), ++result.redrawn;
     else ++result.drawn;
-    draw(scans[k]->scan(), poses[k], +1);
+    draw(scan, poses[k], +1);
     was = {scans[k], poses[k]};
     ++draws;
   }

@@ -19,9 +19,10 @@ namespace llc_ros {
 namespace {
 
 /// Takes the keyframe's scan out (its stamp and full_circle stay): the node holds each scan once,
-/// compact, its bearings shared with `before`'s when the same.
-std::shared_ptr<const llc::CompactScan> withoutScan(llc::Keyframe* keyframe, const std::vector<std::shared_ptr<const llc::CompactScan>>& before) {
-  auto scan = std::make_shared<const llc::CompactScan>(keyframe->scan, before.empty() ? nullptr : before.back().get());
+/// at rest (llc::mapScanAtRest with map_scan_step), after the ones `before`.
+std::shared_ptr<const llc::CompactScan> withoutScan(llc::Keyframe* keyframe, double map_scan_step,
+                                                    const std::vector<std::shared_ptr<const llc::CompactScan>>& before) {
+  auto scan = llc::mapScanAtRest(keyframe->scan, map_scan_step, before.empty() ? nullptr : before.back().get());
   const double stamp = keyframe->scan.stamp;
   const bool full_circle = keyframe->scan.full_circle;
   keyframe->scan = llc::Scan{};
@@ -49,6 +50,7 @@ std::string EsdfBackendNodeOptions::validate() const {
   if (!(map_cpu_share > 0.0 && map_cpu_share <= 1.0)) return "map_cpu_share must be in (0, 1]";
   if (session_part_keyframes < 1) return "session_part_keyframes must be at least 1";
   if (!(cloud_voxel_size >= 0.0)) return "cloud_voxel_size must not be negative";
+  if (const std::string bad = llc::checkMapScanStep(map_scan_step); !bad.empty()) return "map_scan_step " + bad;
   if (max_pending_loops < 0 || queue_size < 1) return "max_pending_loops >= 0 and queue_size >= 1";
   if (session_path.empty()) return "session_path must not be empty";
   return "";
@@ -151,7 +153,7 @@ void EsdfBackendRos::takeKeyframe(const laser_loop_closure::Keyframe& msg) {
     error = "keyframe " + std::to_string(msg.index) + " arrived, " + std::to_string(expected) + " expected";
   } else if (fromKeyframeMsg(msg, &keyframe, &motion, &covariance, &error)) {
     // The scan is held once, here, for the map and sessions: the pose graph needs none.
-    std::shared_ptr<const llc::CompactScan> scan = withoutScan(&keyframe, map_scans_);
+    std::shared_ptr<const llc::CompactScan> scan = withoutScan(&keyframe, options_.map_scan_step, map_scans_);
     // Kept whatever its odometry: a note says what was unusable and replaced.
     const std::string note = back_->addKeyframe(std::move(keyframe), motion, covariance);
     if (!note.empty()) {
@@ -432,8 +434,14 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   } catch (const llc::SessionError& e) {
     response.message = e.what();
   }
-  std::vector<std::shared_ptr<const llc::CompactScan>> scans;  // held once, here (the back end restores none)
-  for (llc::Keyframe& k : session.keyframes) scans.push_back(withoutScan(&k, scans));
+  // The scans are held at rest here (the back end restores none); the front end gets them as the
+  // file has them.
+  std::vector<std::shared_ptr<const llc::CompactScan>> scans;
+  std::vector<llc::Scan> file_scans;
+  for (llc::Keyframe& k : session.keyframes) {
+    file_scans.push_back(k.scan);
+    scans.push_back(withoutScan(&k, options_.map_scan_step, scans));
+  }
   if (response.message.empty()) {
     const std::string error = back_->restore(session);
     if (!error.empty()) response.message = path + ": not restored: " + error;
@@ -469,7 +477,7 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
     msg.continue_odometry = request.continue_odometry;
     for (std::size_t k = part * per_part; k < std::min(n, (part + 1) * per_part); ++k) {
       llc::Keyframe keyframe = session.keyframes[k];
-      keyframe.scan = map_scans_[k]->scan();
+      keyframe.scan = std::move(file_scans[k]);
       msg.keyframes.push_back(toKeyframeMsg(keyframe, k, llc::OdometryStep{}, ""));
       msg.keyframes.back().features = session.features[k];
     }

@@ -31,6 +31,7 @@ std::string MultiRobotBackendNodeOptions::validate() const {
   if (!(tf_publish_period > 0.0) || !(map_publish_period > 0.0)) return "publish periods must be positive";
   if (!(answer_timeout >= 0.0) || !(resend_wait >= 0.0)) return "answer_timeout and resend_wait must not be negative";
   if (queue_size < 1) return "queue_size must be at least 1";
+  if (const std::string bad = llc::checkMapScanStep(map_scan_step); !bad.empty()) return "map_scan_step " + bad;
   if (session_path.empty() || map_path.empty()) return "session_path and map_path must not be empty";
   return "";
 }
@@ -70,7 +71,7 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
       slam_ = std::make_unique<llc::MultiRobotSlam>(model, names.size() + 1, system_.slam, system_.multi_robot, &saved);
       slot_offset_ = 1;
       for (const llc::Keyframe& k : slam_->map().keyframes())
-        map_scans_.push_back(std::make_shared<const llc::CompactScan>(k.scan, map_scans_.empty() ? nullptr : map_scans_.back().get()));
+        map_scans_.push_back(llc::mapScanAtRest(k.scan, options_.map_scan_step, map_scans_.empty() ? nullptr : map_scans_.back().get()));
       map_dirty_ = true;
     }
   } catch (const std::exception& e) {
@@ -260,8 +261,8 @@ void MultiRobotBackendRos::takeKeyframe(std::size_t robot, const Inbox::Taken& t
   for (auto it = r.pending_loops.begin(); it != r.pending_loops.end();)
     it = takeLoop(robot, *it) ? r.pending_loops.erase(it) : std::next(it);
   for (std::size_t m = map_scans_.size(); m < slam_->map().keyframes().size(); ++m)
-    map_scans_.push_back(std::make_shared<const llc::CompactScan>(slam_->map().keyframes()[m].scan,
-                                                                   map_scans_.empty() ? nullptr : map_scans_.back().get()));
+    map_scans_.push_back(llc::mapScanAtRest(slam_->map().keyframes()[m].scan, options_.map_scan_step,
+                                            map_scans_.empty() ? nullptr : map_scans_.back().get()));
   map_dirty_ = true;
   updateTransforms();
 }

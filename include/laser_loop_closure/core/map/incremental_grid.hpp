@@ -8,7 +8,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "laser_loop_closure/core/geometry/compact_scan.hpp"
+#include "laser_loop_closure/core/io/compact_scan.hpp"
 #include "laser_loop_closure/core/map/occupancy_grid.hpp"
 
 namespace llc {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "laser_loop_closure/core/geometry/compact_scan.hpp"
+#include "laser_loop_closure/core/io/compact_scan.hpp"
 #include "laser_loop_closure/core/geometry/scan.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
-#include "laser_loop_closure/core/geometry/compact_scan.hpp"
+#include "laser_loop_closure/core/io/compact_scan.hpp"
 
 namespace llc {
 

@@ -50,6 +50,10 @@ struct EsdfBackendNodeOptions {
   /// new subscriber first gets the last whole map, which the parts sent since may have outdated
   bool latch_map = false;
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
+  /// m; the keyframes' scans are kept for the map and sessions packed, each point within half
+  /// this step (and half of step / 50 m in bearing) of where it was: ~1.5 kB per 722 beams
+  /// against 5.9 (0: kept exact)
+  double map_scan_step = 0.0005;
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
   int session_part_keyframes = 100;    ///< keyframes per message of a restored session on topic session
@@ -69,6 +73,7 @@ void visitEsdfBackendParameters(EsdfBackendNodeOptions& o, Visit&& visit) {
   visit("map_cpu_share", o.map_cpu_share);
   visit("latch_map", o.latch_map);
   visit("cloud_voxel_size", o.cloud_voxel_size);
+  visit("map_scan_step", o.map_scan_step);
   visit("map_path", o.map_path);
   visit("session_path", o.session_path);
   visit("session_part_keyframes", o.session_part_keyframes);

@@ -47,6 +47,7 @@ struct MultiRobotBackendNodeOptions {
   double tf_publish_period = 0.05;     ///< s between map -> odom broadcasts
   double map_publish_period = 2.0;     ///< s of wall time between updates of /map and the markers (when changed)
   bool latch_map = false;              ///< latch /map (as esdf_backend's latch_map)
+  double map_scan_step = 0.0005;       ///< m; the map's scans kept packed (as esdf_backend's map_scan_step; 0: exact)
   double answer_timeout = 2.0;         ///< s of wall time a robot's place check waits for the state it names
   /// s of wall time keyframes that came after a gap wait for the missing ones, asked again of the
   /// robot's front end (<robot>/resend_request), before the gap is bridged by its odometry.
@@ -69,6 +70,7 @@ void visitMultiRobotBackendParameters(MultiRobotBackendNodeOptions& o, Visit&& v
   visit("tf_publish_period", o.tf_publish_period);
   visit("map_publish_period", o.map_publish_period);
   visit("latch_map", o.latch_map);
+  visit("map_scan_step", o.map_scan_step);
   visit("answer_timeout", o.answer_timeout);
   visit("resend_wait", o.resend_wait);
   visit("map_path", o.map_path);

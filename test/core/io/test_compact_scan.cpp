@@ -4,7 +4,7 @@
 #include <cstring>
 #include <limits>
 
-#include "laser_loop_closure/core/geometry/compact_scan.hpp"
+#include "laser_loop_closure/core/io/compact_scan.hpp"
 
 namespace {
 
@@ -92,6 +92,60 @@ TEST(CompactScan, EmptyAndUnevenScansAreKeptAsTheyCame) {
   const llc::CompactScan compact(uneven, nullptr);
   expectSameScan(compact.scan(), uneven);
   EXPECT_EQ(compact.size(), 3u);
+}
+
+/// The points of `scan` (finite positive ranges), by bearing order.
+std::vector<std::pair<double, double>> pointsOf(const llc::Scan& scan) {
+  std::vector<std::pair<double, double>> points;
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    if (std::isfinite(scan.ranges[i]) && scan.ranges[i] > 0.0)
+      points.emplace_back(scan.ranges[i] * std::cos(scan.bearings[i]), scan.ranges[i] * std::sin(scan.bearings[i]));
+  return points;
+}
+
+TEST(CompactScan, PackedForTheMapComesBackWithinHalfAStep) {
+  const llc::Scan scan = messageScan(0.3);
+  const double step = 0.0005;
+  const auto packed = llc::mapScanAtRest(scan, step, nullptr);
+  ASSERT_TRUE(packed->isPacked());
+  EXPECT_EQ(packed->size(), 720u);
+  EXPECT_LT(packed->bytes(), 2500u) << "a quarter of the single-precision scan's 5.9 kB at most";
+  const llc::Scan back = packed->scan();
+  EXPECT_EQ(back.stamp, scan.stamp);
+  EXPECT_EQ(back.full_circle, scan.full_circle);
+  ASSERT_EQ(back.size(), scan.size()) << "every beam, returns or not";
+  const auto before = pointsOf(scan), after = pointsOf(back);
+  ASSERT_EQ(before.size(), after.size());
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    const double r = std::hypot(before[i].first, before[i].second);
+    // Half a range step along, half a bearing step (step / 50 m) across, at this range.
+    EXPECT_LE(std::hypot(before[i].first - after[i].first, before[i].second - after[i].second),
+              0.5 * step + 0.5 * (step / 50.0) * r + 1e-9) << i;
+  }
+  // Step 0: kept exact, bearings shared with the scan before.
+  const auto exact = llc::mapScanAtRest(scan, 0.0, nullptr);
+  EXPECT_FALSE(exact->isPacked());
+  expectSameScan(exact->scan(), scan);
+  EXPECT_EQ(llc::mapScanAtRest(messageScan(1.0), 0.0, exact.get())->bytes(), sizeof(llc::CompactScan) + 720 * 4);
+}
+
+TEST(CompactScan, AScanThatCannotBePackedIsKeptAsItCame) {
+  llc::Scan scan = messageScan(0.0);
+  scan.bearings[5] = kNaN;  // packScan refuses a bearing that is not finite
+  const auto kept = llc::mapScanAtRest(scan, 0.0005, nullptr);
+  EXPECT_FALSE(kept->isPacked());
+  expectSameScan(kept->scan(), scan);
+  llc::Scan uneven = messageScan(0.0);
+  uneven.bearings.pop_back();
+  expectSameScan(llc::mapScanAtRest(uneven, 0.0005, nullptr)->scan(), uneven);
+}
+
+TEST(CompactScan, MapScanStepIsChecked) {
+  EXPECT_EQ(llc::checkMapScanStep(0.0), "");
+  EXPECT_EQ(llc::checkMapScanStep(0.0005), "");
+  EXPECT_NE(llc::checkMapScanStep(-0.001), "");
+  EXPECT_NE(llc::checkMapScanStep(kNaN), "");
+  EXPECT_NE(llc::checkMapScanStep(kInf), "");
 }
 
 }  // namespace
