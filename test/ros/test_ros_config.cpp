@@ -70,6 +70,16 @@ TEST(RosConfig, BadOptionsAreRefused) {
   llc_ros::EsdfBackendNodeOptions backend;
   backend.odom_frame = backend.map_frame;
   EXPECT_NE(backend.validate(), "");
+  for (const double step : {-0.001, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    backend = llc_ros::EsdfBackendNodeOptions{};
+    backend.map_scan_step = step;
+    EXPECT_NE(backend.validate(), "") << step;
+    llc_ros::MultiRobotBackendNodeOptions fleet;
+    fleet.map_scan_step = step;
+    EXPECT_NE(fleet.validate(), "") << step;
+  }
+  backend.map_scan_step = 0.0;  // kept exact
+  EXPECT_EQ(backend.validate(), "");
   llc_ros::LoopClosureNodeOptions loop;
   loop.input.max_lag = -1.0;
   EXPECT_NE(loop.validate(), "");
