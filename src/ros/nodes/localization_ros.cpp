@@ -113,7 +113,9 @@ LocalizationRos::~LocalizationRos() {
 
 void LocalizationRos::work() {
   PendingScan pending;
+  std::size_t drops_reported = 0;
   while (backlog_->pop(&pending)) {  // runs the tasks posted meanwhile first
+    warnOfScansDroppedBehind("localization", backlog_->counters(), options_.input.max_lag, &drops_reported);
     processScan(pending);
     scan_latency_.record(std::chrono::duration<double>(std::chrono::steady_clock::now() - pending.arrival).count());
     pending = PendingScan{};

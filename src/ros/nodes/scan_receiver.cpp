@@ -52,6 +52,15 @@ bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader&
   return true;
 }
 
+void warnOfScansDroppedBehind(const char* node, const llc::ScanBacklogCounters& backlog, double max_lag,
+                              std::size_t* reported) {
+  if (backlog.dropped_behind <= *reported) return;
+  ROS_WARN_THROTTLE(5.0, "%s: %zu scans dropped in all to catch up: the oldest waiting was more than max_lag (%.1f s) "
+                    "behind the newest (the machine is too slow for the scans, or busy)",
+                    node, backlog.dropped_behind, max_lag);
+  *reported = backlog.dropped_behind;
+}
+
 void addBacklogTo(const llc::ScanBacklogCounters& backlog, diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("scans waiting for the front end", backlog.waiting);
   status.add("lag behind the newest scan (s)", backlog.lag);

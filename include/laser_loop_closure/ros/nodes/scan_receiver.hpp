@@ -55,6 +55,11 @@ llc::ScanBacklogOptions scanBacklogOptions(const ScanInputOptions& options);
 bool takeScan(const char* node, const PendingScan& pending, WheelOdometryReader& wheels, llc::Scan* scan,
               llc::Pose2* wheel_odometry, std::string* error);
 
+/// A throttled warning, naming `node`, when the backlog dropped scans to catch up (max_lag)
+/// since *reported (which it then brings up to date): a user learns of it from the log too.
+void warnOfScansDroppedBehind(const char* node, const llc::ScanBacklogCounters& backlog, double max_lag,
+                              std::size_t* reported);
+
 /// The backlog's counters in a nodelet's diagnostics (waiting, lag, drops, processed).
 void addBacklogTo(const llc::ScanBacklogCounters& backlog, diagnostic_updater::DiagnosticStatusWrapper& status);
 
