@@ -77,25 +77,26 @@ std::size_t CompactScan::bytes() const {
          (shares_bearings_ || !bearings_ ? 0 : sizeof(CompactValues) + bearings_->bytes());
 }
 
+namespace {
+
+/// The packing map_scan_step stands for: the same error along and (at 50 m) across.
+ScanPackOptions mapScanPacking(double pack_step) {
+  ScanPackOptions packing;
+  packing.range_step = pack_step;
+  packing.bearing_step = pack_step / 50.0;
+  return packing;
+}
+
+}  // namespace
+
 std::shared_ptr<const CompactScan> mapScanAtRest(const Scan& scan, double pack_step, const CompactScan* before) {
-  if (pack_step > 0.0) {
-    ScanPackOptions packing;
-    packing.range_step = pack_step;
-    packing.bearing_step = pack_step / 50.0;
-    return std::make_shared<const CompactScan>(CompactScan::packed(scan, packing));
-  }
+  if (pack_step > 0.0) return std::make_shared<const CompactScan>(CompactScan::packed(scan, mapScanPacking(pack_step)));
   return std::make_shared<const CompactScan>(scan, before);
 }
 
 std::string checkMapScanStep(double pack_step) {
   if (!(pack_step >= 0.0) || !std::isfinite(pack_step)) return "must be 0 (kept exact) or a step > 0 in metres";
-  if (pack_step > 0.0) {
-    ScanPackOptions packing;
-    packing.range_step = pack_step;
-    packing.bearing_step = pack_step / 50.0;
-    return packing.validate();
-  }
-  return "";
+  return pack_step > 0.0 ? mapScanPacking(pack_step).validate() : "";
 }
 
 }  // namespace llc

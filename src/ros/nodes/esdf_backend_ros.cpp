@@ -19,12 +19,15 @@ namespace llc_ros {
 namespace {
 
 /// Takes the keyframe's scan out (its stamp and full_circle stay): the node holds each scan once,
-/// at rest (llc::mapScanAtRest with map_scan_step), after the ones `before`.
+/// at rest (llc::mapScanAtRest with map_scan_step), after the ones `before`. `taken` (when given)
+/// receives the scan as it was.
 std::shared_ptr<const llc::CompactScan> withoutScan(llc::Keyframe* keyframe, double map_scan_step,
-                                                    const std::vector<std::shared_ptr<const llc::CompactScan>>& before) {
+                                                    const std::vector<std::shared_ptr<const llc::CompactScan>>& before,
+                                                    llc::Scan* taken = nullptr) {
   auto scan = llc::mapScanAtRest(keyframe->scan, map_scan_step, before.empty() ? nullptr : before.back().get());
   const double stamp = keyframe->scan.stamp;
   const bool full_circle = keyframe->scan.full_circle;
+  if (taken) *taken = std::move(keyframe->scan);
   keyframe->scan = llc::Scan{};
   keyframe->scan.stamp = stamp;
   keyframe->scan.full_circle = full_circle;
@@ -438,10 +441,9 @@ bool EsdfBackendRos::loadSession(laser_loop_closure::LoadSession::Request& reque
   // file has them.
   std::vector<std::shared_ptr<const llc::CompactScan>> scans;
   std::vector<llc::Scan> file_scans;
-  for (llc::Keyframe& k : session.keyframes) {
-    file_scans.push_back(k.scan);
-    scans.push_back(withoutScan(&k, options_.map_scan_step, scans));
-  }
+  file_scans.resize(session.keyframes.size());
+  for (std::size_t k = 0; k < session.keyframes.size(); ++k)
+    scans.push_back(withoutScan(&session.keyframes[k], options_.map_scan_step, scans, &file_scans[k]));
   if (response.message.empty()) {
     const std::string error = back_->restore(session);
     if (!error.empty()) response.message = path + ": not restored: " + error;
