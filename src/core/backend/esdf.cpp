@@ -72,8 +72,19 @@ struct Esdf::Impl {
     common.supernodal = CHOLMOD_SIMPLICIAL;  // LDL', which cholmod_updown works on
   }
   ~Impl() {
+    freeSubsetWorkspace();
     if (factor) cholmod_free_factor(&factor, &common);
     cholmod_finish(&common);
+  }
+  /// Reused by inverseBlock: a right-hand side, the pattern of its rows, and CHOLMOD's
+  /// solution and workspaces (each n long; allocated by the first call, kept while n holds).
+  cholmod_dense *subset_b = nullptr, *subset_x = nullptr, *subset_y = nullptr, *subset_e = nullptr;
+  cholmod_sparse *subset_bset = nullptr, *subset_xset = nullptr;
+  void freeSubsetWorkspace() {
+    for (cholmod_dense** d : {&subset_b, &subset_x, &subset_y, &subset_e})
+      if (*d) cholmod_free_dense(d, &common);
+    for (cholmod_sparse** s : {&subset_bset, &subset_xset})
+      if (*s) cholmod_free_sparse(s, &common);
   }
   Eigen::Matrix3d& block(std::size_t i, std::size_t j) {
     auto [it, added] = upper[i].try_emplace(j, Eigen::Matrix3d::Zero());
@@ -111,6 +122,37 @@ struct Esdf::Impl {
     Dense x(checked(cholmod_solve(CHOLMOD_A, factor, b.get(), &common), "cholmod_solve"), FreeDense{&common});
     return Eigen::Map<Eigen::MatrixXd>(static_cast<double*>(x->x), rhs.rows(), rhs.cols());
   }
+  /// The block of Lambda^-1 on the given variables, exact. Each column is a solve with a
+  /// sparse right-hand side (cholmod_solve2 with Bset) that visits only the union of the
+  /// factor's elimination-tree paths from the variables to the root: the rows of L \ e_i and of
+  /// the back substitution on them depend on nothing else. A dense solve swept the whole factor
+  /// per column, a cost that grew with the map for every place check and loop gate.
+  Eigen::MatrixXd inverseBlock(const std::vector<int>& variables) {
+    const std::size_t n = factor->n, count = variables.size();
+    if (!subset_b || subset_b->nrow != n || !subset_bset || subset_bset->nzmax < count) {
+      freeSubsetWorkspace();
+      subset_b = checked(cholmod_zeros(n, 1, CHOLMOD_REAL, &common), "cholmod_zeros");
+      subset_bset = checked(cholmod_allocate_sparse(n, 1, std::max<std::size_t>(count, 6), 0, 1, 0, CHOLMOD_PATTERN, &common),
+                            "cholmod_allocate_sparse");
+    }
+    int* rows = static_cast<int*>(subset_bset->i);
+    static_cast<int*>(subset_bset->p)[0] = 0;
+    static_cast<int*>(subset_bset->p)[1] = int(count);
+    for (std::size_t k = 0; k < count; ++k) rows[k] = variables[k];
+    double* b = static_cast<double*>(subset_b->x);
+    Eigen::MatrixXd block(count, count);
+    for (std::size_t column = 0; column < count; ++column) {
+      b[variables[column]] = 1.0;
+      const int solved = cholmod_solve2(CHOLMOD_A, factor, subset_b, subset_bset, &subset_x, &subset_xset, &subset_y,
+                                        &subset_e, &common);
+      b[variables[column]] = 0.0;  // every other entry stays zero for the next column
+      if (!solved || common.status < CHOLMOD_OK)
+        throw std::runtime_error("esdf: cholmod_solve2 failed (CHOLMOD status " + std::to_string(common.status) + ")");
+      const double* x = static_cast<const double*>(subset_x->x);
+      for (std::size_t row = 0; row < count; ++row) block(Eigen::Index(row), Eigen::Index(column)) = x[variables[row]];
+    }
+    return block;
+  }
 };
 
 Esdf::Esdf(const Pose2& first, const EsdfOptions& options) : options_(options), impl_(std::make_unique<Impl>()) {
@@ -135,6 +177,10 @@ std::size_t Esdf::bytes() const {
     // Simplicial LDL': values and row indices per entry; column pointers, counts, links, permutation.
     bytes += factor->nzmax * (sizeof(double) + sizeof(int)) + factor->n * 6 * sizeof(int);
   }
+  for (const cholmod_dense* d : {impl_->subset_b, impl_->subset_x, impl_->subset_y, impl_->subset_e})
+    if (d) bytes += d->nzmax * sizeof(double);
+  for (const cholmod_sparse* s : {impl_->subset_bset, impl_->subset_xset})
+    if (s) bytes += s->nzmax * sizeof(int);
   return bytes;
 }
 
@@ -494,15 +540,15 @@ double Esdf::robustCost() const {
 }
 
 Eigen::Matrix<double, 6, 6> Esdf::factoredJointCovariance(std::size_t a, std::size_t b) {
-  const long n = long(impl_->factor->n);
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n, 6);
-  rhs.block<3, 3>(3 * long(a), 0).setIdentity();
-  rhs.block<3, 3>(3 * long(b), 3).setIdentity();
   const StopWatch watch(&timings_.solves);
-  const Eigen::MatrixXd x = impl_->solve(rhs);
+  const int ia = 3 * int(a), ib = 3 * int(b);
   Eigen::Matrix<double, 6, 6> joint;
-  joint.topRows<3>() = x.block<3, 6>(3 * long(a), 0);
-  joint.bottomRows<3>() = x.block<3, 6>(3 * long(b), 0);
+  if (a == b) {
+    const Eigen::Matrix3d own = impl_->inverseBlock({ia, ia + 1, ia + 2});
+    joint << own, own, own, own;
+  } else {
+    joint = impl_->inverseBlock({ia, ia + 1, ia + 2, ib, ib + 1, ib + 2});
+  }
   return 0.5 * (joint + joint.transpose());
 }
 
