@@ -18,6 +18,7 @@
 #include "laser_loop_closure/core/sim/carmen_writer.hpp"
 #include "laser_loop_closure/core/backend/esdf.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
+#include "laser_loop_closure/core/io/compact_scan.hpp"
 #include "laser_loop_closure/core/io/scan_sequence.hpp"
 #include "laser_loop_closure/core/map/incremental_grid.hpp"
 #include "laser_loop_closure/core/sim/sim_drive.hpp"
@@ -289,6 +290,25 @@ BENCHMARK(BM_LocalizationGlobalSearch)
     ->Args({100000, 2, 2, 0})
     ->ArgNames({"keyframes", "threads", "search_threads", "mapped"})
     ->Unit(benchmark::kMillisecond);
+
+/// A back end's scan at rest for the map (mapScanAtRest at the shipped map_scan_step, 0.5 mm):
+/// packing one when its keyframe comes (arg 0) and reading it back when it is drawn (arg 1).
+/// Counter bytes: what the packed scan holds. The simulated drive's scans, in single precision
+/// as a ROS message carries them.
+void BM_MapScanAtRest(benchmark::State& state) {
+  llc::Scan scan = simulatedScans().scans[100].scan;
+  for (double& r : scan.ranges) r = double(float(r));
+  for (double& b : scan.bearings) b = double(float(b));
+  const std::shared_ptr<const llc::CompactScan> packed = llc::mapScanAtRest(scan, 0.0005, nullptr);
+  if (!packed->isPacked()) throw std::runtime_error("benchmark scan: not packed");
+  state.counters["beams"] = double(scan.size());
+  state.counters["bytes"] = double(packed->bytes());
+  if (state.range(0) == 0)
+    for (auto _ : state) benchmark::DoNotOptimize(llc::mapScanAtRest(scan, 0.0005, nullptr));
+  else
+    for (auto _ : state) benchmark::DoNotOptimize(packed->scan());
+}
+BENCHMARK(BM_MapScanAtRest)->Arg(0)->Arg(1)->ArgNames({"unpack"})->Unit(benchmark::kMicrosecond);
 
 /// An ESDF of n poses: a noisy square-ish random walk with a loop closure every 50 poses to a
 /// pose 25..1000 steps back, solved once (the state a long-running robot reaches).
