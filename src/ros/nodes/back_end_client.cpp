@@ -20,6 +20,7 @@ std::string BackEndClient::call(ros::ServiceClient& client, ros::WallTime& retry
     retry = now + ros::WallDuration(5.0);
   }
   // The back end bounds its own wait, so this call returns; a back end that is not there fails at once.
+  const auto timed = answer_timing_.measure();
   if (client.isValid() && client.call(service) && service.response.answered) return "";
   const std::string why = !client.isValid() ? "no connection" : service.response.message.empty() ? "the call failed" : service.response.message;
   if (!client.isValid() || service.response.message.empty()) client.shutdown();
@@ -79,6 +80,7 @@ void BackEndClient::addTo(diagnostic_updater::DiagnosticStatusWrapper& status) c
   status.add("place checks unanswered (aligned ungated)", place_checks_unanswered_.load());
   status.add("nearby keyframes asked of the back end", nearby_asked_.load());
   status.add("nearby keyframes unanswered (none aligned)", nearby_unanswered_.load());
+  answer_timing_.addTo(status, "waits for the back end's answers");
 }
 
 }  // namespace llc_ros

@@ -16,6 +16,7 @@
 
 #include "laser_loop_closure/core/slam/slam_pipeline.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
+#include "laser_loop_closure/ros/io/callback_timing.hpp"
 
 namespace llc_ros {
 
@@ -44,6 +45,9 @@ class BackEndClient {
   ros::ServiceClient place_client_, nearby_client_;  ///< the worker's only
   ros::WallTime place_client_retry_, nearby_client_retry_;
   std::atomic<std::size_t> place_checks_{0}, place_checks_unanswered_{0}, nearby_asked_{0}, nearby_unanswered_{0};
+  /// Wall time of each question until its answer (or failure): the time the worker waited on
+  /// the back end, which a busy back end stretches (its updates after a loop hold the answer).
+  CallbackTiming answer_timing_;
 };
 
 }  // namespace llc_ros
