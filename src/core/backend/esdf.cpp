@@ -277,11 +277,18 @@ void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& t
   addToSystem(edges_.size() - 1, 1.0);
 }
 
-void Esdf::rebuildSystem() {
+void Esdf::rebuildSystem(bool edges_removed) {
   impl_->factor_valid = false;
   impl_->leaf_start = std::string::npos;
-  for (auto& row : impl_->upper) row.clear();
-  impl_->blocks = 0;
+  if (edges_removed) {
+    for (auto& row : impl_->upper) row.clear();
+    impl_->blocks = 0;
+  } else {
+    // The same edges make the same blocks: zeroed where they are (each is summed again from
+    // zero in the same order, so the values are the same bits), not freed and allocated again.
+    for (auto& row : impl_->upper)
+      for (auto& entry : row) entry.second.setZero();
+  }
   impl_->gradient.setZero();
   impl_->block(0, 0) += options_.prior_information * Eigen::Matrix3d::Identity();
   // The prior holds pose 0 where it started (mean_ may have moved it by rounding only).
@@ -491,7 +498,7 @@ void Esdf::takeBackNewestEdge(std::vector<Pose2> linearization_before) {
   // Back to the linearisation point of before the update when a round moved it (to means
   // the failed solve may have made), and the system rebuilt there.
   if (!linearization_before.empty()) linearization_ = std::move(linearization_before);
-  rebuildSystem();
+  rebuildSystem(true);
   factorAndSolve();
 }
 

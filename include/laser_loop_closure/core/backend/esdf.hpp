@@ -165,7 +165,9 @@ class Esdf {
   /// Removes the newest constraint (its solve failed) and factorises the system without it, at
   /// linearization_before when a relinearisation round had moved the linearisation point.
   void takeBackNewestEdge(std::vector<Pose2> linearization_before);
-  void rebuildSystem();
+  /// The system summed afresh from every edge at its linearisation point; `edges_removed`
+  /// when an edge has gone since (its blocks go too), else the blocks are reused in place.
+  void rebuildSystem(bool edges_removed = false);
   void factorAndSolve();
   void factorize();  ///< builds, analyses when the pattern changed, and factorises the system
   void solveMean();
