@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -40,6 +41,11 @@ int runGraph(const Args& args) {
   if (!invalid.empty()) throw UsageError(invalid);
   const bool gate = args.has("gate");
   checkOutputFile("out", out_path);
+  const std::string latency_path = args.get("latency-csv", "");
+  if (!latency_path.empty()) {
+    if (batch) throw UsageError("--latency-csv times the steps of an incremental run, not --batch");
+    checkOutputFile("latency-csv", latency_path);
+  }
   llc::PoseGraph2 graph;
   try {
     graph = llc::readG2o(in_path);
@@ -154,6 +160,13 @@ int runGraph(const Args& args) {
     std::cout << std::setprecision(4) << "step_latency_median_ms=" << rank(0.5) << "\nstep_latency_p90_ms=" << rank(0.9)
               << "\nstep_latency_p99_ms=" << rank(0.99) << "\nstep_latency_max_ms=" << sorted.back()
               << "\nstep_latency_max_at=" << worst << "\ntotal_seconds=" << seconds << "\n";
+  }
+  if (!latency_path.empty()) {
+    std::ofstream csv(latency_path);
+    csv << "step,edge_from,edge_to,ms\n" << std::setprecision(6);
+    for (std::size_t k = 0; k < step_ms.size(); ++k)
+      csv << k << ',' << graph.edges[k].from << ',' << graph.edges[k].to << ',' << step_ms[k] << '\n';
+    if (!csv.flush()) throw ToolError("could not write " + latency_path);
   }
   return 0;
 }

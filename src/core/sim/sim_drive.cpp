@@ -31,7 +31,7 @@ struct PathPiece {
 
 std::string SimDriveOptions::validate() const {
   if (!(std::isfinite(length_m) && length_m > 0)) return "--length-m must be a positive number of metres";
-  if (length_m > 100000.0) return "--length-m must be at most 100000 (100 km)";
+  if (length_m > 200000.0) return "--length-m must be at most 200000 (200 km)";
   if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 100)) return "--rate-hz must be in (0, 100]";
   if (!(std::isfinite(speed) && speed > 0)) return "speed must be positive";
   if (!(std::isfinite(parking_mean_s) && parking_mean_s >= 1.0)) return "--parking-mean-s must be at least 1 second";
