@@ -1,9 +1,9 @@
 #include "laser_loop_closure/core/io/scan_codec.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
-
-#include <zlib.h>
+#include "laser_loop_closure/core/io/range_coder.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -13,39 +13,13 @@
 namespace llc {
 namespace {
 
-constexpr std::uint8_t kMagic[4] = {'L', 'S', 'C', '2'};
-constexpr std::uint8_t kOldMagic[4] = {'L', 'S', 'C', '1'};
-constexpr std::size_t kHeader = 4 + 4 + 8 + 8 + 1 + 1 + 8;  // magic, beams, steps, full_circle, origins, base increment
-constexpr std::size_t kOriginBytes = 24;  // x, y, increment
+constexpr std::uint8_t kMagic[4] = {'L', 'S', 'C', '3'};
+constexpr std::size_t kHeader = 4 + 4 + 4 + 4 + 1 + 1 + 4;  // magic, beams, steps, full_circle, origins, base increment
+constexpr std::size_t kOriginBytes = 12;  // x, y, increment (float32)
 constexpr std::uint32_t kMostBeams = 1u << 20;
 constexpr std::size_t kMostOrigins = 4;          ///< scanners found besides the base origin (source 0)
 constexpr double kFarthestOrigin = 1000.0;       ///< m: a scanner further from the base: corrupt
-constexpr std::size_t kMostVarintBytes = 10;
 constexpr std::int64_t kLargestStep = std::int64_t(1) << 40;  ///< larger differences: corrupt (and no overflow)
-constexpr std::uint8_t kNoReturn = 0x80;         ///< in a beam's source byte: no range follows
-
-void putVarint(std::vector<std::uint8_t>& out, std::int64_t value) {
-  std::uint64_t zigzag = (std::uint64_t(value) << 1) ^ std::uint64_t(value >> 63);
-  while (zigzag >= 0x80) {
-    out.push_back(std::uint8_t(zigzag | 0x80));
-    zigzag >>= 7;
-  }
-  out.push_back(std::uint8_t(zigzag));
-}
-
-bool getVarint(const std::vector<std::uint8_t>& in, std::size_t& at, std::int64_t* value) {
-  std::uint64_t zigzag = 0;
-  for (std::size_t shift = 0, n = 0; n < kMostVarintBytes; ++n, shift += 7) {
-    if (at >= in.size()) return false;
-    const std::uint8_t byte = in[at++];
-    zigzag |= std::uint64_t(byte & 0x7f) << shift;
-    if ((byte & 0x80) == 0) {
-      *value = std::int64_t(zigzag >> 1) ^ -std::int64_t(zigzag & 1);
-      return true;
-    }
-  }
-  return false;
-}
 
 template <class T>
 void putRaw(std::vector<std::uint8_t>& out, T value) {
@@ -67,10 +41,40 @@ struct Point {
 
 /// What writer and reader both track per source (an origin the beams are seen from, and the
 /// angle between its neighbouring beams): the last beam's direction from there as written
-/// (rad) and its range from there in range steps.
-struct SourceTrack {
+/// (rad), and its last two ranges from there (range steps) with which of three predictions of
+/// the next range has missed least lately. Integers only, so that every machine predicts alike.
+class SourceTrack {
+ public:
   double direction = 0.0;
-  std::int64_t range = 0;
+  /// The next return's range: the last one (noisy surfaces), the last two extrapolated (a wall
+  /// seen at a slant), or that unless they jumped by more than 64 steps (an edge).
+  std::int64_t predictedRange() const {
+    if (returns_ < 2) return last_;
+    const std::array<std::int64_t, 3> guesses = guessesOf();
+    return guesses[std::size_t(std::min_element(misses_.begin(), misses_.end()) - misses_.begin())];
+  }
+  void addRange(std::int64_t range) {
+    if (returns_ >= 2) {
+      const std::array<std::int64_t, 3> guesses = guessesOf();
+      for (std::size_t k = 0; k < 3; ++k) misses_[k] += std::abs(range - guesses[k]) - (misses_[k] >> 3);  // decays by 1/8 a beam
+    }
+    before_ = last_, last_ = range, ++returns_;
+  }
+
+ private:
+  std::array<std::int64_t, 3> guessesOf() const {
+    const std::int64_t slope = last_ - before_;
+    return {last_, last_ + slope, std::abs(slope) > 64 ? last_ : last_ + slope};
+  }
+  std::int64_t last_ = 0, before_ = 0, returns_ = 0;
+  std::array<std::int64_t, 3> misses_{};
+};
+
+/// The adaptive models of one packed scan, the same in writer and reader.
+struct ScanModels {
+  BitModel same_source;
+  std::array<BitModel, 2> no_return;  ///< after a return, after none
+  IntegerModel source, beams_on, rest, range;
 };
 
 /// A beam's direction from its source, written as the beams it steps past the source's last
@@ -175,6 +179,9 @@ std::vector<Point> findScannerOrigins(const std::vector<Point>& points, const st
 
 double costBits(std::int64_t value) { return std::log2(1.0 + double(std::abs(value))); }
 
+/// A value as the header's float32 holds it.
+double asFloat(double value) { return double(float(value)); }
+
 }  // namespace
 
 std::string ScanPackOptions::validate() const {
@@ -189,7 +196,9 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
   if (!invalid.empty()) throw std::invalid_argument("scan packing: " + invalid);
   if (scan.ranges.size() != scan.bearings.size()) throw std::invalid_argument("scan packing: ranges and bearings differ in length");
   if (scan.ranges.size() > kMostBeams) throw std::invalid_argument("scan packing: too many beams");
-  const double most = double(std::numeric_limits<std::int32_t>::max()) * options.range_step;
+  // The header holds float32: the writer works with the values the reader will get.
+  const double range_step = asFloat(options.range_step), bearing_step = asFloat(options.bearing_step);
+  const double most = double(std::numeric_limits<std::int32_t>::max()) * range_step;
   std::vector<Point> points;
   std::vector<double> bearings;
   std::vector<bool> returned;
@@ -201,7 +210,7 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
     points.push_back(returned.back() ? Point{range * std::cos(bearing), range * std::sin(bearing)} : Point{});
   }
   std::vector<Point> origins{Point{}};
-  for (const Point& o : findScannerOrigins(points, returned, options.bearing_step)) origins.push_back(o);
+  for (const Point& o : findScannerOrigins(points, returned, bearing_step)) origins.push_back({asFloat(o.x), asFloat(o.y)});
 
   // Each beam from a source it steps evenly from, with a neighbour on either side or two on
   // one side (it continues the run of the beam before it where it can); a beam that steps
@@ -215,14 +224,16 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
   auto even = [&](std::size_t s, std::size_t first) {  // beams first .. first + 2 step evenly from source s
     return first + 2 < n &&
            std::abs(normalizeAngle(seen[s][first + 2] - seen[s][first + 1]) - normalizeAngle(seen[s][first + 1] - seen[s][first])) <
-               0.5 * options.bearing_step;
+               0.5 * bearing_step;
   };
   std::vector<double> increments;
   for (std::size_t s = 0; s < origins.size(); ++s)
-    increments.push_back(beamIncrement(seen[s], [&](std::size_t k) { return even(s, k); }, options.bearing_step));
-  std::vector<std::uint8_t> sources, directions, ranges;
+    increments.push_back(asFloat(beamIncrement(seen[s], [&](std::size_t k) { return even(s, k); }, bearing_step)));
+  RangeEncoder coder;
+  ScanModels models;
   std::vector<SourceTrack> tracks(origins.size());
   std::size_t last_source = 0;
+  bool last_returned = true;
   for (std::size_t k = 0; k < n; ++k) {
     std::size_t best = origins.size();
     for (std::size_t s = 0; s < origins.size(); ++s) {
@@ -235,42 +246,39 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
     for (std::size_t s = 0; s < origins.size(); ++s) {
       if (best < origins.size() && s != best) continue;
       const SourceTrack& t = tracks[s];
-      const DirectionCode direction = codeDirection(t, increments[s], options.bearing_step, seen[s][k]);
+      const DirectionCode direction = codeDirection(t, increments[s], bearing_step, seen[s][k]);
       const double x = points[k].x - origins[s].x, y = points[k].y - origins[s].y;
-      const std::int64_t range = returned[k] ? std::max<std::int64_t>(1, std::llround(std::hypot(x, y) / options.range_step)) : t.range;
-      const double cost = costBits(direction.beams - 1) + costBits(direction.rest) + costBits(range - t.range);
+      const std::int64_t predicted = t.predictedRange();
+      const std::int64_t range = returned[k] ? std::max<std::int64_t>(1, std::llround(std::hypot(x, y) / range_step)) : predicted;
+      const double cost = costBits(direction.beams - 1) + costBits(direction.rest) + costBits(range - predicted);
       if (cost < best_cost) best = s, best_cost = cost, best_direction = direction, best_range = range;
     }
     SourceTrack& t = tracks[best];
-    sources.push_back(std::uint8_t(best) | (returned[k] ? 0 : kNoReturn));
-    putVarint(directions, best_direction.beams - 1);
-    putVarint(directions, best_direction.rest);
+    coder.encode(models.same_source, best == last_source);
+    if (best != last_source) models.source.encode(coder, std::int64_t(best));
+    coder.encode(models.no_return[last_returned ? 0 : 1], !returned[k]);
+    models.beams_on.encode(coder, best_direction.beams - 1);
+    models.rest.encode(coder, best_direction.rest);
     t.direction = best_direction.direction;
     if (returned[k]) {
-      putVarint(ranges, best_range - t.range);
-      t.range = best_range;
+      models.range.encode(coder, best_range - t.predictedRange());
+      t.addRange(best_range);
     }
     last_source = best;
+    last_returned = returned[k];
   }
-  std::vector<std::uint8_t> plain = std::move(sources);
-  plain.insert(plain.end(), directions.begin(), directions.end());
-  plain.insert(plain.end(), ranges.begin(), ranges.end());
-
-  uLongf deflated_size = compressBound(uLong(plain.size()));
   std::vector<std::uint8_t> out;
   out.insert(out.end(), kMagic, kMagic + 4);
   putRaw(out, std::uint32_t(points.size()));
-  putRaw(out, options.range_step);
-  putRaw(out, options.bearing_step);
+  putRaw(out, float(range_step));
+  putRaw(out, float(bearing_step));
   out.push_back(scan.full_circle ? 1 : 0);
   out.push_back(std::uint8_t(origins.size() - 1));
-  putRaw(out, increments[0]);
-  for (std::size_t s = 1; s < origins.size(); ++s) putRaw(out, origins[s].x), putRaw(out, origins[s].y), putRaw(out, increments[s]);
-  const std::size_t body = out.size();
-  out.resize(body + deflated_size);
-  if (compress2(out.data() + body, &deflated_size, plain.data(), uLong(plain.size()), Z_BEST_COMPRESSION) != Z_OK)
-    throw std::runtime_error("scan packing: zlib failed");
-  out.resize(body + deflated_size);
+  putRaw(out, float(increments[0]));
+  for (std::size_t s = 1; s < origins.size(); ++s)
+    putRaw(out, float(origins[s].x)), putRaw(out, float(origins[s].y)), putRaw(out, float(increments[s]));
+  const std::vector<std::uint8_t> body = coder.finish();
+  out.insert(out.end(), body.begin(), body.end());
   return out;
 }
 
@@ -279,74 +287,71 @@ bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string
     *error = "packed scan: " + why;
     return false;
   };
-  if (packed.size() >= 4 && std::memcmp(packed.data(), kOldMagic, 4) == 0)
-    return fail("LSC1, the packing of version 0.13.0: send it again from a front end of this version");
+  if (packed.size() >= 4 && std::memcmp(packed.data(), kMagic, 3) == 0 && (packed[3] == '1' || packed[3] == '2'))
+    return fail(std::string(packed[3] == '1' ? "LSC1, the packing of version 0.13.0" : "LSC2, the packing of versions 0.14 to 0.19") +
+                ": send it again from a front end of this version");
   if (packed.size() < kHeader || std::memcmp(packed.data(), kMagic, 4) != 0) return fail("not a packed scan");
   const auto beams = getRaw<std::uint32_t>(packed, 4);
-  const auto range_step = getRaw<double>(packed, 8);
-  const auto bearing_step = getRaw<double>(packed, 16);
-  const std::size_t origin_count = packed[25];
+  const double range_step = getRaw<float>(packed, 8), bearing_step = getRaw<float>(packed, 12);
+  const std::size_t origin_count = packed[17];
   if (beams > kMostBeams) return fail("more beams than a scan has (" + std::to_string(beams) + ")");
   if (!(range_step > 0.0) || !(bearing_step > 0.0) || !std::isfinite(range_step) || !std::isfinite(bearing_step))
     return fail("steps not positive");
   if (origin_count > kMostOrigins || packed.size() < kHeader + kOriginBytes * origin_count)
     return fail("a corrupt list of scanner origins");
   std::vector<Point> origins{Point{}};
-  std::vector<double> increments{getRaw<double>(packed, kHeader - 8)};
+  std::vector<double> increments{getRaw<float>(packed, kHeader - 4)};
   for (std::size_t s = 0; s < origin_count; ++s) {
     const std::size_t at = kHeader + kOriginBytes * s;
-    origins.push_back({getRaw<double>(packed, at), getRaw<double>(packed, at + 8)});
-    increments.push_back(getRaw<double>(packed, at + 16));
+    origins.push_back({getRaw<float>(packed, at), getRaw<float>(packed, at + 4)});
+    increments.push_back(getRaw<float>(packed, at + 8));
     if (!(std::hypot(origins.back().x, origins.back().y) < kFarthestOrigin)) return fail("a scanner origin beyond 1 km");
   }
   for (const double increment : increments)
     if (!(increment > 0.0 && increment < 2.0 * M_PI)) return fail("a corrupt angle between beams");
   const std::size_t body = kHeader + kOriginBytes * origin_count;
-  std::vector<std::uint8_t> plain(std::size_t(beams) * (1 + 3 * kMostVarintBytes) + 1);
-  uLongf plain_size = uLongf(plain.size());
-  if (uncompress(plain.data(), &plain_size, packed.data() + body, uLong(packed.size() - body)) != Z_OK)
-    return fail("corrupt or truncated");
-  plain.resize(plain_size);
-  if (plain.size() < beams) return fail("truncated sources");
+  RangeDecoder coder(packed.data() + body, packed.size() - body);
+  ScanModels models;
   std::vector<SourceTrack> tracks(origins.size());
-  std::vector<double> direction_of(beams);
-  std::size_t at = beams;
-  for (std::uint32_t k = 0; k < beams; ++k) {
-    const std::size_t s = plain[k] & ~kNoReturn;
-    if (s >= origins.size()) return fail("a beam of an unknown source");
-    SourceTrack& t = tracks[s];
-    std::int64_t beams_on = 0, rest = 0;
-    if (!getVarint(plain, at, &beams_on) || !getVarint(plain, at, &rest) || std::abs(beams_on) > kMostBeams ||
-        std::abs(rest) > kLargestStep)
-      return fail("truncated or corrupt directions");
-    t.direction += double(beams_on + 1) * increments[s] + double(rest) * bearing_step;
-    if (!(std::abs(t.direction) < 1.0e9)) return fail("corrupt directions");
-    direction_of[k] = t.direction;
-  }
+  std::size_t last_source = 0;
+  bool last_returned = true;
   Scan out;
-  out.full_circle = packed[24] != 0;
+  out.full_circle = packed[16] != 0;
   out.stamp = scan->stamp;
   out.bearings.reserve(beams);
   out.ranges.reserve(beams);
   for (std::uint32_t k = 0; k < beams; ++k) {
-    const std::size_t s = plain[k] & ~kNoReturn;
-    const double direction = direction_of[k];
-    if (plain[k] & kNoReturn) {
-      out.bearings.push_back(normalizeAngle(direction));
+    std::int64_t source = std::int64_t(last_source);
+    if (!coder.decode(models.same_source) && (!models.source.decode(coder, &source) || source < 0 || source >= std::int64_t(origins.size())))
+      return fail("a beam of an unknown source");
+    const auto s = std::size_t(source);
+    const bool returned = !coder.decode(models.no_return[last_returned ? 0 : 1]);
+    SourceTrack& t = tracks[s];
+    std::int64_t beams_on = 0, rest = 0;
+    if (!models.beams_on.decode(coder, &beams_on) || !models.rest.decode(coder, &rest) || std::abs(beams_on) > kMostBeams ||
+        std::abs(rest) > kLargestStep || coder.overrun())
+      return fail("truncated or corrupt directions");
+    t.direction += double(beams_on + 1) * increments[s] + double(rest) * bearing_step;
+    if (!(std::abs(t.direction) < 1.0e9)) return fail("corrupt directions");
+    last_source = s, last_returned = returned;
+    if (!returned) {
+      out.bearings.push_back(normalizeAngle(t.direction));
       out.ranges.push_back(std::numeric_limits<double>::infinity());
       continue;
     }
-    SourceTrack& t = tracks[s];
-    std::int64_t delta = 0;
-    if (!getVarint(plain, at, &delta) || std::abs(delta) > kLargestStep) return fail("truncated or corrupt ranges");
-    t.range += delta;
-    if (t.range <= 0) return fail("a range not positive");
-    const double range = double(t.range) * range_step;
-    const double x = origins[s].x + range * std::cos(direction), y = origins[s].y + range * std::sin(direction);
+    std::int64_t residual = 0;
+    if (!models.range.decode(coder, &residual) || std::abs(residual) > kLargestStep || coder.overrun())
+      return fail("truncated or corrupt ranges");
+    const std::int64_t steps = t.predictedRange() + residual;
+    if (steps <= 0 || steps > std::numeric_limits<std::int32_t>::max()) return fail("a range not positive or beyond 2^31 steps");
+    t.addRange(steps);
+    const double range = double(steps) * range_step;
+    const double x = origins[s].x + range * std::cos(t.direction), y = origins[s].y + range * std::sin(t.direction);
     out.bearings.push_back(std::atan2(y, x));
     out.ranges.push_back(std::hypot(x, y));
   }
-  if (at != plain.size()) return fail("bytes after the last range");
+  if (coder.overrun()) return fail("truncated");
+  if (coder.consumed() != packed.size() - body) return fail("bytes after the last beam");
   // Beams by increasing bearing (Scan360's order), as they were before rounding moved them.
   std::vector<std::size_t> order(beams);
   std::iota(order.begin(), order.end(), std::size_t(0));

@@ -3,8 +3,9 @@
 // not step evenly; seen from their scanner they do. The packing finds those origins (runs of
 // returns whose directions step evenly from one point), and writes each beam from the origin
 // that predicts it best: its direction in bearing_step steps (second difference from that
-// source's previous beam) and its range from there in range_step steps (first difference),
-// zigzag varints deflated by zlib. Each point comes back within about half a range step and
+// source's previous beam) and its range from there in range_step steps, less what that
+// source's last ranges predict; all of it through an adaptive range coder (range_coder.hpp,
+// LSC3). Each point comes back within about half a range step and
 // half a bearing step (times its range from its origin) of where it was; bearings and ranges
 // are computed again from the point, beams in increasing bearing. A range that is not finite,
 // not positive or beyond what the format holds is "no return" (+inf, REP-117) along its ray.

@@ -1,0 +1,74 @@
+// An adaptive binary range coder (the scheme of LZMA's: 11-bit probabilities that follow the
+// bits they code, a 32-bit range, carries through a cached byte) and signed integers coded
+// through it. Written here because no Debian library exposes one: zlib's Huffman codes spend at
+// least a bit per byte of a varint, where a scan's nearly always zero direction codes need a
+// twentieth of one and its range residuals about five bits (packScan, LSC3).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace llc {
+
+/// The probability of a 0 (in 1/2048), moved a sixteenth of the way towards each bit coded: a
+/// model learns within the few hundred symbols of one scan.
+struct BitModel {
+  std::uint16_t zero = 1024;
+};
+
+class RangeEncoder {
+ public:
+  void encode(BitModel& model, bool bit);
+  void encodeDirect(bool bit);  ///< a bit at even odds, no model
+  /// The coded bytes (the coder is spent after this).
+  std::vector<std::uint8_t> finish();
+
+ private:
+  void shiftLow();
+  std::uint64_t low_ = 0;
+  std::uint32_t range_ = 0xFFFFFFFFu;
+  std::uint8_t cache_ = 0;
+  std::uint64_t cache_size_ = 1;
+  bool first_ = true;  ///< LZMA's first byte is always 0: not written
+  std::vector<std::uint8_t> out_;
+};
+
+/// Reads what RangeEncoder wrote. Past the end it reads zeros and says so (overrun()): the
+/// caller refuses such data; nothing here can fail otherwise, whatever the bytes.
+class RangeDecoder {
+ public:
+  RangeDecoder(const std::uint8_t* data, std::size_t size);
+  bool decode(BitModel& model);
+  bool decodeDirect();
+  /// Bytes taken so far (beyond size() when the data ran out).
+  std::size_t consumed() const { return at_; }
+  bool overrun() const { return at_ > size_; }
+
+ private:
+  std::uint8_t next() { return at_ < size_ ? data_[at_++] : (++at_, 0); }
+  void normalize();
+  const std::uint8_t* data_;
+  std::size_t size_, at_ = 0;
+  std::uint32_t range_ = 0xFFFFFFFFu, code_ = 0;
+};
+
+/// Signed integers as adaptive bits: zero or not, the sign, the magnitude's binary exponent in
+/// unary (one model per position), its two leading mantissa bits modelled per exponent and the
+/// rest at even odds. Small values cost little once they are common; |value| < 2^62
+/// (std::invalid_argument beyond).
+class IntegerModel {
+ public:
+  void encode(RangeEncoder& coder, std::int64_t value);
+  /// False on an exponent of 62 or more (corrupt data).
+  bool decode(RangeDecoder& coder, std::int64_t* value);
+
+ private:
+  static constexpr int kMostExponent = 62;
+  BitModel nonzero_, negative_;
+  std::array<BitModel, kMostExponent + 1> exponent_;
+  std::array<std::array<BitModel, 2>, kMostExponent + 1> mantissa_;
+};
+
+}  // namespace llc
