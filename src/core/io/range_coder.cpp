@@ -3,23 +3,13 @@
 #include <stdexcept>
 
 namespace llc {
-namespace {
-constexpr int kProbabilityBits = 11;
-constexpr std::uint32_t kOne = 1u << kProbabilityBits;
-constexpr int kAdaptShift = 4;  // a sixteenth: faster than LZMA's 32nd, for messages of a few hundred symbols
-constexpr std::uint32_t kTop = 1u << 24;
-
-void adapt(BitModel& model, bool bit) {
-  if (bit) model.zero = std::uint16_t(model.zero - (model.zero >> kAdaptShift));
-  else model.zero = std::uint16_t(model.zero + ((kOne - model.zero) >> kAdaptShift));
-}
-}  // namespace
+using namespace range_coding;
 
 void RangeEncoder::encode(BitModel& model, bool bit) {
   const std::uint32_t bound = (range_ >> kProbabilityBits) * model.zero;
   if (bit) low_ += bound, range_ -= bound;
   else range_ = bound;
-  adapt(model, bit);
+  model.adapt(bit);
   while (range_ < kTop) range_ <<= 8, shiftLow();
 }
 
@@ -53,28 +43,6 @@ std::vector<std::uint8_t> RangeEncoder::finish() {
 
 RangeDecoder::RangeDecoder(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {
   for (int k = 0; k < 4; ++k) code_ = (code_ << 8) | next();
-}
-
-void RangeDecoder::normalize() {
-  while (range_ < kTop) range_ <<= 8, code_ = (code_ << 8) | next();
-}
-
-bool RangeDecoder::decode(BitModel& model) {
-  const std::uint32_t bound = (range_ >> kProbabilityBits) * model.zero;
-  const bool bit = code_ >= bound;
-  if (bit) code_ -= bound, range_ -= bound;
-  else range_ = bound;
-  adapt(model, bit);
-  normalize();
-  return bit;
-}
-
-bool RangeDecoder::decodeDirect() {
-  range_ >>= 1;
-  const bool bit = code_ >= range_;
-  if (bit) code_ -= range_;
-  normalize();
-  return bit;
 }
 
 void IntegerModel::encode(RangeEncoder& coder, std::int64_t value) {
