@@ -41,33 +41,12 @@ struct Point {
 
 /// What writer and reader both track per source (an origin the beams are seen from, and the
 /// angle between its neighbouring beams): the last beam's direction from there as written
-/// (rad), and its last two ranges from there (range steps) with which of three predictions of
-/// the next range has missed least lately. Integers only, so that every machine predicts alike.
-class SourceTrack {
- public:
+/// (rad), and a prediction of the next range from there (range steps) from the last ones.
+struct SourceTrack {
   double direction = 0.0;
-  /// The next return's range: the last one (noisy surfaces), the last two extrapolated (a wall
-  /// seen at a slant), or that unless they jumped by more than 64 steps (an edge).
-  std::int64_t predictedRange() const {
-    if (returns_ < 2) return last_;
-    const std::array<std::int64_t, 3> guesses = guessesOf();
-    return guesses[std::size_t(std::min_element(misses_.begin(), misses_.end()) - misses_.begin())];
-  }
-  void addRange(std::int64_t range) {
-    if (returns_ >= 2) {
-      const std::array<std::int64_t, 3> guesses = guessesOf();
-      for (std::size_t k = 0; k < 3; ++k) misses_[k] += std::abs(range - guesses[k]) - (misses_[k] >> 3);  // decays by 1/8 a beam
-    }
-    before_ = last_, last_ = range, ++returns_;
-  }
-
- private:
-  std::array<std::int64_t, 3> guessesOf() const {
-    const std::int64_t slope = last_ - before_;
-    return {last_, last_ + slope, std::abs(slope) > 64 ? last_ : last_ + slope};
-  }
-  std::int64_t last_ = 0, before_ = 0, returns_ = 0;
-  std::array<std::int64_t, 3> misses_{};
+  SequencePredictor range{64};  // a jump of more than 64 steps (32 cm): an edge, not a slant
+  std::int64_t predictedRange() const { return range.next(); }
+  void addRange(std::int64_t steps) { range.add(steps); }
 };
 
 /// The adaptive models of one packed scan, the same in writer and reader.

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <iostream>
+#include <random>
 #include <limits>
 
 #include "laser_loop_closure/core/io/compact_scan.hpp"
@@ -50,10 +52,38 @@ TEST(CompactScan, MessageScanComesBackTheSameInAQuarterOfItsBytes) {
   const llc::CompactScan b(second, a.get());
   expectSameScan(a->scan(), first);
   expectSameScan(b.scan(), second);
-  // Floats: 720 ranges of 4 bytes each; the 720 bearings (2,880 bytes) counted with the first.
-  EXPECT_EQ(a->bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 4 + 720 * 4);
-  EXPECT_EQ(b.bytes(), sizeof(llc::CompactScan) + 720 * 4);
-  EXPECT_LT(b.bytes(), (720 * 16) / 3);
+  // Fewer bytes than floats (4 a value) for the 720 ranges and the 720 bearings, which count
+  // with the first scan only; the second holds its ranges alone.
+  std::cout << "720 ranges and bearings: " << a->bytes() - sizeof(llc::CompactScan) - sizeof(llc::CompactValues)
+            << " bytes (floats: 5,760); the ranges alone: " << b.bytes() - sizeof(llc::CompactScan) << "\n";
+  EXPECT_LT(a->bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 4 + 720 * 4);
+  EXPECT_LT(b.bytes(), sizeof(llc::CompactScan) + 720 * 4);
+  EXPECT_LT(b.bytes(), a->bytes());
+}
+
+TEST(CompactScan, AnyFloatsComeBackBitForBit) {
+  // Every kind of float (random bit patterns: subnormals, both zeros, infinities, NaNs with
+  // payloads), runs of one value, and sign changes: the coding loses nothing.
+  std::mt19937 random(5);
+  std::vector<double> values;
+  for (int k = 0; k < 5000; ++k) {
+    const std::uint32_t bits = std::uint32_t(random());
+    float value = 0.0f;
+    std::memcpy(&value, &bits, sizeof(value));
+    values.push_back(double(value));
+  }
+  for (const double special : {0.0, -0.0, kInf, -kInf, kNaN, double(std::numeric_limits<float>::denorm_min()),
+                               double(std::numeric_limits<float>::max()), double(std::numeric_limits<float>::lowest())})
+    for (int k = 0; k < 3; ++k) values.push_back(special);
+  for (int k = 0; k < 500; ++k) values.push_back(double(float(std::sin(0.05 * k))));
+  const llc::CompactValues compact(values);
+  EXPECT_EQ(compact.size(), values.size());
+  expectSameValues(compact.values(), values);
+  EXPECT_TRUE(compact.equals(values));
+  std::vector<double> other = values;
+  other[4000] = double(std::nextafter(float(other[4000]), 0.0f));
+  EXPECT_FALSE(compact.equals(other));
+  EXPECT_TRUE(llc::CompactValues(std::vector<double>{}).values().empty());
 }
 
 TEST(CompactScan, DoublesThatAreNoFloatsStayDoubles) {
@@ -63,7 +93,7 @@ TEST(CompactScan, DoublesThatAreNoFloatsStayDoubles) {
   scan.stamp = -2.0;
   const llc::CompactScan compact(scan);
   expectSameScan(compact.scan(), scan);
-  EXPECT_EQ(compact.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 7 * 8 + 7 * 4);
+  EXPECT_GE(compact.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 7 * 8);  // the ranges as doubles
 }
 
 TEST(CompactScan, BearingsAreSharedOnlyWhenTheSame) {
@@ -72,7 +102,9 @@ TEST(CompactScan, BearingsAreSharedOnlyWhenTheSame) {
   const llc::CompactScan first(a);
   const llc::CompactScan second(b, &first);
   expectSameScan(second.scan(), b);
-  EXPECT_EQ(second.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 4 + 720 * 8);  // its own bearings, as doubles
+  // Its own bearings, as doubles, beside its coded ranges.
+  EXPECT_GE(second.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 8);
+  EXPECT_LT(second.bytes(), sizeof(llc::CompactScan) + sizeof(llc::CompactValues) + 720 * 8 + 720 * 4);
   llc::Scan shorter = messageScan(0.0);
   shorter.ranges.pop_back(), shorter.bearings.pop_back();
   expectSameScan(llc::CompactScan(shorter, &first).scan(), shorter);
@@ -126,7 +158,7 @@ TEST(CompactScan, PackedForTheMapComesBackWithinHalfAStep) {
   const auto exact = llc::mapScanAtRest(scan, 0.0, nullptr);
   EXPECT_FALSE(exact->isPacked());
   expectSameScan(exact->scan(), scan);
-  EXPECT_EQ(llc::mapScanAtRest(messageScan(1.0), 0.0, exact.get())->bytes(), sizeof(llc::CompactScan) + 720 * 4);
+  EXPECT_LT(llc::mapScanAtRest(messageScan(1.0), 0.0, exact.get())->bytes(), sizeof(llc::CompactScan) + 720 * 4);
 }
 
 TEST(CompactScan, AScanThatCannotBePackedIsKeptAsItCame) {

@@ -1,10 +1,10 @@
 // A scan at rest: what a keyframe keeps between the times it is aligned or drawn. It holds the
-// same values as the Scan it was made from, in fewer bytes: each array in single precision when
-// every value is one exactly (a ROS message's are: half the bytes), and the bearings shared with
-// another compact scan that has the same ones (a merged scan's resampled beams, or one scanner's
-// fixed beams, are the same in every scan: a 720-beam scan then keeps 2.9 kB, not 11.5).
+// same values as the Scan it was made from, in fewer bytes: each array as floats coded without
+// loss when every value is one exactly (a ROS message's are: about a quarter of the doubles'
+// bytes), and the bearings shared with another compact scan that has the same ones (a merged
+// scan's resampled beams, or one scanner's fixed beams, are the same in every scan).
 // Where a scan serves only to be drawn and saved (a back end's map), it may be kept packed
-// instead (packScan: about 1.5 kB for 722 beams at 0.5 mm and 1e-5 rad steps, each point within
+// instead (packScan: about 1.2 kB for 722 beams at 0.5 mm and 1e-5 rad steps, each point within
 // half a step of where it was).
 #pragma once
 
@@ -19,23 +19,27 @@
 
 namespace llc {
 
-/// An array of doubles kept as floats when every value is one exactly (NaN and infinities
-/// included), else as doubles: read back bit for bit the same.
+/// An array of doubles kept, when every value is a float exactly (NaN and infinities included),
+/// as those floats coded without loss: each float's bits as an integer in the floats' order,
+/// less what the last finite ones predict (SequencePredictor), through the range coder; about
+/// half of float32's bytes for a scan's ranges and bearings. Else kept as doubles. Read back
+/// bit for bit the same.
 class CompactValues {
  public:
   CompactValues() = default;
   explicit CompactValues(const std::vector<double>& values);
-  std::size_t size() const { return single_.size() + wide_.size(); }
+  std::size_t size() const { return count_; }
   /// The values, as they were given.
   std::vector<double> values() const;
   /// The same values as `values` (NaN equals NaN).
   bool equals(const std::vector<double>& values) const;
   /// Bytes of the values held.
-  std::size_t bytes() const { return single_.size() * sizeof(float) + wide_.size() * sizeof(double); }
+  std::size_t bytes() const { return coded_.capacity() + wide_.capacity() * sizeof(double); }
 
  private:
-  std::vector<float> single_;  ///< the values, when each is a float exactly
-  std::vector<double> wide_;   ///< else the values
+  std::size_t count_ = 0;
+  std::vector<std::uint8_t> coded_;  ///< the floats coded, when each value is a float exactly
+  std::vector<double> wide_;         ///< else the values
 };
 
 class CompactScan {

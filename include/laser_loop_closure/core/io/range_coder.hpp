@@ -5,6 +5,7 @@
 // twentieth of one and its range residuals about five bits (packScan, LSC3).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -81,6 +82,39 @@ class RangeDecoder {
   const std::uint8_t* data_;
   std::size_t size_, at_ = 0;
   std::uint32_t range_ = 0xFFFFFFFFu, code_ = 0;
+};
+
+/// The next value of a sequence from its last ones: the last (noise about a level), the last
+/// two extrapolated (a steady slope: a wall seen at a slant), or that unless they differ by more
+/// than `jump` (an edge), whichever has missed least lately (the misses' sum decaying by 1/8 a
+/// value). Integers only, so that writer and reader predict alike on any machine.
+class SequencePredictor {
+ public:
+  explicit SequencePredictor(std::int64_t jump) : jump_(jump) {}
+  std::int64_t next() const {
+    if (count_ < 2) return last_;
+    const std::array<std::int64_t, 3> guesses = guessesOf();
+    return guesses[std::size_t(std::min_element(misses_.begin(), misses_.end()) - misses_.begin())];
+  }
+  /// Values should stay within +-2^60 (sums of misses must not overflow).
+  void add(std::int64_t value) {
+    if (count_ >= 2) {
+      const std::array<std::int64_t, 3> guesses = guessesOf();
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::int64_t miss = value > guesses[k] ? value - guesses[k] : guesses[k] - value;
+        misses_[k] += std::min<std::int64_t>(miss, std::int64_t(1) << 56) - (misses_[k] >> 3);
+      }
+    }
+    before_ = last_, last_ = value, ++count_;
+  }
+
+ private:
+  std::array<std::int64_t, 3> guessesOf() const {
+    const std::int64_t slope = last_ - before_;
+    return {last_, last_ + slope, (slope > jump_ || slope < -jump_) ? last_ : last_ + slope};
+  }
+  std::int64_t jump_, last_ = 0, before_ = 0, count_ = 0;
+  std::array<std::int64_t, 3> misses_{};
 };
 
 /// Signed integers as adaptive bits: zero or not, the sign, the magnitude's binary exponent in
