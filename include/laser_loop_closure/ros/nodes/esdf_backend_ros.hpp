@@ -52,7 +52,7 @@ struct EsdfBackendNodeOptions {
   double cloud_voxel_size = 0.05;      ///< m; the point-cloud map keeps one point per cube this size (0: all)
   /// m; the keyframes' scans are kept for the map and sessions packed, each point within half
   /// this step (and half of step / 50 m in bearing) of where it was: ~1.2 kB per 722 beams
-  /// against 5.9 (0: kept exact)
+  /// against 3.1 exact (0: kept exact)
   double map_scan_step = 0.0005;
   std::string map_path = "llc_map";    ///< default file stem of ~save_map (relative: to the working directory)
   std::string session_path = "llc_session.llcsession";  ///< default file of ~save_session and ~load_session
