@@ -221,7 +221,7 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
     }
     double best_cost = std::numeric_limits<double>::infinity();
     DirectionCode best_direction;
-    std::int64_t best_range = 0;
+    std::int64_t best_range = 0, best_residual = 0;
     for (std::size_t s = 0; s < origins.size(); ++s) {
       if (best < origins.size() && s != best) continue;
       const SourceTrack& t = tracks[s];
@@ -230,7 +230,8 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
       const std::int64_t predicted = t.predictedRange();
       const std::int64_t range = returned[k] ? std::max<std::int64_t>(1, std::llround(std::hypot(x, y) / range_step)) : predicted;
       const double cost = costBits(direction.beams - 1) + costBits(direction.rest) + costBits(range - predicted);
-      if (cost < best_cost) best = s, best_cost = cost, best_direction = direction, best_range = range;
+      if (cost < best_cost) best = s, best_cost = cost, best_direction = direction, best_range = range,
+                                  best_residual = range - predicted;
     }
     SourceTrack& t = tracks[best];
     coder.encode(models.same_source, best == last_source);
@@ -240,7 +241,7 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
     models.rest.encode(coder, best_direction.rest);
     t.direction = best_direction.direction;
     if (returned[k]) {
-      models.range.encode(coder, best_range - t.predictedRange());
+      models.range.encode(coder, best_residual);  // against the prediction the choice was made with
       t.addRange(best_range);
     }
     last_source = best;
