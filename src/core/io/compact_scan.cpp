@@ -35,7 +35,7 @@ float fromOrderedBits(std::int64_t ordered) {
 struct FloatCoding {
   BitModel not_finite;
   IntegerModel finite, other;
-  SequencePredictor predictor{1 << 16};  // a jump of 65,536 floats: an edge, not a slope
+  SequencePredictor predictor{1 << 16, std::int64_t(1) << 56};  // a jump of 65,536 floats: an edge, not a slope
   std::int64_t last_other = 0;
 };
 

@@ -13,7 +13,10 @@
 namespace llc {
 namespace {
 
-constexpr std::uint8_t kMagic[4] = {'L', 'S', 'C', '3'};
+constexpr std::uint8_t kMagic[4] = {'L', 'S', 'C', '4'};
+constexpr std::int64_t kJump = 64;  ///< range steps: a larger change is an edge, not a slant
+/// How much of one range's miss the predictor counts: LSC4 an edge's worth, LSC3 (0.20) all.
+constexpr std::int64_t kMissCap = kJump, kMissCapLsc3 = std::int64_t(1) << 56;
 constexpr std::size_t kHeader = 4 + 4 + 4 + 4 + 1 + 1 + 4;  // magic, beams, steps, full_circle, origins, base increment
 constexpr std::size_t kOriginBytes = 12;  // x, y, increment (float32)
 constexpr std::uint32_t kMostBeams = 1u << 20;
@@ -43,8 +46,9 @@ struct Point {
 /// angle between its neighbouring beams): the last beam's direction from there as written
 /// (rad), and a prediction of the next range from there (range steps) from the last ones.
 struct SourceTrack {
+  explicit SourceTrack(std::int64_t miss_cap = kMissCap) : range(kJump, miss_cap) {}
   double direction = 0.0;
-  SequencePredictor range{64};  // a jump of more than 64 steps (32 cm): an edge, not a slant
+  SequencePredictor range;
   std::int64_t predictedRange() const { return range.next(); }
   void addRange(std::int64_t steps) { range.add(steps); }
 };
@@ -214,16 +218,17 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
   std::size_t last_source = 0;
   bool last_returned = true;
   for (std::size_t k = 0; k < n; ++k) {
-    std::size_t best = origins.size();
-    for (std::size_t s = 0; s < origins.size(); ++s) {
-      const bool evenly = (k >= 1 && even(s, k - 1)) || (k >= 2 && even(s, k - 2)) || even(s, k);
-      if (evenly && (best == origins.size() || s == last_source)) best = s;
-    }
+    // Of the sources the beam steps evenly from (seen from far, a wrong one may too, within
+    // the tolerance), the one whose codes cost least.
+    std::vector<bool> evenly(origins.size());
+    for (std::size_t s = 0; s < origins.size(); ++s) evenly[s] = (k >= 1 && even(s, k - 1)) || (k >= 2 && even(s, k - 2)) || even(s, k);
+    const bool any_even = std::find(evenly.begin(), evenly.end(), true) != evenly.end();
+    std::size_t best = last_source;
     double best_cost = std::numeric_limits<double>::infinity();
     DirectionCode best_direction;
     std::int64_t best_range = 0, best_residual = 0;
     for (std::size_t s = 0; s < origins.size(); ++s) {
-      if (best < origins.size() && s != best) continue;
+      if (any_even && !evenly[s]) continue;
       const SourceTrack& t = tracks[s];
       const DirectionCode direction = codeDirection(t, increments[s], bearing_step, seen[s][k]);
       const double x = points[k].x - origins[s].x, y = points[k].y - origins[s].y;
@@ -270,7 +275,9 @@ bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string
   if (packed.size() >= 4 && std::memcmp(packed.data(), kMagic, 3) == 0 && (packed[3] == '1' || packed[3] == '2'))
     return fail(std::string(packed[3] == '1' ? "LSC1, the packing of version 0.13.0" : "LSC2, the packing of versions 0.14 to 0.19") +
                 ": send it again from a front end of this version");
-  if (packed.size() < kHeader || std::memcmp(packed.data(), kMagic, 4) != 0) return fail("not a packed scan");
+  if (packed.size() < kHeader || std::memcmp(packed.data(), kMagic, 3) != 0 || (packed[3] != '3' && packed[3] != '4'))
+    return fail("not a packed scan");
+  const std::int64_t miss_cap = packed[3] == '3' ? kMissCapLsc3 : kMissCap;  // LSC3: version 0.20's
   const auto beams = getRaw<std::uint32_t>(packed, 4);
   const double range_step = getRaw<float>(packed, 8), bearing_step = getRaw<float>(packed, 12);
   const std::size_t origin_count = packed[17];
@@ -292,7 +299,7 @@ bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string
   const std::size_t body = kHeader + kOriginBytes * origin_count;
   RangeDecoder coder(packed.data() + body, packed.size() - body);
   ScanModels models;
-  std::vector<SourceTrack> tracks(origins.size());
+  std::vector<SourceTrack> tracks(origins.size(), SourceTrack(miss_cap));
   std::size_t last_source = 0;
   bool last_returned = true;
   Scan out;

@@ -2,7 +2,7 @@
 // bits they code, a 32-bit range, carries through a cached byte) and signed integers coded
 // through it. Written here because no Debian library exposes one: zlib's Huffman codes spend at
 // least a bit per byte of a varint, where a scan's nearly always zero direction codes need a
-// twentieth of one and its range residuals about five bits (packScan, LSC3).
+// twentieth of one and its range residuals about five bits (packScan).
 #pragma once
 
 #include <algorithm>
@@ -87,10 +87,12 @@ class RangeDecoder {
 /// The next value of a sequence from its last ones: the last (noise about a level), the last
 /// two extrapolated (a steady slope: a wall seen at a slant), or that unless they differ by more
 /// than `jump` (an edge), whichever has missed least lately (the misses' sum decaying by 1/8 a
-/// value). Integers only, so that writer and reader predict alike on any machine.
+/// value, each miss counted up to `miss_cap`: one edge's miss of thousands must not outweigh
+/// the next thirty values' misses of a few). Integers only, so that writer and reader predict
+/// alike on any machine.
 class SequencePredictor {
  public:
-  explicit SequencePredictor(std::int64_t jump) : jump_(jump) {}
+  SequencePredictor(std::int64_t jump, std::int64_t miss_cap) : jump_(jump), miss_cap_(std::min(miss_cap, std::int64_t(1) << 56)) {}
   std::int64_t next() const {
     if (count_ < 2) return last_;
     const std::array<std::int64_t, 3> guesses = guessesOf();
@@ -102,7 +104,7 @@ class SequencePredictor {
       const std::array<std::int64_t, 3> guesses = guessesOf();
       for (std::size_t k = 0; k < 3; ++k) {
         const std::int64_t miss = value > guesses[k] ? value - guesses[k] : guesses[k] - value;
-        misses_[k] += std::min<std::int64_t>(miss, std::int64_t(1) << 56) - (misses_[k] >> 3);
+        misses_[k] += std::min(miss, miss_cap_) - (misses_[k] >> 3);
       }
     }
     before_ = last_, last_ = value, ++count_;
@@ -113,7 +115,7 @@ class SequencePredictor {
     const std::int64_t slope = last_ - before_;
     return {last_, last_ + slope, (slope > jump_ || slope < -jump_) ? last_ : last_ + slope};
   }
-  std::int64_t jump_, last_ = 0, before_ = 0, count_ = 0;
+  std::int64_t jump_, miss_cap_, last_ = 0, before_ = 0, count_ = 0;
   std::array<std::int64_t, 3> misses_{};
 };
 

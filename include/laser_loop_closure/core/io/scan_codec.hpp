@@ -2,10 +2,10 @@
 // beams come from scanners mounted away from the base origin, so their base-frame bearings do
 // not step evenly; seen from their scanner they do. The packing finds those origins (runs of
 // returns whose directions step evenly from one point), and writes each beam from the origin
-// that predicts it best: its direction in bearing_step steps (second difference from that
-// source's previous beam) and its range from there in range_step steps, less what that
-// source's last ranges predict; all of it through an adaptive range coder (range_coder.hpp,
-// LSC3). Each point comes back within about half a range step and
+// whose codes cost least (of those it steps evenly from, if any): its direction in bearing_step
+// steps (second difference from that source's previous beam) and its range from there in
+// range_step steps, less what that source's last ranges predict; all of it through an adaptive
+// range coder (range_coder.hpp, LSC4; LSC3 of version 0.20 is read too). Each point comes back within about half a range step and
 // half a bearing step (times its range from its origin) of where it was; bearings and ranges
 // are computed again from the point, beams in increasing bearing. A range that is not finite,
 // not positive or beyond what the format holds is "no return" (+inf, REP-117) along its ray.
@@ -33,8 +33,8 @@ struct ScanPackOptions {
 /// different lengths, or a bearing that is not finite.
 std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& options = {});
 
-/// Reads a packed scan into `scan` (stamp left as it was); false with `error` on anything that
-/// is not one (truncated, corrupt, too many beams). Never throws on bad data.
+/// Reads a packed scan (LSC4, or LSC3) into `scan` (stamp left as it was); false with `error` on
+/// anything that is not one (truncated, corrupt, too many beams). Never throws on bad data.
 bool unpackScan(const std::vector<std::uint8_t>& packed, Scan* scan, std::string* error);
 
 }  // namespace llc
