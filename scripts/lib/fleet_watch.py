@@ -60,20 +60,20 @@ while same < 3 and time.time() - unchanged_since < 30.0:
 
 with lock:
     front, back = state["front"], state["back"]
-print("%-6s %8s %9s %7s %8s %9s %8s %5s %6s %6s %10s %9s %9s %7s %10s" % (
+print("%-6s %8s %9s %7s %8s %9s %8s %5s %6s %6s %10s %9s %9s %9s %7s %10s" % (
     "robot", "scans", "processed", "dropped", "lag_s", "kf_front", "kf_back", "lost", "again", "joined", "bytes",
-    "bytes/s", "of_srv", "checks", "unanswered"))
+    "bytes/s", "of_srv", "of_loops", "checks", "unanswered"))
 total_bytes = 0.0
 for r in robots:
     f = front[r]
     dropped = number(f, "scans dropped to catch up (max_lag)") + number(f, "scans dropped, queue full (queue_size)")
     sent = number(back, r + " bytes exchanged")
     total_bytes += sent
-    print("%-6s %8.0f %9.0f %7.0f %8.2f %9.0f %8.0f %5.0f %6.0f %6s %10.0f %9.0f %9.0f %7.0f %10.0f" % (
+    print("%-6s %8.0f %9.0f %7.0f %8.2f %9.0f %8.0f %5.0f %6.0f %6s %10.0f %9.0f %9.0f %9.0f %7.0f %10.0f" % (
         r, number(f, "scans received"), number(f, "scans processed"), dropped, number(f, "largest lag (s)"),
         number(f, "keyframes"), number(back, r + " keyframes"), number(back, r + " keyframes lost"),
         number(f, "keyframes sent again (resend_request)"), back.get(r + " joined", "?"), sent,
-        sent / max(args.duration, 1e-9), number(back, r + " bytes of services"), number(f, "place checks asked of the back end"),
+        sent / max(args.duration, 1e-9), number(back, r + " bytes of services"), number(back, r + " bytes of loops"), number(f, "place checks asked of the back end"),
         number(f, "place checks unanswered (aligned ungated)")))
 print("total: robots_joined=%s cross_robot_loops=%s bytes=%.0f bytes_per_s=%.0f cross_robot_search_s=%s" % (
     back.get("robots joined", "?"), back.get("cross-robot loops", "?"), total_bytes,

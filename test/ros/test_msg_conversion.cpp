@@ -1,5 +1,6 @@
 // The adapter's conversions, with no master.
 #include <gtest/gtest.h>
+#include <ros/serialization.h>
 
 #include <cmath>
 #include <limits>
@@ -124,28 +125,44 @@ TEST(MsgConversion, KeyframeAndLoopClosureRoundTrip) {
   bad.scan.bearings.pop_back();
   EXPECT_FALSE(llc_ros::fromKeyframeMsg(bad, &back, &motion, &covariance, &error));
   EXPECT_FALSE(error.empty());
-  // Packed for a network: the scan within the packing's steps, no features; a corrupt packing refused.
-  laser_loop_closure::Keyframe packed = msg;
-  packed.features = {1.0, 2.0};
-  packed.scan.full_circle = true;
+  // Packed for a network: every field back, the scan within the packing's steps, the step and
+  // its covariance to float32, no features; a corrupt packing refused.
+  laser_loop_closure::Keyframe full_msg = msg;
+  full_msg.features = {1.0, 2.0};
+  full_msg.loops_before = 6;
   llc::Scan full = keyframe.scan;
   full.full_circle = true;
-  llc_ros::packKeyframeMsg(&packed, full);
-  EXPECT_TRUE(packed.scan.ranges.empty());
-  EXPECT_TRUE(packed.features.empty());
-  ASSERT_TRUE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error)) << error;
+  const laser_loop_closure::PackedKeyframe packed = llc_ros::packKeyframeMsg(full_msg, full, llc::ScanPackOptions{});
+  // Fixed fields: 8 stamp, 4 + 4 + 8 numbers, 2 flags, 24 wheels, 12 motion, 24 covariance, 4 the scan's length.
+  EXPECT_EQ(ros::serialization::serializationLength(packed), 90u + packed.scan.size());
+  laser_loop_closure::Keyframe unpacked;
+  ASSERT_TRUE(llc_ros::unpackKeyframeMsg(packed, &unpacked, &error)) << error;
+  EXPECT_TRUE(unpacked.features.empty());
+  EXPECT_EQ(unpacked.index, 4u);
+  EXPECT_EQ(unpacked.loops_before, 6u);
+  EXPECT_TRUE(unpacked.scan_matched);
+  ASSERT_TRUE(llc_ros::fromKeyframeMsg(unpacked, &back, &motion, &covariance, &error)) << error;
   ASSERT_EQ(back.scan.size(), 2u);
   EXPECT_NEAR(back.scan.ranges[1], 2.0, 0.0025);
   EXPECT_NEAR(back.scan.bearings[0], -0.5, 5e-5);
   EXPECT_TRUE(back.scan.full_circle);
   EXPECT_DOUBLE_EQ(back.scan.stamp, 12.5);
   EXPECT_EQ(back.scan_index, 17u);
-  llc_ros::packKeyframeMsg(&packed, full, 2);  // every other beam: the first of the two
-  ASSERT_TRUE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error)) << error;
-  ASSERT_EQ(back.scan.size(), 1u);
-  EXPECT_NEAR(back.scan.bearings[0], -0.5, 5e-5);
-  packed.packed_scan.resize(packed.packed_scan.size() - 3);
-  EXPECT_FALSE(llc_ros::fromKeyframeMsg(packed, &back, &motion, &covariance, &error));
+  EXPECT_TRUE(back.has_wheel_odometry);
+  EXPECT_DOUBLE_EQ(back.wheel_odometry.y, -2.0);  // float64: a pose far from the odometry origin keeps its millimetres
+  EXPECT_NEAR(motion.x, 0.9, 1e-7);
+  EXPECT_NEAR(motion.theta, -0.2, 1e-7);
+  EXPECT_TRUE(covariance.isApprox(step.covariance, 1e-6)) << covariance;
+  EXPECT_EQ(covariance(2, 1), covariance(1, 2));  // symmetric from the upper triangle
+  llc::ScanPackOptions every_other;
+  every_other.beam_stride = 2;  // the first of the two
+  ASSERT_TRUE(llc_ros::unpackKeyframeMsg(llc_ros::packKeyframeMsg(full_msg, full, every_other), &unpacked, &error)) << error;
+  ASSERT_EQ(unpacked.scan.ranges.size(), 1u);
+  EXPECT_NEAR(unpacked.scan.bearings[0], -0.5, 5e-5);
+  laser_loop_closure::PackedKeyframe cut = packed;
+  cut.scan.resize(cut.scan.size() - 3);
+  EXPECT_FALSE(llc_ros::unpackKeyframeMsg(cut, &unpacked, &error));
+  EXPECT_NE(error.find("packed scan"), std::string::npos) << error;
 
   llc::LoopClosure loop;
   loop.from = 3, loop.to = 40, loop.score = 0.7, loop.pose = {0.5, -0.25, 3.0}, loop.inlier_share = 0.95;

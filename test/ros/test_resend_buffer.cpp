@@ -22,11 +22,18 @@ laser_loop_closure::LoopClosure loop(std::uint32_t from, std::uint32_t to) {
   return l;
 }
 
-/// What sendFrom(first) sends, as "k5 l1-5 k6".
+laser_loop_closure::PackedKeyframe packedKeyframe(std::uint32_t index) {
+  laser_loop_closure::PackedKeyframe k;
+  k.index = index;
+  return k;
+}
+
+/// What sendFrom(first) sends, as "k5 l1-5 p6" (k: a Keyframe, p: a PackedKeyframe).
 std::string sent(const llc_ros::ResendBuffer& buffer, std::size_t first, std::size_t* gone = nullptr) {
   std::string out;
   buffer.sendFrom(
       first, [&](const laser_loop_closure::Keyframe& k) { out += (out.empty() ? "k" : " k") + std::to_string(k.index); },
+      [&](const laser_loop_closure::PackedKeyframe& k) { out += (out.empty() ? "p" : " p") + std::to_string(k.index); },
       [&](const laser_loop_closure::LoopClosure& l) {
         out += " l" + std::to_string(l.from_keyframe) + "-" + std::to_string(l.to_keyframe);
       },
@@ -48,6 +55,17 @@ TEST(ResendBuffer, SendsKeyframesWithTheirLoopsInTheOrderTheyWent) {
   EXPECT_EQ(sent(buffer, 0, &gone), "k2 k3 l0-3 l2-3 k4");
   EXPECT_EQ(gone, 2u);  // 0 and 1 no longer kept
   EXPECT_EQ(sent(buffer, 9, &gone), "");
+}
+
+TEST(ResendBuffer, SendsEachKeyframeAgainAsItWent) {
+  // A front end that packs sends a keyframe unpacked when packing failed: each goes again as it went.
+  llc_ros::ResendBuffer buffer(4);
+  buffer.keyframe(packedKeyframe(0));
+  buffer.keyframe(keyframe(1));
+  buffer.loop(loop(0, 1));
+  buffer.keyframe(packedKeyframe(2));
+  EXPECT_EQ(sent(buffer, 0), "p0 k1 l0-1 p2");
+  EXPECT_EQ(sent(buffer, 2), "p2");
 }
 
 TEST(ResendBuffer, CapacityZeroKeepsNothing) {

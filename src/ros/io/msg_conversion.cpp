@@ -207,22 +207,46 @@ laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::s
   return msg;
 }
 
-void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan, std::size_t beam_stride) {
-  llc::ScanPackOptions options;
-  options.beam_stride = beam_stride;
-  msg->packed_scan = llc::packScan(scan, options);
-  msg->scan.ranges.clear();
-  msg->scan.bearings.clear();
-  msg->features.clear();
+laser_loop_closure::PackedKeyframe packKeyframeMsg(const laser_loop_closure::Keyframe& msg, const llc::Scan& scan,
+                                                   const llc::ScanPackOptions& scan_packing) {
+  laser_loop_closure::PackedKeyframe packed;
+  packed.scan = llc::packScan(scan, scan_packing);
+  packed.stamp = msg.header.stamp;
+  packed.index = msg.index;
+  packed.scan_index = msg.scan_index;
+  packed.loops_before = msg.loops_before;
+  packed.has_wheel_odometry = msg.has_wheel_odometry;
+  packed.scan_matched = msg.scan_matched;
+  packed.wheel_odometry = {msg.wheel_odometry.x, msg.wheel_odometry.y, msg.wheel_odometry.theta};
+  packed.motion = {float(msg.motion.x), float(msg.motion.y), float(msg.motion.theta)};
+  const auto& c = msg.motion_covariance;  // row-major 3x3, symmetric
+  packed.motion_covariance = {float(c[0]), float(c[1]), float(c[2]), float(c[4]), float(c[5]), float(c[8])};
+  return packed;
+}
+
+bool unpackKeyframeMsg(const laser_loop_closure::PackedKeyframe& packed, laser_loop_closure::Keyframe* msg, std::string* error) {
+  llc::Scan scan;
+  if (!llc::unpackScan(packed.scan, &scan, error)) return false;
+  laser_loop_closure::Keyframe out;
+  out.header.stamp = packed.stamp;
+  out.index = packed.index;
+  out.scan_index = packed.scan_index;
+  out.loops_before = packed.loops_before;
+  out.scan = toScan360(scan, out.header);
+  out.has_wheel_odometry = packed.has_wheel_odometry;
+  out.scan_matched = packed.scan_matched;
+  out.wheel_odometry.x = packed.wheel_odometry[0], out.wheel_odometry.y = packed.wheel_odometry[1];
+  out.wheel_odometry.theta = packed.wheel_odometry[2];
+  out.motion.x = packed.motion[0], out.motion.y = packed.motion[1], out.motion.theta = packed.motion[2];
+  const auto& u = packed.motion_covariance;  // xx, xy, xtheta, yy, ytheta, thetatheta
+  out.motion_covariance = {u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5]};
+  *msg = std::move(out);
+  return true;
 }
 
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
                      Eigen::Matrix3d* covariance, std::string* error) {
-  if (msg.packed_scan.empty()) {
-    if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
-  } else {
-    if (!llc::unpackScan(msg.packed_scan, &keyframe->scan, error)) return false;
-  }
+  if (!fromScan360(msg.scan, &keyframe->scan, error)) return false;
   keyframe->scan_index = msg.scan_index;
   keyframe->stamp = msg.header.stamp.toSec();
   keyframe->scan.stamp = keyframe->stamp;

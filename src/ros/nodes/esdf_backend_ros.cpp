@@ -74,6 +74,7 @@ EsdfBackendRos::EsdfBackendRos(ros::NodeHandle nh, ros::NodeHandle private_nh) :
   marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("graph_markers", 1, true);
   record_pub_ = private_nh.advertise<laser_loop_closure::LoopClosure>("loop_records", 1000);
   keyframe_sub_ = nh.subscribe("keyframes", options_.queue_size, &EsdfBackendRos::onKeyframe, this);
+  packed_keyframe_sub_ = nh.subscribe("packed_keyframes", options_.queue_size, &EsdfBackendRos::onPackedKeyframe, this);
   loop_sub_ = nh.subscribe("loop_closures", options_.queue_size, &EsdfBackendRos::onLoop, this);
   // Not latched: a session comes in parts (a latch would keep only the last); the queue holds
   // every part of a long one for a subscriber over TCP.
@@ -126,6 +127,16 @@ void EsdfBackendRos::onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& ms
   std::lock_guard<std::mutex> lock(mutex_);
   held_keyframes_.push_back(msg);
   takeHeldKeyframes();
+}
+
+void EsdfBackendRos::onPackedKeyframe(const laser_loop_closure::PackedKeyframe::ConstPtr& packed) {
+  auto msg = boost::make_shared<laser_loop_closure::Keyframe>();
+  std::string error;
+  if (unpackKeyframeMsg(*packed, msg.get(), &error)) return onKeyframe(msg);
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++refused_keyframes_;
+  last_problem_ = "keyframe " + std::to_string(packed->index) + ": " + error;
+  ROS_WARN_THROTTLE(5.0, "esdf_backend: keyframe refused: %s", last_problem_.c_str());
 }
 
 void EsdfBackendRos::takeHeldKeyframes() {

@@ -19,6 +19,7 @@ std::string LoopClosureNodeOptions::validate() const {
   if (trained_model_path.empty()) return "trained_model_path must not be empty";
   if (resend_keyframes < 0) return "resend_keyframes must not be negative";
   if (pack_beam_stride < 1) return "pack_beam_stride must be 1 or more";
+  if (!(pack_range_step >= 1e-4 && pack_range_step <= 1.0)) return "pack_range_step must be 0.0001 to 1 m";
   if (publish_odometry_tf && input.use_wheel_odometry)
     return "publish_odometry_tf needs use_wheel_odometry false (with wheels, odom_frame is theirs)";
   return "";
@@ -51,6 +52,7 @@ LoopClosureRos::LoopClosureRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   worker_ = std::thread([this] { work(); });
 
   keyframe_pub_ = nh.advertise<laser_loop_closure::Keyframe>("keyframes", 1000);
+  packed_keyframe_pub_ = nh.advertise<laser_loop_closure::PackedKeyframe>("packed_keyframes", 1000);
   loop_pub_ = nh.advertise<laser_loop_closure::LoopClosure>("loop_closures", 1000);
   sent_ = std::make_unique<ResendBuffer>(std::size_t(options_.resend_keyframes));
   resend_sub_ = nh.subscribe("resend_request", 10, &LoopClosureRos::onResendRequest, this);
@@ -135,16 +137,25 @@ void LoopClosureRos::processScan(const PendingScan& pending) {
   // Keyframe first: the back end must know both ends of a loop before it applies it.
   laser_loop_closure::Keyframe keyframe_msg = toKeyframeMsg(keyframe, step.keyframe_index, step.odometry, msg.header.frame_id);
   keyframe_msg.features = front_->detector().features(step.keyframe_index);
+  keyframe_msg.loops_before = loops_published_;
+  bool sent_packed = false;
   if (options_.pack_keyframes) {
     try {
-      packKeyframeMsg(&keyframe_msg, keyframe.scan, std::size_t(options_.pack_beam_stride));
+      llc::ScanPackOptions packing;
+      packing.beam_stride = std::size_t(options_.pack_beam_stride);
+      packing.range_step = options_.pack_range_step;
+      const laser_loop_closure::PackedKeyframe packed = packKeyframeMsg(keyframe_msg, keyframe.scan, packing);
+      packed_keyframe_pub_.publish(packed);
+      sent_->keyframe(packed);
+      sent_packed = true;
     } catch (const std::exception& e) {  // sent as it is
       ROS_WARN_THROTTLE(5.0, "loop_closure: keyframe %zu not packed: %s", step.keyframe_index, e.what());
     }
   }
-  keyframe_msg.loops_before = loops_published_;
-  keyframe_pub_.publish(keyframe_msg);
-  sent_->keyframe(keyframe_msg);
+  if (!sent_packed) {
+    keyframe_pub_.publish(keyframe_msg);
+    sent_->keyframe(keyframe_msg);
+  }
   llc::CandidateCheck place_gate;
   if (system_.slam.place_gate.enabled) {
     const std::size_t k = step.keyframe_index;
@@ -189,6 +200,7 @@ void LoopClosureRos::onResendRequest(const std_msgs::UInt32::ConstPtr& msg) {
   std::size_t gone = 0;
   const std::size_t sent = sent_->sendFrom(
       msg->data, [this](const laser_loop_closure::Keyframe& k) { keyframe_pub_.publish(k); },
+      [this](const laser_loop_closure::PackedKeyframe& k) { packed_keyframe_pub_.publish(k); },
       [this](const laser_loop_closure::LoopClosure& l) { loop_pub_.publish(l); }, &gone);
   keyframes_sent_again_ += sent;
   ROS_INFO("loop_closure: the back end lacks keyframes from %u on: %zu sent again%s", msg->data, sent,

@@ -94,6 +94,9 @@ MultiRobotBackendRos::MultiRobotBackendRos(ros::NodeHandle nh, ros::NodeHandle p
     robot.keyframe_sub = nh.subscribe<laser_loop_closure::Keyframe>(
         names[r] + "/keyframes", std::uint32_t(options_.queue_size),
         [this, r](const laser_loop_closure::Keyframe::ConstPtr& msg) { onKeyframe(r, msg); });
+    robot.packed_keyframe_sub = nh.subscribe<laser_loop_closure::PackedKeyframe>(
+        names[r] + "/packed_keyframes", std::uint32_t(options_.queue_size),
+        [this, r](const laser_loop_closure::PackedKeyframe::ConstPtr& msg) { onPackedKeyframe(r, msg); });
     robot.loop_sub = nh.subscribe<laser_loop_closure::LoopClosure>(
         names[r] + "/loop_closures", std::uint32_t(options_.queue_size),
         [this, r](const laser_loop_closure::LoopClosure::ConstPtr& msg) { onLoop(r, msg); });
@@ -167,15 +170,29 @@ void MultiRobotBackendRos::countServiceBytes(std::size_t robot, std::uint32_t by
   robots_[robot].service_bytes += bytes;
 }
 
-void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg) {
-  // Read (a packed scan unpacked) before the lock: other robots' messages and place checks need not wait for it.
+void MultiRobotBackendRos::onPackedKeyframe(std::size_t robot, const laser_loop_closure::PackedKeyframe::ConstPtr& packed) {
+  // Unpacked before the lock: other robots' messages and place checks need not wait for it.
+  auto msg = boost::make_shared<laser_loop_closure::Keyframe>();
+  std::string why;
+  const std::uint32_t bytes = ros::serialization::serializationLength(*packed);
+  if (unpackKeyframeMsg(*packed, msg.get(), &why)) return onKeyframe(robot, msg, bytes);
+  std::lock_guard<std::mutex> lock(mutex_);
+  Robot& r = robots_[robot];
+  countBytes(r, bytes);
+  ++r.keyframes_refused;  // its number stays missing, as below
+  last_problem_ = r.name + ": keyframe " + std::to_string(packed->index) + ": " + why;
+  ROS_WARN_THROTTLE(5.0, "multi_robot_backend: %s", last_problem_.c_str());
+}
+
+void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg, std::uint32_t wire_bytes) {
+  // Read before the lock: other robots' messages and place checks need not wait for it.
   std::string why;
   auto arrived = std::make_shared<ArrivedKeyframe>();
   arrived->msg = msg;
   const bool readable = fromKeyframeMsg(*msg, &arrived->keyframe, &arrived->step.motion, &arrived->step.covariance, &why);
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
-  countBytes(r, ros::serialization::serializationLength(*msg));
+  countBytes(r, wire_bytes > 0 ? wire_bytes : ros::serialization::serializationLength(*msg));
   if (!readable) {
     // Never offered: its number stays missing, and the keyframe after it bridges the gap.
     ++r.keyframes_refused;
@@ -195,7 +212,9 @@ void MultiRobotBackendRos::onKeyframe(std::size_t robot, const laser_loop_closur
 void MultiRobotBackendRos::onLoop(std::size_t robot, const laser_loop_closure::LoopClosure::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   Robot& r = robots_[robot];
-  countBytes(r, ros::serialization::serializationLength(*msg));
+  const std::uint32_t bytes = ros::serialization::serializationLength(*msg);
+  countBytes(r, bytes);
+  r.loop_bytes += bytes;
   if (!r.inbox->loopArrived(msg->from_keyframe, msg->to_keyframe)) return;  // sent again
   if (!takeLoop(robot, *msg)) {
     if (r.pending_loops.size() >= std::size_t(options_.queue_size)) {
@@ -478,6 +497,7 @@ void MultiRobotBackendRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
     status.add(r.name + " loops dropped", r.loops_dropped);
     status.add(r.name + " bytes exchanged", r.bytes);
     status.add(r.name + " bytes of services", r.service_bytes);
+    status.add(r.name + " bytes of loops", r.loop_bytes);
     status.add(r.name + " bytes per second", seconds > 0.0 ? double(r.bytes) / seconds : 0.0);
   }
   status.add("robots", robots_.size());

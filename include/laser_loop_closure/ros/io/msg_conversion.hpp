@@ -9,6 +9,8 @@
 #include <string>
 
 #include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/PackedKeyframe.h"
+#include "laser_loop_closure/core/io/scan_codec.hpp"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/Scan360.h"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
@@ -51,10 +53,14 @@ llc::Pose2 fromPose2D(const geometry_msgs::Pose2D& pose);
 /// on as it is: the back end keeps the keyframe and says what it replaced (SlamBackEnd::addKeyframe).
 laser_loop_closure::Keyframe toKeyframeMsg(const llc::Keyframe& keyframe, std::size_t index, const llc::OdometryStep& step,
                                            const std::string& base_frame);
-/// The keyframe's scan packed small (llc::packScan) in place of its float32 arrays, and no
-/// features (a reader computes them again from the scan): what crosses a network. Only every
-/// beam_stride-th beam is kept. Throws std::invalid_argument for a scan packScan refuses.
-void packKeyframeMsg(laser_loop_closure::Keyframe* msg, const llc::Scan& scan, std::size_t beam_stride = 1);
+/// The keyframe packed small for a network: its scan packed (llc::packScan with `scan_packing`),
+/// step and covariance in float32, no features (a reader computes them again from the scan).
+/// Throws std::invalid_argument for a scan packScan refuses.
+laser_loop_closure::PackedKeyframe packKeyframeMsg(const laser_loop_closure::Keyframe& msg, const llc::Scan& scan,
+                                                   const llc::ScanPackOptions& scan_packing);
+/// A packed keyframe as the Keyframe it came from (the scan unpacked into float32 arrays, no
+/// features, no frame name); false with a reason for a scan that does not unpack.
+bool unpackKeyframeMsg(const laser_loop_closure::PackedKeyframe& packed, laser_loop_closure::Keyframe* msg, std::string* error);
 bool fromKeyframeMsg(const laser_loop_closure::Keyframe& msg, llc::Keyframe* keyframe, llc::Pose2* motion,
                      Eigen::Matrix3d* covariance, std::string* error);
 laser_loop_closure::LoopClosure toLoopClosureMsg(const llc::LoopClosure& loop, const std_msgs::Header& header);

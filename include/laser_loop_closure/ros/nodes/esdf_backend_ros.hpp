@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/PackedKeyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/LoadSession.h"
 #include "laser_loop_closure/NearbyKeyframes.h"
@@ -93,6 +94,8 @@ class EsdfBackendRos {
 
  private:
   void onKeyframe(const laser_loop_closure::Keyframe::ConstPtr& msg);
+  /// Unpacked into a Keyframe and taken as one; refused (counted) when its scan does not unpack.
+  void onPackedKeyframe(const laser_loop_closure::PackedKeyframe::ConstPtr& msg);
   /// Takes the held keyframes whose loops_before have all come (under mutex_). A keyframe held
   /// behind more than kMostHeldKeyframes others is taken anyway (its loops were lost, or the
   /// front end restarted): the count starts again from it.
@@ -142,7 +145,7 @@ class EsdfBackendRos {
   // mutex_ and the nodelet's queue for a while) never leaves tf users without it.
   CallbackThread transform_thread_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
-  ros::Subscriber keyframe_sub_, loop_sub_;
+  ros::Subscriber keyframe_sub_, packed_keyframe_sub_, loop_sub_;
   ros::Publisher path_pub_, pose_pub_, cloud_pub_, marker_pub_, record_pub_, session_pub_;
   ros::ServiceServer save_map_srv_, save_session_srv_, load_session_srv_, place_check_srv_, nearby_srv_;
   ros::Timer tf_timer_;  // on transform_thread_

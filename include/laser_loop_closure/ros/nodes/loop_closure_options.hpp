@@ -25,13 +25,15 @@ struct LoopClosureNodeOptions {
   /// Newest keyframes (with their loops) kept to send again when a back end asks on
   /// resend_request (one across a network that lost some); 0: none kept.
   int resend_keyframes = 500;
-  /// Keyframes sent with their scan packed small (llc::packScan) and no features
-  /// (multi_robot.launch's robots; the back end computes the features again).
+  /// Keyframes sent packed small (PackedKeyframe on packed_keyframes instead of Keyframe on
+  /// keyframes: the scan packed by llc::packScan, no features; multi_robot.launch's robots).
   bool pack_keyframes = false;
   /// A packed keyframe's scan keeps every n-th beam (1: all): the back end's copy, from which it
   /// computes features, aligns other robots' candidates and draws the map; bytes fall about as
   /// 1/n, and so do cross-robot loops (docs/multi_robot.md: 2 lost a robot's join).
   int pack_beam_stride = 1;
+  /// m: a packed keyframe's ranges in steps of this (a finer step costs about a bit a beam per halving).
+  double pack_range_step = 0.02;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -46,6 +48,7 @@ void visitLoopClosureParameters(LoopClosureNodeOptions& o, Visit&& visit) {
   visit("resend_keyframes", o.resend_keyframes);
   visit("pack_keyframes", o.pack_keyframes);
   visit("pack_beam_stride", o.pack_beam_stride);
+  visit("pack_range_step", o.pack_range_step);
 }
 
 }  // namespace llc_ros

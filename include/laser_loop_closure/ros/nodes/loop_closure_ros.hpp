@@ -106,7 +106,7 @@ class LoopClosureRos {
   CallbackThread service_thread_;  ///< ~train_classifier's own queue and thread
   ros::Subscriber path_sub_, session_sub_;
   ros::ServiceServer train_srv_;
-  ros::Publisher keyframe_pub_, loop_pub_;
+  ros::Publisher keyframe_pub_, packed_keyframe_pub_, loop_pub_;
   ros::Subscriber resend_sub_;  ///< resend_request: a back end lacks keyframes from this number on
   std::unique_ptr<ResendBuffer> sent_;
   std::atomic<std::size_t> keyframes_sent_again_{0};

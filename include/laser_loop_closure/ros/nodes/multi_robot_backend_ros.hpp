@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "laser_loop_closure/Keyframe.h"
+#include "laser_loop_closure/PackedKeyframe.h"
 #include "laser_loop_closure/LoopClosure.h"
 #include "laser_loop_closure/NearbyKeyframes.h"
 #include "laser_loop_closure/PlaceCheck.h"
@@ -109,7 +110,7 @@ class MultiRobotBackendRos {
   struct Robot {
     std::string name;
     std::string odom_frame;
-    ros::Subscriber keyframe_sub, loop_sub;
+    ros::Subscriber keyframe_sub, packed_keyframe_sub, loop_sub;
     ros::Publisher path_pub, resend_pub;
     ros::ServiceServer place_check_srv, nearby_srv;
     std::unique_ptr<Inbox> inbox;
@@ -119,10 +120,13 @@ class MultiRobotBackendRos {
     std::size_t keyframes_refused = 0, loops_dropped = 0;
     std::uint64_t bytes = 0;            ///< serialised size of every message received, service request and answer
     std::uint64_t service_bytes = 0;    ///< of which place checks and nearby keyframes (requests and answers)
+    std::uint64_t loop_bytes = 0;       ///< of which LoopClosure messages
     ros::WallTime first_message, last_message;
   };
 
-  void onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg);
+  /// wire_bytes: the size it crossed the network in (0: the message's own).
+  void onKeyframe(std::size_t robot, const laser_loop_closure::Keyframe::ConstPtr& msg, std::uint32_t wire_bytes = 0);
+  void onPackedKeyframe(std::size_t robot, const laser_loop_closure::PackedKeyframe::ConstPtr& msg);
   void onLoop(std::size_t robot, const laser_loop_closure::LoopClosure::ConstPtr& msg);
   void countBytes(Robot& robot, std::uint32_t bytes);
   void countServiceBytes(std::size_t robot, std::uint32_t bytes);  ///< takes the lock
