@@ -1,5 +1,7 @@
 #include "laser_loop_closure/core/slam/multi_robot_slam.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,6 +10,9 @@
 
 namespace llc {
 namespace {
+/// Standard deviations of the map's own relative pose by which a join's tolerances widen
+/// between two map keyframes (3: a miss the map's uncertainty explains 99% of the time).
+constexpr double kMapSigmas = 3.0;
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -51,7 +56,7 @@ MultiRobotSlam::MultiRobotSlam(const ClassifierModel& model, std::size_t robots,
     throw std::invalid_argument("multi-robot: at least one robot (besides a saved map)");
   for (std::size_t r = 0; r < robots; ++r) {
     robots_.push_back(std::make_unique<SlamPipeline>(model, slam));
-    joins_.emplace_back(options_.join);
+    joins_.emplace_back(options_.join, [this](std::size_t a, std::size_t b) { return mapAllowance(a, b); }, kMapSigmas);
   }
   state_.resize(robots);
   state_[0].joined = true;  // robot 0's frame is the map's
@@ -237,8 +242,26 @@ JoinHypothesis MultiRobotSlam::joinHypothesis(std::size_t robot, const LoopClosu
   h.map_keyframe = loop.from;
   h.map_pose = compose(map_.poses()[loop.from], loop.pose);
   h.covariance = loop.covariance;
+  if (Esdf* esdf = map_.esdf(); esdf && loop.from < esdf->size()) {
+    const Eigen::Matrix3d c = esdf->marginalCovariance(loop.from);
+    h.map_std = std::sqrt(std::max(0.0, c(0, 0) + c(1, 1)));  // at least the largest standard deviation
+  }
   state.joining_loops.push_back(loop);
   return h;
+}
+
+MapAllowance MultiRobotSlam::mapAllowance(std::size_t map_a, std::size_t map_b) {
+  MapAllowance allowance;
+  Esdf* esdf = map_.esdf();
+  if (!esdf || map_a >= esdf->size() || map_b >= esdf->size()) return allowance;
+  Pose2 relative;
+  Eigen::Matrix3d covariance;
+  esdf->relativePose(map_a, map_b, &relative, &covariance);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> translation(covariance.topLeftCorner<2, 2>());
+  allowance.translation = kMapSigmas * std::sqrt(std::max(0.0, translation.eigenvalues().maxCoeff()));
+  allowance.rotation = kMapSigmas * std::sqrt(std::max(0.0, covariance(2, 2)));
+  if (!std::isfinite(allowance.translation) || !std::isfinite(allowance.rotation)) return {};
+  return allowance;
 }
 
 void MultiRobotSlam::searchUnjoined(std::size_t robot, const Query& query, RobotStep& step) {

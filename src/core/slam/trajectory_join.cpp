@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 namespace llc {
 
@@ -17,7 +18,8 @@ std::string TrajectoryJoinOptions::validate() const {
   return "";
 }
 
-TrajectoryJoin::TrajectoryJoin(const TrajectoryJoinOptions& options) : options_(options) {
+TrajectoryJoin::TrajectoryJoin(const TrajectoryJoinOptions& options, MapAllowanceOf map_allowance, double map_sigmas)
+    : options_(options), map_allowance_(std::move(map_allowance)), map_sigmas_(map_sigmas) {
   const std::string error = options_.validate();
   if (!error.empty()) throw std::invalid_argument("trajectory join options: " + error);
 }
@@ -26,8 +28,18 @@ bool TrajectoryJoin::agree(const JoinHypothesis& a, const JoinHypothesis& b) con
   const double path = std::abs(a.path - b.path);
   const Pose2 placed = compose(a.mapFromTrajectory(), b.trajectory_pose);
   const Pose2 miss = between(b.map_pose, placed);
-  return std::hypot(miss.x, miss.y) <= options_.max_translation + options_.drift_per_metre * path &&
-         std::abs(normalizeAngle(miss.theta)) <= options_.max_rotation + options_.drift_rad_per_metre * path;
+  const double distance = std::hypot(miss.x, miss.y), turn = std::abs(normalizeAngle(miss.theta));
+  const double translation = options_.max_translation + options_.drift_per_metre * path;
+  const double rotation = options_.max_rotation + options_.drift_rad_per_metre * path;
+  if (distance <= translation && turn <= rotation) return true;
+  // The map's own error between the two keyframes may explain the miss: asked only where its
+  // bound could (in a map whose keyframes are known to centimetres, almost never).
+  if (!map_allowance_ || a.map_keyframe == b.map_keyframe || distance > translation + map_sigmas_ * (a.map_std + b.map_std))
+    return false;
+  const auto key = std::minmax(a.map_keyframe, b.map_keyframe);
+  auto found = allowances_.find(key);
+  if (found == allowances_.end()) found = allowances_.emplace(key, map_allowance_(key.first, key.second)).first;
+  return distance <= translation + found->second.translation && turn <= rotation + found->second.rotation;
 }
 
 std::vector<std::size_t> TrajectoryJoin::storyOf(std::size_t index) const {
@@ -47,6 +59,7 @@ std::vector<std::size_t> TrajectoryJoin::storyOf(std::size_t index) const {
 }
 
 TrajectoryJoinResult TrajectoryJoin::offer(const std::vector<JoinHypothesis>& loops) {
+  allowances_.clear();  // the map may have moved since the last offer
   for (const JoinHypothesis& loop : loops)
     if (isFinite(loop.trajectory_pose) && isFinite(loop.map_pose) && std::isfinite(loop.path)) kept_.push_back(loop);
   TrajectoryJoinResult result;

@@ -110,6 +110,38 @@ TEST(TrajectoryJoin, ToleranceGrowsWithThePathBetweenTwoKeyframes) {
   EXPECT_FALSE(join.agree(a, loopAt(1, 10.0, kTrue, Pose2{0.0, 0.0, 0.15})));  // 0.13 rad allowed
 }
 
+TEST(TrajectoryJoin, ALiveMapsOwnUncertaintyWidensTheToleranceBetweenItsKeyframes) {
+  // Two loops into map keyframes 3 and 40 whose frames differ by 2 m: more than the 0.5 m (+ 0.02
+  // m per m of path) a map taken as exact allows, within a bent map's 3 m between those two.
+  std::size_t asked = 0;
+  const llc::MapAllowanceOf allowance = [&asked](std::size_t a, std::size_t b) {
+    ++asked;
+    EXPECT_EQ(a, 3u);  // the pair, smaller keyframe first
+    EXPECT_EQ(b, 40u);
+    return llc::MapAllowance{3.0, 0.05};
+  };
+  const TrajectoryJoin exact;
+  const TrajectoryJoin live({}, allowance, 3.0);
+  JoinHypothesis a = loopAt(0, 0.0, kTrue), b = loopAt(1, 1.0, kTrue, Pose2{2.0, 0.0, 0.0});
+  a.map_keyframe = 40, b.map_keyframe = 3;
+  EXPECT_FALSE(exact.agree(a, b));
+  EXPECT_FALSE(live.agree(a, b));  // the keyframes' own bounds (0 m) cannot reach 2 m: not asked
+  EXPECT_EQ(asked, 0u);
+  a.map_std = 0.4, b.map_std = 0.4;  // 3 x 0.8 m could: asked
+  EXPECT_TRUE(live.agree(a, b));
+  EXPECT_TRUE(live.agree(b, a));
+  EXPECT_EQ(asked, 1u);  // kept for the rest of the offer
+  b.map_pose.theta += 0.2;  // a turn beyond 0.1 + 0.05 rad
+  EXPECT_FALSE(live.agree(a, b));
+  b = loopAt(1, 1.0, kTrue, Pose2{4.0, 0.0, 0.0});
+  b.map_keyframe = 3, b.map_std = 0.4;
+  EXPECT_FALSE(live.agree(a, b));  // 4 m: beyond even the bound, not asked
+  EXPECT_EQ(asked, 1u);
+  b.map_keyframe = 40;  // into the same keyframe: no room for the map's error
+  b.map_pose = loopAt(1, 1.0, kTrue, Pose2{2.0, 0.0, 0.0}).map_pose;
+  EXPECT_FALSE(live.agree(a, b));
+}
+
 TEST(TrajectoryJoin, LoopsOutOfTheWindowAreForgottenAndBadOnesIgnored) {
   TrajectoryJoin join;  // window 30 m
   join.offer({loopAt(0, 0.0, kTrue)});

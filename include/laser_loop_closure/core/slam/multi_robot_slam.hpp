@@ -86,6 +86,8 @@ class MultiRobotSlam {
   /// cannot be restored (and robots < 2 with one).
   MultiRobotSlam(const ClassifierModel& model, std::size_t robots, const SlamOptions& slam = {},
                  const MultiRobotOptions& options = {}, const SlamSession* saved_map = nullptr);
+  MultiRobotSlam(const MultiRobotSlam&) = delete;  // its joins ask this object's map
+  MultiRobotSlam& operator=(const MultiRobotSlam&) = delete;
 
   /// Feeds one scan of `robot` (base frame) with its wheel-odometry pose in that robot's own
   /// odometry frame when there is one; nothing of it is taken as a position in the map. Never
@@ -202,6 +204,9 @@ class MultiRobotSlam {
   /// A shape-validated, context-checked loop from map keyframe loop.from to keyframe loop.to
   /// of a robot not yet joined: offered to its join as a hypothesis (returned).
   JoinHypothesis joinHypothesis(std::size_t robot, const LoopClosure& loop);
+  /// How far the map may be off between two of its keyframes: kMapSigmas standard deviations of
+  /// their relative pose (Esdf::relativePose; none when the map cannot say).
+  MapAllowance mapAllowance(std::size_t map_a, std::size_t map_b);
   /// Enters keyframe `keyframe` of a joined robot into the map, linked from its previous one.
   void enterKeyframe(std::size_t robot, std::size_t keyframe);
   /// A loop between two keyframes that are both in the map (own or cross-robot) to its back end.

@@ -9,7 +9,10 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "laser_loop_closure/core/geometry/se2.hpp"
@@ -36,6 +39,9 @@ struct JoinHypothesis {
   Pose2 map_pose;                ///< the keyframe in the map frame, by the loop
   std::size_t map_keyframe = 0;  ///< the map keyframe the loop reached
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< the loop's (its pose's x, y, theta)
+  /// m: an upper bound on the standard deviation of map_keyframe's position in the map (0: the
+  /// map taken as exact there); two loops whose bounds sum small need no MapAllowance.
+  double map_std = 0.0;
   /// The trajectory frame in the map frame this loop implies.
   Pose2 mapFromTrajectory() const { return compose(map_pose, inverse(trajectory_pose)); }
 };
@@ -53,10 +59,22 @@ struct TrajectoryJoinResult {
   std::string why_not;                ///< when not joined: what is missing
 };
 
+/// How far the map itself may be off between two of its keyframes: widens the tolerances of
+/// two loops into those keyframes (a map of one robot's unclosed odometry bends by metres).
+struct MapAllowance {
+  double translation = 0.0;  ///< m
+  double rotation = 0.0;     ///< rad
+};
+/// The allowance for two map keyframes, and how many of the map's standard deviations it spans.
+using MapAllowanceOf = std::function<MapAllowance(std::size_t map_keyframe_a, std::size_t map_keyframe_b)>;
+
 class TrajectoryJoin {
  public:
-  /// Throws std::invalid_argument on bad options.
-  explicit TrajectoryJoin(const TrajectoryJoinOptions& options = {});
+  /// Throws std::invalid_argument on bad options. Without `map_allowance` the map is taken as
+  /// exact (a saved map, localisation); with it (several robots: the map is live), two loops
+  /// also agree within the allowance of their map keyframes, asked only when the loops' own
+  /// map_std bounds (times `map_sigmas`) could reach the miss.
+  explicit TrajectoryJoin(const TrajectoryJoinOptions& options = {}, MapAllowanceOf map_allowance = {}, double map_sigmas = 0.0);
 
   /// Adds the loops of one keyframe (any number, look-alikes included), forgets those out of
   /// the window, and says whether the trajectory can be joined now. Loops with a non-finite
@@ -75,6 +93,10 @@ class TrajectoryJoin {
   std::vector<std::size_t> storyOf(std::size_t index) const;
 
   TrajectoryJoinOptions options_;
+  MapAllowanceOf map_allowance_;
+  double map_sigmas_ = 0.0;
+  /// Allowances asked during one offer (the map does not change within it).
+  mutable std::map<std::pair<std::size_t, std::size_t>, MapAllowance> allowances_;
   std::vector<JoinHypothesis> kept_;
 };
 
