@@ -220,9 +220,12 @@ std::vector<std::uint8_t> packScan(const Scan& scan, const ScanPackOptions& opti
   for (std::size_t k = 0; k < n; ++k) {
     // Of the sources the beam steps evenly from (seen from far, a wrong one may too, within
     // the tolerance), the one whose codes cost least.
-    std::vector<bool> evenly(origins.size());
-    for (std::size_t s = 0; s < origins.size(); ++s) evenly[s] = (k >= 1 && even(s, k - 1)) || (k >= 2 && even(s, k - 2)) || even(s, k);
-    const bool any_even = std::find(evenly.begin(), evenly.end(), true) != evenly.end();
+    std::array<bool, 1 + kMostOrigins> evenly{};  // per beam: no allocation on this path
+    bool any_even = false;
+    for (std::size_t s = 0; s < origins.size(); ++s) {
+      evenly[s] = (k >= 1 && even(s, k - 1)) || (k >= 2 && even(s, k - 2)) || even(s, k);
+      any_even = any_even || evenly[s];
+    }
     std::size_t best = last_source;
     double best_cost = std::numeric_limits<double>::infinity();
     DirectionCode best_direction;

@@ -65,7 +65,7 @@ struct MapAllowance {
   double translation = 0.0;  ///< m
   double rotation = 0.0;     ///< rad
 };
-/// The allowance for two map keyframes, and how many of the map's standard deviations it spans.
+/// The allowance for two map keyframes (the caller decides how many standard deviations).
 using MapAllowanceOf = std::function<MapAllowance(std::size_t map_keyframe_a, std::size_t map_keyframe_b)>;
 
 class TrajectoryJoin {
