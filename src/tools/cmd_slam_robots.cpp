@@ -116,34 +116,35 @@ struct RobotTruth {
   double rms_m = std::numeric_limits<double>::quiet_NaN();  ///< its keyframes, in the map's alignment when joined
   double first_overlap_m = -1.0;  ///< truth path to its join/min_keyframes-th keyframe within 1.5 m of one another robot mapped earlier
   double joined_m = -1.0;         ///< truth path to the keyframe that joined it
+  double shared_to_join_m = -1.0; ///< of that path, the steps to keyframes sharing a view with another robot's earlier ones
 };
 
-/// The true path of robot r until it has made `needed` keyframes within 1.5 m of a keyframe
-/// another robot made earlier in the feed (turned by less than 45 degrees unless 360-degree
-/// scans): the earliest a join could be right; -1 when never.
-double firstOverlapPath(const llc::MultiRobotSlam& slam, std::size_t r, const std::vector<std::vector<llc::Pose2>>& truths,
-                        const std::vector<std::vector<std::size_t>>& made_at, std::size_t needed) {
+/// Per keyframe of robot r: whether it is within 1.5 m of a keyframe another robot made
+/// earlier in the feed (turned by less than 45 degrees unless 360-degree scans), a place the
+/// two could share.
+std::vector<bool> sharedViews(const llc::MultiRobotSlam& slam, std::size_t r, const std::vector<std::vector<llc::Pose2>>& truths,
+                              const std::vector<std::vector<std::size_t>>& made_at) {
   const auto& keyframes = slam.robot(r).keyframes();  // no saved map here: robot r is input r
-  double path = 0.0;
-  std::size_t overlapping = 0;
-  auto seesMapped = [&](std::size_t k) {
+  std::vector<bool> shared(keyframes.size(), false);
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
     const llc::Pose2& q = truths[r][k];
-    for (std::size_t o = 0; o < truths.size(); ++o) {
+    for (std::size_t o = 0; o < truths.size() && !shared[k]; ++o) {
       if (o == r) continue;
       for (std::size_t j = 0; j < made_at[o].size() && made_at[o][j] < made_at[r][k]; ++j) {
         const llc::Pose2& u = truths[o][j];
         if (std::hypot(q.x - u.x, q.y - u.y) <= 1.5 &&
-            (keyframes[k].scan.full_circle || std::abs(llc::normalizeAngle(q.theta - u.theta)) <= M_PI / 4))
-          return true;
+            (keyframes[k].scan.full_circle || std::abs(llc::normalizeAngle(q.theta - u.theta)) <= M_PI / 4)) {
+          shared[k] = true;
+          break;
+        }
       }
     }
-    return false;
-  };
-  for (std::size_t k = 0; k < keyframes.size(); ++k) {
-    if (k > 0) path += std::hypot(truths[r][k].x - truths[r][k - 1].x, truths[r][k].y - truths[r][k - 1].y);
-    if (seesMapped(k) && ++overlapping == needed) return path;
   }
-  return -1.0;
+  return shared;
+}
+
+double truePathStep(const std::vector<llc::Pose2>& truth, std::size_t k) {
+  return k == 0 ? 0.0 : std::hypot(truth[k].x - truth[k - 1].x, truth[k].y - truth[k - 1].y);
 }
 
 /// Every input robot against its truth (input r is the map's robot r + `offset`: 1 after a
@@ -181,11 +182,23 @@ std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const
     }
     if (robot == 0) continue;
     // Places of a saved map have no truth here: no overlap is measured against them.
-    if (offset == 0) t.first_overlap_m = firstOverlapPath(slam, r, truths, made_at, min_keyframes);
+    const std::vector<bool> shared = offset == 0 ? sharedViews(slam, r, truths, made_at) : std::vector<bool>();
+    double path = 0.0;
+    std::size_t overlapping = 0;
+    for (std::size_t k = 0; k < shared.size(); ++k) {
+      path += truePathStep(truths[r], k);
+      if (shared[k] && ++overlapping == min_keyframes) {
+        t.first_overlap_m = path;
+        break;
+      }
+    }
     if (slam.joined(robot)) {
       t.joined_m = 0.0;
-      for (std::size_t k = 1; k <= joined_by[r] && k < keyframes; ++k)
-        t.joined_m += std::hypot(truths[r][k].x - truths[r][k - 1].x, truths[r][k].y - truths[r][k - 1].y);
+      if (offset == 0) t.shared_to_join_m = 0.0;
+      for (std::size_t k = 1; k <= joined_by[r] && k < keyframes; ++k) {
+        t.joined_m += truePathStep(truths[r], k);
+        if (k < shared.size() && shared[k]) t.shared_to_join_m += truePathStep(truths[r], k);
+      }
     }
   }
   return judged;
@@ -386,6 +399,10 @@ int runMultiRobotSlam(const Args& args) {
              << "  (true path from that keyframe to the one that joined it; negative: joined from farther than 1.5 m)\n";
     else if (slam.joined(robot))
       report << p << "joined_after_overlap_m=none  (joined, from places never within 1.5 m of another robot's)\n";
+    if (slam.joined(robot))
+      report << p << "shared_path_to_join_m=" << robot_truth[r].shared_to_join_m
+             << "  (of its true path until it joined, the steps to keyframes within 1.5 m of one another robot made"
+                " earlier: the overlap its join had to find loops in)\n";
   }
   if (truth)
     report << "rms_error_m=" << map_rms

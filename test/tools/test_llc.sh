@@ -204,6 +204,9 @@ check "slam, several robots: a saved map that is not there" 1 "robots.llcsession
 check "slam, several robots: a bad multi_robot parameter" 2 "cross_candidates" -- "$LLC" slam --log "$TMP/sim/sim.log" --split 2 --multi_robot/cross_candidates 0 --out "$TMP/robots0"
 check "slam, several robots: a missing input" 1 "no such file" -- "$LLC" slam --log "$TMP/sim/sim.log" --log "$TMP/none.log" --out "$TMP/robots0"
 check "slam, several robots: joined, never wrong" 0 "^ok$" -- bash -c "'$LLC' slam --log '$TMP/sim/sim.log' --split 2 --drift moderate --out '$TMP/robots' --save-session '$TMP/robots.llcsession' --quiet | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"robots\"] == 2 && v[\"robots_joined\"] == 2 && v[\"wrong_loops_accepted\"] == 0 && v[\"cross_robot_loops\"] >= 3 && v[\"rms_error_m\"] < 0.2 ? \"ok\" : \"not ok\")}'"
+check "slam, several robots: the shared path to the join is part of the path to it" 0 "^ok$" -- awk -F'[= ]' '{v[$1] = $2}
+    END { joined = v["robot_1_first_overlap_m"] + v["robot_1_joined_after_overlap_m"]; s = v["robot_1_shared_path_to_join_m"]
+          print (s != "" && s >= 0 && s <= joined + 1e-6 && v["robot_1_first_overlap_m"] >= 0 ? "ok" : "not ok: shared " s " of " joined) }' "$TMP/robots/report.txt"
 check "slam, several robots: trajectory.csv has a robot column, every keyframe joined" 0 "^ok$" -- awk -F, 'NR == 1 { if ($0 != "robot,index,stamp,x,y,theta,joined") bad++; next }
     { n[$1]++; if ($7 != 1) bad++ } END { print (!bad && n[0] > 50 && n[1] > 50 ? "ok" : "not ok") }' "$TMP/robots/trajectory.csv"
 check "slam, several robots: their session is a map llc localize finds itself on" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/robots.llcsession' --log '$TMP/sim/sim.log' --drift moderate --truth '$TMP/sim/sim.log' --start-scan 100 --end-scan 400 --out '$TMP/robots_loc' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"fixes\"] >= 1 && v[\"wrong_fixes\"] == 0 ? \"ok\" : \"not ok\")}'"
