@@ -143,8 +143,12 @@ std::vector<bool> sharedViews(const llc::MultiRobotSlam& slam, std::size_t r, co
   return shared;
 }
 
-double truePathStep(const std::vector<llc::Pose2>& truth, std::size_t k) {
-  return k == 0 ? 0.0 : std::hypot(truth[k].x - truth[k - 1].x, truth[k].y - truth[k - 1].y);
+/// The true path from keyframe 0 to each keyframe.
+std::vector<double> truePathTo(const std::vector<llc::Pose2>& truth) {
+  std::vector<double> path(truth.size(), 0.0);
+  for (std::size_t k = 1; k < truth.size(); ++k)
+    path[k] = path[k - 1] + std::hypot(truth[k].x - truth[k - 1].x, truth[k].y - truth[k - 1].y);
+  return path;
 }
 
 /// Every input robot against its truth (input r is the map's robot r + `offset`: 1 after a
@@ -182,22 +186,18 @@ std::vector<RobotTruth> judgeAgainstTruth(const llc::MultiRobotSlam& slam, const
     }
     if (robot == 0) continue;
     // Places of a saved map have no truth here: no overlap is measured against them.
+    const std::vector<double> path = truePathTo(truths[r]);
     const std::vector<bool> shared = offset == 0 ? sharedViews(slam, r, truths, made_at) : std::vector<bool>();
-    double path = 0.0;
     std::size_t overlapping = 0;
-    for (std::size_t k = 0; k < shared.size(); ++k) {
-      path += truePathStep(truths[r], k);
-      if (shared[k] && ++overlapping == min_keyframes) {
-        t.first_overlap_m = path;
-        break;
-      }
-    }
+    for (std::size_t k = 0; k < shared.size() && t.first_overlap_m < 0.0; ++k)
+      if (shared[k] && ++overlapping == min_keyframes) t.first_overlap_m = path[k];
     if (slam.joined(robot)) {
-      t.joined_m = 0.0;
-      if (offset == 0) t.shared_to_join_m = 0.0;
-      for (std::size_t k = 1; k <= joined_by[r] && k < keyframes; ++k) {
-        t.joined_m += truePathStep(truths[r], k);
-        if (k < shared.size() && shared[k]) t.shared_to_join_m += truePathStep(truths[r], k);
+      const std::size_t join = keyframes == 0 ? 0 : std::min(joined_by[r], keyframes - 1);
+      t.joined_m = keyframes == 0 ? 0.0 : path[join];
+      if (offset == 0) {
+        t.shared_to_join_m = 0.0;
+        for (std::size_t k = 1; k <= join; ++k)
+          if (shared[k]) t.shared_to_join_m += path[k] - path[k - 1];
       }
     }
   }
