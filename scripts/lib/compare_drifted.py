@@ -17,7 +17,11 @@ import sys
 def parse(path):
     """{(drift, log, seed): (rms_m, true_revisits, closed, wrong)} from one drifted_logs printout."""
     runs = {}
-    with open(path) as f:
+    try:
+        f = open(path)
+    except OSError as e:
+        sys.exit("%s: %s" % (path, e.strerror))
+    with f:
         for line in f:
             fields = line.split()
             if len(fields) != 10 or fields[0] not in ("moderate", "strong") or not fields[2].isdigit():
