@@ -11,6 +11,7 @@
 
 #include "laser_loop_closure/core/common/file_util.hpp"
 #include "laser_loop_closure/core/alignment/shape_validation.hpp"
+#include "laser_loop_closure/core/slam/seed_selection.hpp"
 
 namespace llc {
 
@@ -47,11 +48,8 @@ std::string ScanOdometryOptions::validate() const {
   if (!(min_velocity_interval >= 0.0) || !std::isfinite(min_velocity_interval))
     return "min_velocity_interval must be finite and >= 0";
   if (!(restart_after_jump_back > 0.0)) return "restart_after_jump_back must be > 0";
-  if (!(track_min_fit_gain >= 0.0 && track_min_fit_gain <= 1.0)) return "track_min_fit_gain must be in [0, 1]";
-  if (!(correlative_min_score_gain >= 0.0 && correlative_min_score_gain <= 1.0))
-    return "correlative_min_score_gain must be in [0, 1]";
+  if (!(seed_min_score_gain >= 0.0 && seed_min_score_gain <= 1.0)) return "seed_min_score_gain must be in [0, 1]";
   if (!(realign_below_overlap >= 0.0 && realign_below_overlap <= 1.0)) return "realign_below_overlap must be in [0, 1]";
-  if (!(realign_min_fit_gain >= 0.0 && realign_min_fit_gain <= 1.0)) return "realign_min_fit_gain must be in [0, 1]";
   const std::string correlative_error = correlative.validate();
   if (!correlative_error.empty()) return "correlative: " + correlative_error;
   const std::string error = icp.validate();
@@ -188,14 +186,16 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   // much it disagrees with the wheels (a disputed step's covariance holds both) from theirs.
   Pose2 seed = guess;
   const auto same = &ScanOdometry::samePose;
+  const SeedScorer scorer(previous.points, options_.correlative);
+  auto scored = [&](SeedSource source, const IcpResult& r) {
+    return SeedCandidate{source, r.pose, r.converged ? scorer.score(current.points, r.pose) : -1.0};
+  };
   if (tracked && guess_from_wheels && isFinite(*tracked) && !same(guess, *tracked)) {
     const IcpResult from_tracked = alignIcp(current.points, previous.icp_target, *tracked, seeded, &current.icp_target.normals);
-    auto fit = [&](const IcpResult& r) {
-      return r.converged ? validateShape(current.points, previous.icp_target.tree, r.pose, overlap, &previous.view).inlier_share : -1.0;
-    };
     // Both reached one pose: the tracked seed is the one that explains it (the wheels slipped).
-    const bool agree = icp.converged && same(icp.pose, from_tracked.pose);
-    if (from_tracked.converged && (agree || fit(from_tracked) >= fit(icp) + options_.track_min_fit_gain)) {
+    const bool agree = icp.converged && from_tracked.converged && same(icp.pose, from_tracked.pose);
+    if (agree || selectSeed({scored(SeedSource::kWheels, icp), scored(SeedSource::kTracked, from_tracked)},
+                            options_.seed_min_score_gain) == 1) {
       icp = from_tracked;
       seed = *tracked;
       step.tracked = true;
@@ -205,7 +205,7 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   // laser clearly place the scan elsewhere? Then its motion is matched, as any other.
   auto recover = [&]() {
     if (!guess_from_wheels || !options_.correlative_recovery) return false;
-    const std::optional<Pose2> laser = recoverFromWheels(previous, current, guess, icp, overlap, wheel_scale);
+    const std::optional<Pose2> laser = recoverFromWheels(scorer, previous, current, guess, icp, overlap, wheel_scale);
     if (!laser) return false;
     step.motion = *laser;
     step.matched = true;
@@ -258,8 +258,13 @@ OdometryStep ScanOdometry::match(const MatchTarget& previous, const MatchTarget&
   return step;
 }
 
-std::optional<Pose2> ScanOdometry::recoverFromWheels(const MatchTarget& previous, const MatchTarget& current,
-                                                     const Pose2& guess, const IcpResult& icp,
+bool ScanOdometry::withinWheelWindows(const Pose2& pose, const Pose2& guess, double slack_steps) const {
+  return withinWindow(options_.correlative, pose, guess, slack_steps) ||
+         withinWindow(options_.correlative, pose, Pose2{-guess.x, -guess.y, guess.theta}, slack_steps);
+}
+
+std::optional<Pose2> ScanOdometry::recoverFromWheels(const SeedScorer& scorer, const MatchTarget& previous,
+                                                     const MatchTarget& current, const Pose2& guess, const IcpResult& icp,
                                                      const ShapeValidationOptions& overlap, double wheel_scale) const {
   // Two windows: around the wheels' guess (a slip, a gap between scans, a turn mismeasured)
   // and around the same step backwards (wheels that count a reverse as forward are wrong in
@@ -267,32 +272,19 @@ std::optional<Pose2> ScanOdometry::recoverFromWheels(const MatchTarget& previous
   // doors fit metres away too. Ties go to the centre: where the laser cannot tell (a bare
   // corridor), the guess stands.
   const CorrelativeSearchOptions& window = options_.correlative;
-  const LikelihoodField field(previous.points, window);
+  const LikelihoodField& field = scorer.field();
   CorrelativeSearchResult search = searchCorrelative(field, current.points, guess, window);
+  const Pose2 backwards{-guess.x, -guess.y, guess.theta};
   if (std::hypot(guess.x, guess.y) > window.max_translation) {
-    const CorrelativeSearchResult reverse = searchCorrelative(field, current.points, Pose2{-guess.x, -guess.y, guess.theta}, window);
+    const CorrelativeSearchResult reverse = searchCorrelative(field, current.points, backwards, window);
     if (reverse.found && (!search.found || reverse.score > search.score)) search = reverse;
   }
   if (!search.found) return std::nullopt;
   const IcpResult refined =
       alignIcp(current.points, previous.icp_target, search.pose, withoutRemapping(options_.icp), &current.icp_target.normals);
-  // (One search step of slack: the search's own poses lie on its grid.)
-  auto inWindow = [&](const Pose2& pose, const Pose2& centre) { return withinWindow(window, pose, centre, 1.0); };
-  std::optional<Pose2> best;
-  double best_score = -1.0;
-  for (const IcpResult* result : {&icp, &refined}) {
-    // Only a motion of a window searched: beyond them another place may fit as well, unseen.
-    if (!result->converged || !(inWindow(result->pose, guess) || inWindow(result->pose, Pose2{-guess.x, -guess.y, guess.theta})))
-      continue;
-    const double score = correlativeScore(field, current.points, result->pose, window.max_points);
-    if (score > best_score) best_score = score, best = result->pose;
-  }
-  // The search's own pose when ICP fits clearly worse by the search's measure (ICP's trimmed
-  // point-to-line pairs can slide where few points pair): coarse, but where the laser says.
-  // Not on a near tie: the grid's cells favour its own poses a little.
-  if (search.score > 1.1 * best_score) best_score = search.score, best = search.pose;
   // How well the scans fit anywhere the wheels could be (within two of their standard
   // deviations): a guess a little off always fits worse than ICP's minimum, and says nothing.
+  // That is the incumbent the laser's poses must beat.
   const Eigen::Matrix3d wheel_covariance = stepCovariance(guess, false) * wheel_scale;
   CorrelativeSearchOptions wheels = options_.correlative;
   // (Never wider than the search's own window: wheels known to be very noisy would make it a
@@ -302,11 +294,24 @@ std::optional<Pose2> ScanOdometry::recoverFromWheels(const MatchTarget& previous
   wheels.max_rotation = std::min(window.max_rotation, 2.0 * std::sqrt(wheel_covariance(2, 2)));
   wheels.rotation_step = std::min(wheels.rotation_step, std::max(1e-3, wheels.max_rotation / 5.0));
   const CorrelativeSearchResult near_wheels = searchCorrelative(field, current.points, guess, wheels);
-  const double wheel_score = std::max(near_wheels.found ? near_wheels.score : 0.0,
-                                      correlativeScore(field, current.points, guess, window.max_points));
-  if (!(best_score >= wheel_score + options_.correlative_min_score_gain)) return std::nullopt;
-  if (!validateShape(current.points, previous.icp_target.tree, *best, overlap, &previous.view).accepted) return std::nullopt;
-  return best;
+  const double wheel_score = std::max(near_wheels.found ? near_wheels.score : 0.0, scorer.score(current.points, guess));
+  // Only a motion of a window searched: beyond them another place may fit as well, unseen.
+  // (One search step of slack: the search's own poses lie on its grid.)
+  auto candidate = [&](SeedSource source, const IcpResult& result) {
+    const bool in_window = result.converged && withinWheelWindows(result.pose, guess, 1.0);
+    return SeedCandidate{source, result.pose, in_window ? scorer.score(current.points, result.pose) : -1.0};
+  };
+  // The search's own pose last: coarse (the grid's cells favour its own poses a little), it
+  // wins only where ICP's trimmed point-to-line pairs slid off what the laser says.
+  const std::vector<SeedCandidate> candidates{{SeedSource::kWheels, guess, wheel_score},
+                                              candidate(SeedSource::kSearched, refined),
+                                              candidate(SeedSource::kWheels, icp),
+                                              {SeedSource::kSearchGrid, search.pose, search.score}};
+  const std::size_t chosen = selectSeed(candidates, options_.seed_min_score_gain);
+  if (chosen == 0) return std::nullopt;
+  if (!validateShape(current.points, previous.icp_target.tree, candidates[chosen].pose, overlap, &previous.view).accepted)
+    return std::nullopt;
+  return candidates[chosen].pose;
 }
 
 }  // namespace llc

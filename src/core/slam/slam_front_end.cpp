@@ -318,9 +318,14 @@ void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const
   if (!predictsMotion()) return;
   const Pose2 predicted = predictedMotion();
   if (ScanOdometry::samePose(predicted, wheel_guess) || ScanOdometry::samePose(predicted, step.odometry.motion)) return;
-  OdometryStep from_prediction = odometry_.match(detector_.prepared(detector_.size() - 1), scan, {predicted, false});
-  if (!from_prediction.matched ||
-      !(from_prediction.overlap_share >= step.odometry.overlap_share + odometry_.options().track_min_fit_gain))
+  const PreparedScan& newest = detector_.prepared(detector_.size() - 1);
+  OdometryStep from_prediction = odometry_.match(newest, scan, {predicted, false});
+  if (!from_prediction.matched) return;
+  const SeedScorer scorer(newest.points, odometry_.options().correlative);
+  const SeedSource incumbent = step.odometry.tracked ? SeedSource::kTracked : SeedSource::kWheels;
+  if (selectSeed({{incumbent, step.odometry.motion, scorer.score(scan.points, step.odometry.motion)},
+                  {SeedSource::kPredicted, from_prediction.motion, scorer.score(scan.points, from_prediction.motion)}},
+                 odometry_.options().seed_min_score_gain) != 1)
     return;
   // Still disputed with the wheels: not tracked on from, as the result it replaces.
   from_prediction.disputed = true;
@@ -339,10 +344,20 @@ void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& whe
   const ScanAligner& aligner = detector_.aligner();
   const ScanAlignmentResult aligned = aligner.align(newest, scan);
   if (!aligned.accepted) return;
-  // Only where the wheels could be, as correlative recovery searches: farther, a look-alike
-  // room turned 90 degrees fits as well (the drifted Intel log: fit 1.0, 1.56 rad off).
-  if (!withinWindow(o.correlative, aligned.pose, wheel_guess)) return;
-  if (!(aligner.fit(newest, scan, aligned.pose) >= aligner.fit(newest, scan, odometry.motion) + o.realign_min_fit_gain))
+  // Only where the wheels could be, in the windows correlative recovery searches (around their
+  // guess, and the same step backwards: FR079's wheels count a reverse as forward): farther, a
+  // look-alike room turned 90 degrees fits as well (the drifted Intel log: fit 1.0, 1.56 rad off).
+  if (!odometry_.withinWheelWindows(aligned.pose, wheel_guess, 0.0)) return;
+  // Scored, as the step's other seeds, in the field of the step's own target (the local map):
+  // the newest keyframe alone may see little of what a scan newly in view shows (FR079
+  // reversing at scan 1413: the no-guess pose 0.89 against ICP's wrong minimum 0.35 there,
+  // 0.28 against 0.33 in the newest keyframe's field).
+  const SeedScorer scorer(keyframeStepTarget().points, o.correlative);
+  const SeedSource incumbent = odometry.recovered ? SeedSource::kSearched
+                               : odometry.tracked ? SeedSource::kTracked : SeedSource::kWheels;
+  if (selectSeed({{incumbent, odometry.motion, scorer.score(scan.points, odometry.motion)},
+                  {SeedSource::kRealigned, aligned.pose, scorer.score(scan.points, aligned.pose)}},
+                 o.seed_min_score_gain) != 1)
     return;
   odometry.motion = aligned.pose;
   // Found where matching was hard: no more certain than a wheel step (as a recovered one).

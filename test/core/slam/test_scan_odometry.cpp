@@ -319,13 +319,13 @@ TEST(ScanOdometry, ARobotThatStandsStillIsNotTakenForStalledWheels) {
   EXPECT_EQ(front.counters().stalled_wheel_scans, 0u);
 }
 
-TEST(ScanOdometry, TrackingOptionsAreValidated) {
+TEST(ScanOdometry, TheSeedMarginIsValidated) {
   llc::ScanOdometryOptions options;
   for (const double bad : {-0.1, 1.5, std::nan("")}) {
-    options.track_min_fit_gain = bad;
-    EXPECT_NE(options.validate().find("track_min_fit_gain"), std::string::npos) << bad;
+    options.seed_min_score_gain = bad;
+    EXPECT_NE(options.validate().find("seed_min_score_gain must be in [0, 1]"), std::string::npos) << bad;
   }
-  options.track_min_fit_gain = 0.0;
+  options.seed_min_score_gain = 0.0;
   EXPECT_EQ(options.validate(), "");
 }
 
@@ -571,9 +571,6 @@ TEST(ScanOdometry, AStepFromTheLaserSeedIsPolishedWithoutThePointsNewlyInView) {
 
 TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
   llc::ScanOdometryOptions options;
-  options.correlative_min_score_gain = 1.5;
-  EXPECT_NE(options.validate().find("correlative_min_score_gain"), std::string::npos);
-  options = {};
   options.correlative.translation_step = 0.0;
   EXPECT_NE(options.validate().find("correlative: translation_step"), std::string::npos);
   EXPECT_THROW(llc::ScanOdometry{options}, std::invalid_argument);
@@ -582,8 +579,6 @@ TEST(ScanOdometry, CorrelativeRecoveryOptionsAreValidated) {
   EXPECT_NE(options.validate().find("realign_below_overlap must be in [0, 1]"), std::string::npos);
   options.realign_below_overlap = 0.0;  // off
   EXPECT_EQ(options.validate(), "");
-  options.realign_min_fit_gain = -0.1;
-  EXPECT_NE(options.validate().find("realign_min_fit_gain must be in [0, 1]"), std::string::npos);
   options = {};
   for (double bad : {0.0, 1.01, std::numeric_limits<double>::quiet_NaN()}) {
     options.laser_seeded_trim_fraction = bad;

@@ -12,6 +12,7 @@
 #include "laser_loop_closure/core/alignment/icp.hpp"
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
 #include "laser_loop_closure/core/geometry/se2.hpp"
+#include "laser_loop_closure/core/slam/seed_selection.hpp"
 #include "laser_loop_closure/core/slam/slam_types.hpp"
 
 namespace llc {
@@ -60,14 +61,17 @@ struct ScanOdometryOptions {
   /// relations metric, odom from publish_odometry_tf); one ICP per scan. Keyframes are chosen
   /// by the wheels either way. (Without wheels every scan is matched anyway.)
   bool match_every_scan = true;
+  /// One margin for every choice among a step's seeds (selectSeed: the tracked, predicted,
+  /// searched and realigned poses against the wheels' or the step's own): a less trusted seed
+  /// wins when the scan's mean likelihood in the target's field (correlativeScore, 0..1) is
+  /// this much higher.
+  double seed_min_score_gain = 0.1;
   /// With match_every_scan: each scan's ICP is also seeded from the last matched scan's pose
   /// carried on by the wheels' motion since (tracking), and that result is taken when it fits
-  /// the scans better by track_min_fit_gain (share of points within overlap_distance) or both
-  /// seeds reach one pose. Wheels that slip over many scans are so corrected scan by scan, not
-  /// all at once at the next keyframe, where one ICP from their guess may be too far off
+  /// the scans better by seed_min_score_gain or both seeds reach one pose. Wheels that slip
+  /// over many scans are so corrected scan by scan, not all at once at the next keyframe, where one ICP from their guess may be too far off
   /// (FR079); on a tie (a corridor, where ICP slides) the wheels' guess stands.
   bool track_scans = true;
-  double track_min_fit_gain = 0.05;
   /// With match_every_scan: a wheel reading within 5 mm and 5 mrad of the scan before's, right
   /// after the wheels moved, is a robot that stood or a stalled odometry source. ICP runs
   /// from the wheels' guess and from the laser's prediction (the last scan's pose on by the
@@ -139,24 +143,22 @@ struct ScanOdometryOptions {
   /// With wheel odometry: when ICP from the wheels' guess fails, moves too far, overlaps too
   /// little or is disputed, a correlative search (correlative.max_translation, .max_rotation)
   /// around the guess and around the same step backwards seeds a second ICP. When the best of
-  /// the two and the search's own pose fits the scans by at least correlative_min_score_gain
-  /// more than the best pose within two standard deviations of the wheel step does
-  /// (correlativeScore), the laser's motion is taken, as a matched step with a wheel step's
-  /// covariance (found where matching was hard), not disputed: FR079's wheels count a reverse
+  /// the two and the search's own pose fits the scans by seed_min_score_gain more than the best
+  /// pose within two standard deviations of the wheel step does (correlativeScore), the laser's
+  /// motion is taken, as a matched step with a wheel step's covariance (found where matching was hard), not disputed: FR079's wheels count a reverse
   /// as forward; wheels slip; a gap between scans. Where the wheels' pose fits about as well
   /// (a corridor, a wrong ICP minimum) the step stays as it was.
   bool correlative_recovery = true;
-  double correlative_min_score_gain = 0.1;  ///< of the mean likelihood (0..1) of the scan's points
   CorrelativeSearchOptions correlative{};   ///< the search of correlative_recovery (parameters: max_translation, max_rotation)
   /// With wheel odometry: a keyframe step whose ICP result overlaps the keyframe by less than
   /// this share (of its points within overlap_distance) is also aligned with no guess, as a loop
   /// candidate is (CRF-match, ICP, validation). Its pose is taken, as a matched step with a
-  /// wheel step's covariance, when it fits by realign_min_fit_gain more (ScanAligner::fit) and
-  /// lies within correlative.max_translation and .max_rotation of the wheels' guess: ICP ended
+  /// wheel step's covariance, when it fits by seed_min_score_gain more (in the field of the
+  /// step's own target, the local map) and lies within the windows correlative recovery
+  /// searches (withinWheelWindows): ICP ended
   /// in a wrong minimum the wheels could not rule out (FR079 scan 4483, turning: 0.36 rad off at
   /// 0.65 overlap). Farther off, a look-alike room turned 90 degrees fits as well. 0: off.
   double realign_below_overlap = 0.8;
-  double realign_min_fit_gain = 0.1;  ///< of ScanAligner::fit (0..1)
   [[nodiscard]] std::string validate() const;
 };
 
@@ -185,7 +187,7 @@ struct StepSeeds {
   /// disputed step.
   double wheel_noise_scale = 1.0;
   /// With from_wheels: the tracked scan's motion carried on by the wheels (track_scans), taken
-  /// when ICP from it fits clearly better (track_min_fit_gain) or reaches the wheels' pose.
+  /// when ICP from it fits clearly better (seed_min_score_gain) or reaches the wheels' pose.
   std::optional<Pose2> tracked;
 };
 
@@ -215,6 +217,10 @@ class ScanOdometry {
   /// without remapping, taken when it converges within laser_seeded_polish_translation and
   /// _rotation of it; otherwise `icp` unchanged.
   IcpResult polishLaserSeeded(const MatchTarget& previous, const MatchTarget& current, const IcpResult& icp) const;
+  /// Is `pose` where wheels that gave `guess` could have been: within correlative.max_translation
+  /// and .max_rotation (plus slack_steps of its search steps) of the guess or of the same step
+  /// backwards (wheels that count a reverse as forward)?
+  bool withinWheelWindows(const Pose2& pose, const Pose2& guess, double slack_steps) const;
   /// The covariance the noise model gives a step of this motion.
   Eigen::Matrix3d stepCovariance(const Pose2& motion, bool matched) const;
   /// ambiguity_score_drop: widens a matched step's covariance along the direction its ICP
@@ -225,7 +231,7 @@ class ScanOdometry {
 
  private:
   /// correlative_recovery: the laser's motion when it fits clearly better than the wheels' guess.
-  std::optional<Pose2> recoverFromWheels(const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
+  std::optional<Pose2> recoverFromWheels(const SeedScorer& scorer, const MatchTarget& previous, const MatchTarget& current, const Pose2& guess,
                                          const IcpResult& icp, const ShapeValidationOptions& overlap,
                                          double wheel_scale) const;
 

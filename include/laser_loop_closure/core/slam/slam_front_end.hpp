@@ -250,7 +250,7 @@ class SlamFrontEnd {
   /// (icp_covariance_scale).
   void placeByLaser(const PreparedScan& scan, bool no_wheels, FrontEndStep& step);
   /// A scan between keyframes whose ICP disputes the wheels: ICP from the laser's own prediction
-  /// too, its result taken when it fits clearly better (track_min_fit_gain).
+  /// too, its result taken when it fits clearly better (selectSeed).
   void placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
   /// A keyframe step whose ICP overlaps little: aligned with no guess too (realign_below_overlap).
   void realignDoubtedStep(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);

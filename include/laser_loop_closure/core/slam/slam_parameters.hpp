@@ -78,8 +78,8 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/wheel_sigma_scale", odometry.wheel_sigma_scale);
   visit("odometry/predict_motion", odometry.predict_motion);
   visit("odometry/match_every_scan", odometry.match_every_scan);
+  visit("odometry/seed_min_score_gain", odometry.seed_min_score_gain);
   visit("odometry/track_scans", odometry.track_scans);
-  visit("odometry/track_min_fit_gain", odometry.track_min_fit_gain);
   visit("odometry/stalled_wheels_as_missing", odometry.stalled_wheels_as_missing);
   visit("odometry/icp_covariance_scale", odometry.icp_covariance_scale);
   visit("odometry/ambiguity_score_drop", odometry.ambiguity_score_drop);
@@ -93,11 +93,9 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("odometry/icp/trim_fraction", odometry.icp.trim_fraction);
   visit("odometry/icp/remap_ratio", odometry.icp.remap_ratio);
   visit("odometry/correlative_recovery", odometry.correlative_recovery);
-  visit("odometry/correlative_min_score_gain", odometry.correlative_min_score_gain);
   visit("odometry/correlative/max_translation", odometry.correlative.max_translation);
   visit("odometry/correlative/max_rotation", odometry.correlative.max_rotation);
   visit("odometry/realign_below_overlap", odometry.realign_below_overlap);
-  visit("odometry/realign_min_fit_gain", odometry.realign_min_fit_gain);
 
   LoopDetectorOptions& loops = options.slam.loops;
   visit("loops/min_keyframe_gap", loops.min_keyframe_gap);
