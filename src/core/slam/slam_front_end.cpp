@@ -49,7 +49,6 @@ std::string SlamFrontEnd::restore(const std::vector<Keyframe>& keyframes, const 
   }
   if (features_recomputed) *features_recomputed = recompute;
   detector_ = std::move(detector);
-  scans_released_before_ = 0;
   // Every restored keyframe its own chain, unless the run goes on (continue_odometry with the
   // measured steps): then its chains are those the steps made, as the run that saved them had
   // them, so the local map, the context and the calibration go on across the restore.
@@ -371,7 +370,7 @@ std::size_t SlamFrontEnd::releaseScansBefore(std::size_t keyframe) {
   const std::size_t size = detector_.size();
   const std::size_t until = std::min(keyframe, size > kept ? size - kept : 0);
   std::size_t released = 0;
-  for (; scans_released_before_ < until; ++scans_released_before_, ++released) detector_.releasePrepared(scans_released_before_);
+  for (; caches_.released_before < until; ++caches_.released_before, ++released) detector_.releasePrepared(caches_.released_before);
   return released;
 }
 

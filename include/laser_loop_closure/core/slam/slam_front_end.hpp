@@ -138,7 +138,6 @@ class SlamFrontEnd {
   // detector_.options(), detector_.aligner().options()).
   ScanOdometry odometry_;
   LoopDetector detector_;
-  std::size_t scans_released_before_ = 0;  ///< releaseScansBefore's progress in detector_ (0 again on restore)
   MotionClock motion_clock_;  ///< the scans' time as the motion model reads it
   WheelNoiseScale wheel_noise_;
   FrontEndCounters counters_;
@@ -217,6 +216,8 @@ class SlamFrontEnd {
     /// The newest keyframe's likelihood field, for ScanOdometry::widenAlongAmbiguity.
     std::shared_ptr<const LikelihoodField> ambiguity_field;
     std::size_t ambiguity_field_of = std::size_t(-1);
+    /// releaseScansBefore's progress: keyframes below it hold no prepared scan in detector_.
+    std::size_t released_before = 0;
   };
   KeyframeCaches caches_;
 
