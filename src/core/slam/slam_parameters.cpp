@@ -44,6 +44,14 @@ std::vector<std::string> systemParameterNames() {
   return names;
 }
 
+std::string retiredParameterNote(const std::string& name) {
+  // Three margins, each on its own measure, became one choice among a step's seeds.
+  static const std::set<std::string> folded_into_seed_gain{
+      "odometry/track_min_fit_gain", "odometry/correlative_min_score_gain", "odometry/realign_min_fit_gain"};
+  if (folded_into_seed_gain.count(name)) return "folded into odometry/seed_min_score_gain in 0.23.0";
+  return "";
+}
+
 namespace {
 
 /// Sets every named entry through the visitor (the same conversion for a file and the command
@@ -53,7 +61,10 @@ void applyEntries(const std::vector<std::pair<std::string, YAML::Node>>& entries
   std::set<std::string> known;
   for (const std::string& name : systemParameterNames()) known.insert(name);
   for (const auto& entry : entries)
-    if (!known.count(entry.first)) throw std::runtime_error(source + ": unknown parameter '" + entry.first + "'");
+    if (!known.count(entry.first)) {
+      const std::string note = retiredParameterNote(entry.first);
+      throw std::runtime_error(source + ": unknown parameter '" + entry.first + "'" + (note.empty() ? "" : " (" + note + ")"));
+    }
   visitParameters(*options, [&](const std::string& name, auto& field) {
     using Field = std::decay_t<decltype(field)>;
     for (const auto& entry : entries) {

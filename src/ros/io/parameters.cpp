@@ -48,8 +48,12 @@ std::vector<std::string> unknownParameters(const ros::NodeHandle& nh, const std:
 }
 
 void warnUnknownParameters(const ros::NodeHandle& nh, const std::string& node, const std::vector<std::string>& known) {
-  for (const std::string& unknown : unknownParameters(nh, known))
-    ROS_WARN("%s: parameter %s/%s is not one of mine; ignored", node.c_str(), nh.getNamespace().c_str(), unknown.c_str());
+  for (const std::string& unknown : unknownParameters(nh, known)) {
+    const std::string note = llc::retiredParameterNote(unknown);
+    const std::string hint = note.empty() ? "" : " (" + note + ")";
+    ROS_WARN("%s: parameter %s/%s is not one of mine; ignored%s", node.c_str(), nh.getNamespace().c_str(), unknown.c_str(),
+             hint.c_str());
+  }
 }
 
 bool readSystemOptions(const ros::NodeHandle& nh, llc::SystemOptions* options, std::vector<std::string>* names,

@@ -241,6 +241,8 @@ TEST(SlamParameters, PartialFilesOverrideAndBadFilesAreRefused) {
     }
   };
   refused("odometry:\n  keyframe_distanse: 1.0\n", "unknown parameter 'odometry/keyframe_distanse'");
+  // A margin an earlier version had says what replaced it.
+  refused("odometry:\n  track_min_fit_gain: 0.05\n", "'odometry/track_min_fit_gain' (folded into odometry/seed_min_score_gain");
   refused("odometry:\n  keyframe_distance: far\n", "odometry/keyframe_distance");
   refused("loops:\n  max_candidates: -3\n", "loops/max_candidates");
   refused("odometry:\n  keyframe_distance: -1.0\n", "keyframe_distance must be > 0");
@@ -269,6 +271,8 @@ TEST(SlamParameters, CommandLineValuesSetTheSameFieldsAsAFileAndBadOnesAreRefuse
     }
   };
   refused("odometry/keyframe_distanse", "1", "unknown parameter 'odometry/keyframe_distanse'");
+  refused("odometry/realign_min_fit_gain", "0.1", "(folded into odometry/seed_min_score_gain in 0.23.0)");
+  EXPECT_EQ(llc::retiredParameterNote("odometry/seed_min_score_gain"), "");
   refused("odometry/keyframe_distance", "far", "parameter 'odometry/keyframe_distance': bad value");
   refused("odometry/keyframe_distance", "[1, 2]", "parameter 'odometry/keyframe_distance': bad value");
   refused("loops/max_candidates", "-3", "loops/max_candidates");

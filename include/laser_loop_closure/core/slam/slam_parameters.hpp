@@ -236,6 +236,9 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
 
 /// Every parameter name, in the order above.
 std::vector<std::string> systemParameterNames();
+/// For a parameter an earlier version had and this one folded into another: what to set
+/// instead (e.g. "folded into odometry/seed_min_score_gain in 0.23.0"); empty for any other name.
+std::string retiredParameterNote(const std::string& name);
 
 /// Reads a YAML file of nested maps (odometry: {keyframe_distance: 1.0}, ...) onto `options`:
 /// names it does not give keep their value. Throws std::runtime_error naming the file and the
