@@ -25,6 +25,7 @@
 #include "laser_loop_closure/core/sim/sim_world.hpp"
 #include "laser_loop_closure/core/slam/localizer.hpp"
 #include "laser_loop_closure/core/slam/loop_detector.hpp"
+#include "laser_loop_closure/core/slam/prepared_scan_cache.hpp"
 
 namespace {
 
@@ -237,6 +238,21 @@ void BM_GlobalSearch(benchmark::State& state) {
   state.counters["best_near"] = std::hypot(error.x, error.y) < 0.3 && std::abs(error.theta) < 3.0 * M_PI / 180.0;
 }
 BENCHMARK(BM_GlobalSearch)->Unit(benchmark::kMillisecond);
+
+/// A keyframe added to a map of n keyframes whose prepared scans are held within the shipped
+/// bound (loops/prepared_cache 300): the add lets go of the least recently asked one. Its cost
+/// must not grow with the map (a walk over every keyframe per add did). One prepared scan is
+/// shared by all entries (as many keyframes as a long drive, without the memory).
+void BM_PreparedScanCacheAdd(benchmark::State& state) {
+  const llc::ScanAligner aligner;
+  const llc::Scan& scan = simulatedScans().scans[100].scan;
+  const std::shared_ptr<const llc::PreparedScan> prepared = aligner.prepare(scan);
+  llc::PreparedScanCache cache(300);
+  for (long k = 0; k < state.range(0); ++k) cache.add(prepared, &scan);
+  for (auto _ : state) cache.add(prepared, &scan);
+  state.counters["held"] = double(cache.heldPrepared());
+}
+BENCHMARK(BM_PreparedScanCacheAdd)->Arg(1000)->Arg(100000)->ArgNames({"keyframes"})->Unit(benchmark::kMicrosecond);
 
 /// Localisation's global search (Localizer, while lost): one new keyframe classified against a
 /// map of n keyframes with no pose prior, and its best localization/global_candidates (20)

@@ -16,6 +16,7 @@ PreparedScanCache& PreparedScanCache::operator=(const PreparedScanCache& other) 
   capacity_ = other.capacity_;
   entries_ = other.entries_;
   held_ = other.held_;
+  evictable_ = other.evictable_;
   clock_ = other.clock_;
   trimmed_at_ = other.trimmed_at_;
   prepared_again_ = other.prepared_again_;
@@ -35,7 +36,9 @@ std::size_t PreparedScanCache::add(std::shared_ptr<const PreparedScan> prepared,
       resting_bytes_ += rest->bytes();
     }
     if (prepared) ++held_;
+    const bool evictable = prepared && rest;
     entries_.push_back({std::move(prepared), std::move(rest), ++clock_});
+    if (evictable) evictable_.emplace(clock_, entries_.size() - 1);
   }
   trim();
   return entries_.size() - 1;
@@ -48,7 +51,9 @@ const PreparedScan& PreparedScanCache::get(std::size_t index, const ScanAligner&
     if (index >= entries_.size()) throw std::out_of_range("no keyframe " + std::to_string(index));
     Entry& entry = entries_[index];
     if (entry.prepared) {
+      if (entry.scan) evictable_.erase({entry.last_asked, index});
       entry.last_asked = ++clock_;
+      if (entry.scan) evictable_.emplace(entry.last_asked, index);
       return *entry.prepared;
     }
     if (!entry.scan) throw std::out_of_range("keyframe " + std::to_string(index) + ": its scan was let go (releasePrepared)");
@@ -62,8 +67,11 @@ const PreparedScan& PreparedScanCache::get(std::size_t index, const ScanAligner&
     entry.prepared = std::move(made);
     ++held_;
     ++prepared_again_;
+  } else {
+    evictable_.erase({entry.last_asked, index});
   }
   entry.last_asked = ++clock_;
+  evictable_.emplace(entry.last_asked, index);
   return *entry.prepared;
 }
 
@@ -76,6 +84,7 @@ void PreparedScanCache::release(std::size_t index) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (index >= entries_.size()) return;
   if (entries_[index].prepared) --held_;
+  if (entries_[index].prepared && entries_[index].scan) evictable_.erase({entries_[index].last_asked, index});
   if (entries_[index].scan) resting_bytes_ -= entries_[index].scan->bytes();
   entries_[index].prepared.reset();
   entries_[index].scan.reset();
@@ -83,15 +92,12 @@ void PreparedScanCache::release(std::size_t index) {
 
 void PreparedScanCache::trim() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (capacity_ > 0 && held_ > capacity_) {
-    std::vector<std::pair<std::uint64_t, std::size_t>> idle;  // (last asked, index)
-    for (std::size_t k = 0; k < entries_.size(); ++k)
-      if (entries_[k].prepared && entries_[k].scan && entries_[k].last_asked <= trimmed_at_)
-        idle.emplace_back(entries_[k].last_asked, k);
-    const std::size_t excess = std::min(held_ - capacity_, idle.size());
-    std::nth_element(idle.begin(), idle.begin() + long(excess), idle.end());
-    for (std::size_t i = 0; i < excess; ++i) entries_[idle[i].second].prepared.reset();
-    held_ -= excess;
+  // The least recently asked first; one asked since the last trim (a caller may hold its
+  // reference) ends the walk, as every entry after it was asked later still.
+  while (capacity_ > 0 && held_ > capacity_ && !evictable_.empty() && evictable_.begin()->first <= trimmed_at_) {
+    entries_[evictable_.begin()->second].prepared.reset();
+    evictable_.erase(evictable_.begin());
+    --held_;
   }
   trimmed_at_ = clock_;
 }

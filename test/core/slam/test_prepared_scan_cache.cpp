@@ -5,6 +5,8 @@
 // cache of 4 keyframes gives the same map, loop for loop, as one that keeps every keyframe prepared.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <set>
@@ -66,6 +68,77 @@ TEST(PreparedScanCache, KeepsAtMostItsCapacityAndPreparesTheSameAgain) {
   for (std::size_t k = 0; k < s.scans.size(); ++k) all.add(first[k], nullptr);
   EXPECT_EQ(all.heldPrepared(), 10u);
   EXPECT_EQ(&all.get(0, s.aligner), first[0].get());
+}
+
+/// The rule written out plainly (what trim() did before it kept an index): after each call,
+/// which entries are prepared, and how many were prepared again.
+struct ReferenceCache {
+  std::size_t capacity;
+  struct Entry {
+    bool prepared, scan, released = false;
+    std::uint64_t last_asked;
+  };
+  std::vector<Entry> entries;
+  std::uint64_t clock = 0, trimmed_at = 0;
+  std::size_t prepared_again = 0;
+  std::size_t held() const {
+    std::size_t n = 0;
+    for (const Entry& e : entries) n += e.prepared;
+    return n;
+  }
+  void add(bool prepared, bool scan) {
+    entries.push_back({prepared, scan, false, ++clock});
+    trim();
+  }
+  void get(std::size_t k) {
+    if (!entries[k].prepared) entries[k].prepared = true, ++prepared_again;
+    entries[k].last_asked = ++clock;
+  }
+  void release(std::size_t k) { entries[k] = {false, false, true, entries[k].last_asked}; }
+  void trim() {
+    std::vector<std::pair<std::uint64_t, std::size_t>> idle;
+    for (std::size_t k = 0; k < entries.size(); ++k)
+      if (entries[k].prepared && entries[k].scan && entries[k].last_asked <= trimmed_at) idle.emplace_back(entries[k].last_asked, k);
+    std::sort(idle.begin(), idle.end());
+    for (std::size_t i = 0; i < idle.size() && capacity > 0 && held() > capacity; ++i) entries[idle[i].second].prepared = false;
+    trimmed_at = clock;
+  }
+};
+
+TEST(PreparedScanCache, LetsGoOfTheSameEntriesAsTheRuleWrittenOutPlainly) {
+  // Random adds (some kept prepared for ever: no scan), asks, releases and trims; after each,
+  // the cache holds as many prepared and has prepared as many again as the plain rule says,
+  // and an entry the rule let go is prepared again when asked (preparedAgain rises by one).
+  Scans s(6);
+  llc::PreparedScanCache cache(4);
+  ReferenceCache reference{4, {}};
+  llc::Random random(5);
+  for (int step = 0; step < 400; ++step) {
+    const double u = random.uniform(0.0, 1.0);
+    const std::size_t n = cache.size();
+    if (n < 3 || u < 0.25) {
+      const bool keep_scan = random.uniform(0.0, 1.0) < 0.9;
+      const llc::Scan* scan = s.at(n % s.scans.size());
+      cache.add(s.aligner.prepare(*scan), keep_scan ? scan : nullptr);
+      reference.add(true, keep_scan);
+    } else if (u < 0.85) {
+      const std::size_t k = std::size_t(random.uniform(0.0, double(n) - 1e-9));
+      if (reference.entries[k].released) continue;
+      if (!reference.entries[k].prepared && !reference.entries[k].scan) continue;
+      cache.get(k, s.aligner);
+      reference.get(k);
+    } else if (u < 0.9) {
+      const std::size_t k = std::size_t(random.uniform(0.0, double(n) - 1e-9));
+      cache.release(k);
+      reference.release(k);
+    } else {
+      cache.trim();
+      reference.trim();
+    }
+    ASSERT_EQ(cache.heldPrepared(), reference.held()) << "step " << step;
+    ASSERT_EQ(cache.preparedAgain(), reference.prepared_again) << "step " << step;
+  }
+  EXPECT_GT(reference.prepared_again, 20u);  // the walk did let go of and prepare again many
 }
 
 TEST(PreparedScanCache, AScanOfSinglePrecisionValuesKeptAsFloatsComesBackTheSame) {

@@ -11,6 +11,8 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <utility>
 #include <vector>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
@@ -60,6 +62,9 @@ class PreparedScanCache {
   std::size_t capacity_ = 0;
   mutable std::vector<Entry> entries_;  ///< one per keyframe; get() fills prepared and last_asked, never resizes it
   mutable std::size_t held_ = 0;
+  /// (last_asked, index) of the entries trim() may let go (prepared, with a scan to prepare
+  /// again), oldest first: trim() takes from the front, so its cost does not grow with the map.
+  mutable std::set<std::pair<std::uint64_t, std::size_t>> evictable_;
   mutable std::uint64_t clock_ = 0;
   std::uint64_t trimmed_at_ = 0;
   mutable std::size_t prepared_again_ = 0;
