@@ -304,6 +304,7 @@ BENCHMARK(BM_LocalizationGlobalSearch)
     ->Args({100000, 2, 2, 1})
     ->Args({100000, 2, 1, 1})
     ->Args({100000, 2, 2, 0})
+    ->Args({100000, 2, 1, 0})
     ->ArgNames({"keyframes", "threads", "search_threads", "mapped"})
     ->Unit(benchmark::kMillisecond);
 
