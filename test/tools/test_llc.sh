@@ -138,6 +138,17 @@ printf 'FLASER 10 1 1 1 1 1 1 1 1 1 1 0 0 0 0 0 0 1.0 host 1.0\nFLASER 10 1 1 1 
 check "wall_directions: keyframes of another log" 1 "wall_directions: keyframe index [0-9]+: the log has 2 FLASER scans" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/slam_truth" "$TMP/two_scans.log"
 printf 'FLASER 3 1 2 3 0 0 0 0 0 0 1.0 host 1.0\n' > "$TMP/three_beams.log"
 check "wall_directions: a scan of 3 beams" 1 "wall_directions: .*three_beams.log:1: FLASER with 3 beams" -- /usr/bin/python3 "$REPO/scripts/lib/wall_directions.py" "$TMP/slam_truth" "$TMP/three_beams.log"
+# scripts/lib/enclosed_scans.py on a hand-made log: scan 1 has every return of both scanners
+# within 2 m (a car over the robot), scan 2 only its front one (the rear sees 9 m), scan 3 none.
+{ printf 'FLASER 3 5 6 7 0 0 0 0 0 0 0 host 0\nRLASER 3 5 6 7 0 0 0 0 0 0 0 host 0\n'
+  printf 'FLASER 3 0.5 1.5 80 0 0 0 0 0 0 1 host 1\nRLASER 3 0.04 1 1.2 0 0 0 0 0 0 1 host 1\n'
+  printf 'FLASER 3 1 1 1 0 0 0 0 0 0 2 host 2\nRLASER 3 1 9 1 0 0 0 0 0 0 2 host 2\n'
+  printf 'FLASER 3 80 80 80 0 0 0 0 0 0 3 host 3\nRLASER 3 80 0 80 0 0 0 0 0 0 3 host 3\n'; } > "$TMP/enclosed.log"
+check "enclosed_scans: the scan whose every return is near on both scanners" 0 "enclosed.log: scans=4 enclosed=1 runs=1$" -- /usr/bin/python3 "$REPO/scripts/lib/enclosed_scans.py" "$TMP/enclosed.log"
+check "enclosed_scans: a wider distance takes the front-only one too" 0 "enclosed.log: scans=4 enclosed=3 runs=0-2$" -- /usr/bin/python3 "$REPO/scripts/lib/enclosed_scans.py" --distance 10 "$TMP/enclosed.log"
+printf 'FLASER 3 1 1\n' > "$TMP/enclosed_short.log"
+check "enclosed_scans: a laser line short of its ranges" 1 "enclosed_short.log:1: 3 ranges announced, 2 given" -- /usr/bin/python3 "$REPO/scripts/lib/enclosed_scans.py" "$TMP/enclosed_short.log"
+check "enclosed_scans: --distance 0" 2 "must be > 0" -- /usr/bin/python3 "$REPO/scripts/lib/enclosed_scans.py" --distance 0 "$TMP/enclosed.log"
 # scripts/lib/relation_tail.py on a hand-made run: relation 4 (5 m) spans keyframes 0 -> 2,
 # whose step 2 no scan placed and whose step 1 was widened to 3.5 m; without it the mean is 0.2.
 mkdir -p "$TMP/tail"
