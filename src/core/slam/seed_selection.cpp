@@ -22,7 +22,7 @@ std::size_t selectSeed(const std::vector<SeedCandidate>& candidates, double marg
 }
 
 const LikelihoodField& SeedScorer::field() const {
-  if (!field_) field_ = std::make_unique<LikelihoodField>(target_, options_);
+  if (!field_) field_ = std::make_shared<const LikelihoodField>(*target_, options_);
   return *field_;
 }
 

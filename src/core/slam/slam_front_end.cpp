@@ -297,12 +297,7 @@ void SlamFrontEnd::placeByLaser(const PreparedScan& scan, bool no_wheels, FrontE
   // only; their covariance goes nowhere.)
   if (no_wheels && step.odometry.matched && odometry_.options().ambiguity_score_drop > 0.0 &&
       odometry_.movedEnough(step.odometry.motion)) {
-    const std::size_t newest = detector_.size() - 1;
-    if (!caches_.ambiguity_field || caches_.ambiguity_field_of != newest) {
-      caches_.ambiguity_field = std::make_shared<const LikelihoodField>(keyframe.points, odometry_.options().correlative);
-      caches_.ambiguity_field_of = newest;
-    }
-    counters_.ambiguous_steps += odometry_.widenAlongAmbiguity(*caches_.ambiguity_field, scan.points, step.odometry);
+    counters_.ambiguous_steps += odometry_.widenAlongAmbiguity(*newestKeyframeField(), scan.points, step.odometry);
   }
   if (step.odometry.matched) updateVelocity(step.odometry.motion);
   motion_.last_time = motion_.time;
@@ -320,7 +315,7 @@ void SlamFrontEnd::placeDisputedScanByPrediction(const PreparedScan& scan, const
   const PreparedScan& newest = detector_.prepared(detector_.size() - 1);
   OdometryStep from_prediction = odometry_.match(newest, scan, {predicted, false});
   if (!from_prediction.matched) return;
-  const SeedScorer scorer(newest.points, odometry_.options().correlative);
+  const SeedScorer scorer(newestKeyframeField(), odometry_.options().correlative);
   const SeedSource incumbent = step.odometry.tracked ? SeedSource::kTracked : SeedSource::kWheels;
   if (selectSeed({{incumbent, step.odometry.motion, scorer.score(scan.points, step.odometry.motion)},
                   {SeedSource::kPredicted, from_prediction.motion, scorer.score(scan.points, from_prediction.motion)}},
@@ -363,6 +358,15 @@ void SlamFrontEnd::realignDoubtedStep(const PreparedScan& scan, const Pose2& whe
   odometry.covariance = odometry_.stepCovariance(aligned.pose, false);
   odometry.disputed = false;
   odometry.realigned = true;
+}
+
+std::shared_ptr<const LikelihoodField> SlamFrontEnd::newestKeyframeField() {
+  const std::size_t newest = detector_.size() - 1;
+  if (!caches_.newest_field || caches_.newest_field_of != newest) {
+    caches_.newest_field = std::make_shared<const LikelihoodField>(detector_.prepared(newest).points, odometry_.options().correlative);
+    caches_.newest_field_of = newest;
+  }
+  return caches_.newest_field;
 }
 
 std::size_t SlamFrontEnd::releaseScansBefore(std::size_t keyframe) {

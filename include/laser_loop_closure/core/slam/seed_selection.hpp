@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "laser_loop_closure/core/alignment/correlative_search.hpp"
@@ -43,15 +44,18 @@ std::size_t selectSeed(const std::vector<SeedCandidate>& candidates, double marg
 class SeedScorer {
  public:
   /// `target` must outlive the scorer.
-  SeedScorer(const Points2& target, const CorrelativeSearchOptions& options) : target_(target), options_(options) {}
+  SeedScorer(const Points2& target, const CorrelativeSearchOptions& options) : target_(&target), options_(options) {}
+  /// A field already built (of the target, with these options).
+  SeedScorer(std::shared_ptr<const LikelihoodField> field, const CorrelativeSearchOptions& options)
+      : options_(options), field_(std::move(field)) {}
   const LikelihoodField& field() const;
   /// correlativeScore of `scan` at `pose` (options.max_points strided points).
   double score(const Points2& scan, const Pose2& pose) const;
 
  private:
-  const Points2& target_;
+  const Points2* target_ = nullptr;
   CorrelativeSearchOptions options_;
-  mutable std::unique_ptr<LikelihoodField> field_;
+  mutable std::shared_ptr<const LikelihoodField> field_;
 };
 
 }  // namespace llc

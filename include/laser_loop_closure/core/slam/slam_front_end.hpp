@@ -213,9 +213,10 @@ class SlamFrontEnd {
     /// its frame (null: fewer than two in its chain).
     std::shared_ptr<const MatchTarget> local_map;
     std::size_t local_map_of = std::size_t(-1);
-    /// The newest keyframe's likelihood field, for ScanOdometry::widenAlongAmbiguity.
-    std::shared_ptr<const LikelihoodField> ambiguity_field;
-    std::size_t ambiguity_field_of = std::size_t(-1);
+    /// The newest keyframe's likelihood field (newestKeyframeField: widenAlongAmbiguity, the
+    /// prediction's placement of a disputed scan).
+    std::shared_ptr<const LikelihoodField> newest_field;
+    std::size_t newest_field_of = std::size_t(-1);
     /// releaseScansBefore's progress: keyframes below it hold no prepared scan in detector_.
     std::size_t released_before = 0;
   };
@@ -253,6 +254,8 @@ class SlamFrontEnd {
   /// A scan between keyframes whose ICP disputes the wheels: ICP from the laser's own prediction
   /// too, its result taken when it fits clearly better (selectSeed).
   void placeDisputedScanByPrediction(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
+  /// The newest keyframe's likelihood field (odometry/correlative's), built once per keyframe.
+  std::shared_ptr<const LikelihoodField> newestKeyframeField();
   /// A keyframe step whose ICP overlaps little: aligned with no guess too (realign_below_overlap).
   void realignDoubtedStep(const PreparedScan& scan, const Pose2& wheel_guess, FrontEndStep& step);
   /// Fills step.odometry_pose from the newest keyframe's pose and the step's motion from it.
