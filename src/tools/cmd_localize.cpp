@@ -77,6 +77,7 @@ struct Run {
   std::string rows;    ///< poses.csv
   std::string events;  ///< report lines: each fix and loss
   std::string searches;  ///< search.csv: each keyframe classified against the whole map
+  std::string candidates;  ///< candidates.csv: each candidate those searches aligned
   std::vector<llc::LocalizedScan> scored;
   double compute = 0.0;
   long first_fix_scan = -1;
@@ -87,9 +88,11 @@ struct Run {
 
 /// Feeds scans first .. end-1 (stopping once `max_travel` m past the start when > 0).
 Run localize(llc::Localizer& localizer, const llc::ScanSequence& sequence, const std::vector<std::size_t>& input_index,
-             std::size_t first, std::size_t end, bool wheels, std::size_t kidnap_row, double max_travel, bool rows) {
+             std::size_t first, std::size_t end, bool wheels, std::size_t kidnap_row, double max_travel, bool rows,
+             const MapTruth* truth = nullptr) {
   Run run;
-  std::ostringstream csv, events, searches;
+  std::ostringstream csv, events, searches, candidates;
+  candidates << std::setprecision(6) << "scan,map_keyframe,score,accepted,inlier_share,x,y,theta,error_m,error_deg,why_not\n";
   csv << std::setprecision(10) << "scan,stamp,x,y,theta,state\n";
   searches << std::setprecision(5) << "scan,path_m,candidates,loops,agreeing_keyframes,rival_keyframes,joined,recent_fit,why_not\n";
   std::size_t lost_lines = 0;
@@ -106,6 +109,17 @@ Run localize(llc::Localizer& localizer, const llc::ScanSequence& sequence, const
       searches << input_index[i] << "," << localizer.pathLength() << "," << step.candidates << "," << step.loops_to_map << ","
                << step.join.keyframes << "," << step.join.rival_keyframes << "," << step.join.joined << "," << step.fit << ",\""
                << step.join.why_not << "\"\n";
+    if (step.searched && rows)
+      for (const llc::LoopClosure& c : step.search_results) {
+        // Where this candidate puts the keyframe in the map, and (with --truth) how far that is
+        // from where the map has the place.
+        const llc::Pose2 placed = llc::compose(localizer.mapPoses().at(c.from), c.pose);
+        const llc::Pose2 error = truth ? llc::between(llc::whereTheMapHasIt(truth->frame, logged.truth), placed) : llc::Pose2{};
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        candidates << input_index[i] << "," << c.from << "," << c.score << "," << c.accepted << "," << c.inlier_share << ","
+                   << placed.x << "," << placed.y << "," << placed.theta << "," << (truth ? std::hypot(error.x, error.y) : nan)
+                   << "," << (truth ? std::abs(error.theta) * 180.0 / M_PI : nan) << ",\"" << c.reject_reason << "\"\n";
+      }
     if (step.lost) {
       if (lost_lines++ < 100) events << "lost: scan " << input_index[i] << ": " << step.why_lost << "\n";
       if (i >= kidnap_row && run.kidnap_lost_seconds < 0.0) {
@@ -125,6 +139,7 @@ Run localize(llc::Localizer& localizer, const llc::ScanSequence& sequence, const
   run.rows = csv.str();
   run.events = events.str();
   run.searches = searches.str();
+  run.candidates = candidates.str();
   return run;
 }
 
@@ -153,11 +168,16 @@ void runStarts(const Args& args, const llc::ScanSequence& sequence, const std::v
   const long count = args.integer("starts", 20);
   const double travel = args.number("start-travel", 100.0), fix_within = args.number("fix-within-m", 10.0);
   const double near_map = args.number("near-map-m", 1.0);
+  const double seen_heading = args.number("seen-heading-deg", 45.0) * M_PI / 180.0;
   if (count < 1 || !(travel > 0.0) || !(fix_within > 0.0) || !(near_map > 0.0))
     throw UsageError("--starts, --start-travel, --fix-within-m and --near-map-m must be > 0");
+  if (!(seen_heading > 0.0 && seen_heading <= M_PI)) throw UsageError("--seen-heading-deg must be in (0, 180]");
   std::vector<llc::Pose2> truth;
   for (std::size_t i = 0; i < end; ++i) truth.push_back(sequence.scans[i].truth);
   const std::vector<bool> near = llc::startsNearMap(truth, map_truth.frame.truth, fix_within, near_map);
+  // Of those, the starts that pass a mapped place heading as the map did there (what a scanner
+  // of less than the full circle can know again): scored apart.
+  const std::vector<bool> seen = llc::startsNearMap(truth, map_truth.frame.truth, fix_within, near_map, seen_heading);
   std::vector<std::size_t> eligible;
   for (std::size_t i = std::size_t(args.integer("start-scan", 0)); i < end; ++i)
     if (near[i]) eligible.push_back(i);
@@ -166,10 +186,10 @@ void runStarts(const Args& args, const llc::ScanSequence& sequence, const std::v
   random.shuffle(eligible);  // without repeats while there are enough
   std::ostringstream csv;
   csv << std::setprecision(6) << "start_scan,fixed_within,first_fix_scan,first_fix_travel_m,first_fix_compute_s,fixes,lost_events,"
-                                 "localized_scans,wrong_fixes,wrong_poses,rms_m\n";
+                                 "localized_scans,wrong_fixes,wrong_poses,rms_m,seen_heading\n";
   std::vector<double> travels, computes;
   std::vector<llc::LocalizedScan> pooled;
-  std::size_t fixed_within = 0;
+  std::size_t fixed_within = 0, seen_starts = 0, seen_fixed_within = 0;
   for (long k = 0; k < count; ++k) {
     const std::size_t start = eligible[std::size_t(k) % eligible.size()];
     llc::Localizer localizer = makeLocalizer();
@@ -177,11 +197,13 @@ void runStarts(const Args& args, const llc::ScanSequence& sequence, const std::v
     const llc::LocalizationScore score = llc::scoreLocalization(run.scored, map_truth.frame, wrong_m, wrong_rad);
     const bool in_time = run.first_fix_scan >= 0 && run.first_fix_travel <= fix_within;
     fixed_within += in_time;
+    seen_starts += seen[start], seen_fixed_within += seen[start] && in_time;
     if (run.first_fix_scan >= 0) travels.push_back(run.first_fix_travel), computes.push_back(run.first_fix_compute);
     pooled.insert(pooled.end(), run.scored.begin(), run.scored.end());
     csv << input_index[start] << "," << in_time << "," << run.first_fix_scan << "," << run.first_fix_travel << ","
         << run.first_fix_compute << "," << localizer.counters().fixes << "," << localizer.counters().lost_events << ","
-        << score.localized << "," << score.wrong_fixes << "," << score.wrong_poses << "," << score.rms_m << "\n";
+        << score.localized << "," << score.wrong_fixes << "," << score.wrong_poses << "," << score.rms_m << "," << seen[start]
+        << "\n";
   }
   llc::writeFileAtomically(args.required("out") + "/starts.csv", csv.str());
   const llc::LocalizationScore all = llc::scoreLocalization(pooled, map_truth.frame, wrong_m, wrong_rad);
@@ -192,6 +214,12 @@ void runStarts(const Args& args, const llc::ScanSequence& sequence, const std::v
          << "start_travel_m=" << travel << "  (each start localised over this much of its own path)\n"
          << "fixed_within_share=" << double(fixed_within) / double(count) << "  (first fix within " << fix_within << " m)\n"
          << "fixed_share=" << double(travels.size()) / double(count) << "  (fixed at all)\n"
+         << "seen_heading_starts=" << seen_starts << "  (of the starts, those whose first " << fix_within
+         << " m pass within " << near_map << " m of a map keyframe heading within " << seen_heading * 180.0 / M_PI
+         << " deg of it)\n"
+         << "fixed_within_share_seen_heading="
+         << (seen_starts ? double(seen_fixed_within) / double(seen_starts) : std::numeric_limits<double>::quiet_NaN())
+         << "  (of those, fixed within " << fix_within << " m)\n"
          << "median_first_fix_travel_m=" << median(travels) << "\n"
          << "median_first_fix_compute_s=" << median(computes) << "\n"
          << "wrong_fixes=" << all.wrong_fixes << "  (off where the map has the place by more than " << wrong_m << " m or "
@@ -289,9 +317,11 @@ int runLocalize(const Args& args) {
   llc::Localizer localizer = makeLocalizer();
   const double load_seconds = llc::secondsSince(load_start);
   const std::size_t kidnap_row = args.has("kidnap-at") ? std::size_t(kidnap_at) : std::size_t(-1);
-  const Run run = localize(localizer, sequence, input_index, std::size_t(start_scan), end_scan, wheels, kidnap_row, -1.0, true);
+  const Run run = localize(localizer, sequence, input_index, std::size_t(start_scan), end_scan, wheels, kidnap_row, -1.0, true,
+                           map_truth ? &*map_truth : nullptr);
   llc::writeFileAtomically(dir + "/poses.csv", run.rows);
   llc::writeFileAtomically(dir + "/search.csv", run.searches);
+  llc::writeFileAtomically(dir + "/candidates.csv", run.candidates);
   const llc::LocalizerCounters& c = localizer.counters();
   report << "map_load_seconds=" << load_seconds << "  (features checked; the map scans prepared for alignment, unless more than loops/prepared_cache: then each when first aligned)\n"
          << "start_scan=" << start_scan << "\n"
@@ -346,7 +376,7 @@ int runLocalize(const Args& args) {
              << " m (off the truth by " << one.rms_global_m << " m)" << (one.wrong_fixes ? ", wrong" : "") << "\n";
     }
   llc::writeFileAtomically(dir + "/report.txt", report.str());
-  std::cout << report.str() << "Wrote " << dir << "/{poses.csv,search.csv,report.txt}\n";
+  std::cout << report.str() << "Wrote " << dir << "/{poses.csv,search.csv,candidates.csv,report.txt}\n";
   return 0;
 }
 

@@ -140,7 +140,7 @@ const std::vector<Command>& commands() {
        "      [--start-scan N] [--end-scan M]   (with --load-session: scans N .. M-1 of the input alone, a later day of a drive)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
-             "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+             "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seen-heading-deg", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "seq-reorder-scans"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry"},
@@ -159,7 +159,9 @@ const std::vector<Command>& commands() {
        "       localisations, each from a random scan whose true path passes within --near-map-m m of a map keyframe in\n"
        "       its first --fix-within-m m, over\n"
        "       --start-travel m of its path: starts.csv, and in report.txt the share fixed within --fix-within-m m,\n"
-       "       median travel and computation to the first fix, wrong fixes, RMS)"},
+       "       median travel and computation to the first fix, wrong fixes, RMS)\n"
+       "      [--seen-heading-deg 45]   (also the share fixed within --fix-within-m m of the starts that pass a map keyframe\n"
+       "       heading within this of it: what a scanner of less than 360 degrees can know again)"},
       {"relations", llc_tool::runRelations, with({"log", "poses", "keyframes", "relations", "out", "mount-from"}, kInputFlags), {},
        "relations --log LOG (--poses DIR/scans.csv | --keyframes CSV) --relations R [--out ERRORS.csv]\n"
        "      [--mount-from BAG]\n"

@@ -108,6 +108,15 @@ inline llc::Scan frameScan(const llc::SimDrive& drive, const llc::SimFrame& fram
   return scan;
 }
 
+/// The front scanner's 180-degree scan of one simulated frame, alone.
+inline llc::Scan frontScan(const llc::SimDrive& drive, const llc::SimFrame& frame) {
+  llc::ScannerGeometry g;
+  g.angle_min = llc::simBeamAngle(drive.front, 0);
+  g.angle_increment = llc::simBeamAngle(drive.front, 1) - g.angle_min;
+  g.range_max = drive.front.max_range;
+  return llc::scanFromRanges(frame.front, g, drive.front.mount, frame.stamp);
+}
+
 /// ../shared/data beside the repository, or "" when absent.
 inline std::string sharedDataDir() {
   const char* env = std::getenv("LLC_DATA_DIR");

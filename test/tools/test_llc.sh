@@ -241,6 +241,10 @@ check "localize: poses.csv, a row per scan from the start, nan while lost" 0 "^o
 check "localize: the report" 0 "^ok$" -- awk -F'[= ]' '{v[$1] = $2} END {
     print (v["first_fix_scan"] >= 100 && v["first_fix_travel_m"] < 30 && v["fixes"] >= 1 && v["rms_error_localized_m"] < 0.2 && v["wrong_poses"] == 0 ? "ok" : "not ok") }' "$TMP/loc/report.txt"
 check "localize: search.csv" 0 "^scan,path_m,candidates,loops,agreeing_keyframes,rival_keyframes,joined,recent_fit,why_not$" -- head -1 "$TMP/loc/search.csv"
+check "localize: candidates.csv, each search's candidates; every accepted one a reason-free row, the map's place for some" 0 "^ok$" -- awk -F, '
+    NR == 1 { if ($0 != "scan,map_keyframe,score,accepted,inlier_share,x,y,theta,error_m,error_deg,why_not") bad++; next }
+    { n++; if ($4 == 1) { acc++; if ($11 != "\"\"") bad++; if ($9 < 0.3) right++ } else if ($11 == "\"\"") bad++ }
+    END { print (!bad && n > 0 && right > 0 ? "ok" : "not ok: " n " rows, " acc " accepted, " right " right, " bad " bad") }' "$TMP/loc/candidates.csv"
 check "localize: kidnapped, noticed within 2 s, never wrong after" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --truth '$TMP/sim/sim.log' --start-scan 100 --kidnap-at 300 --kidnap-to 600 --end-scan 800 --out '$TMP/loc_kidnap' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"kidnap_lost_after_s\"] >= 0 && v[\"kidnap_lost_after_s\"] <= 2 && v[\"wrong_poses_after_kidnap_lost\"] == 0 && v[\"relocalizations\"] >= 1 ? \"ok\" : \"not ok: lost after \" v[\"kidnap_lost_after_s\"] \" s\")}'"
 check "localize --starts: starts.csv and the summary" 0 "^ok$" -- bash -c "'$LLC' localize --session '$TMP/sim_log.llcsession' --log '$TMP/sim/sim.log' --drift moderate --truth '$TMP/sim/sim.log' --starts 3 --start-travel 30 --out '$TMP/loc_starts' | awk -F'[= ]' '{v[\$1] = \$2} END {print (v[\"starts\"] == 3 && v[\"wrong_fixes\"] == 0 && v[\"fixed_share\"] == 1 ? \"ok\" : \"not ok\")}' && test \$(wc -l < '$TMP/loc_starts/starts.csv') -eq 4"
 check "slam: no input" 2 "give --bag BAG or --log LOG" -- "$LLC" slam --out "$TMP/slam3"

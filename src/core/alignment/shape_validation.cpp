@@ -33,6 +33,7 @@ FieldOfView FieldOfView::arc(double bearing_min, double bearing_max, double max_
   view.edge_min_ = Point2(std::cos(bearing_min), std::sin(bearing_min));
   view.edge_max_ = Point2(std::cos(bearing_max), std::sin(bearing_max));
   view.wide_ = bearing_max - bearing_min > M_PI;
+  view.width_ = bearing_max - bearing_min;
   return view;
 }
 

@@ -8,6 +8,18 @@
 
 namespace llc {
 
+Pose2 whereTheMapHasIt(const MapWithTruth& map, const Pose2& truth, double* nearest_m) {
+  std::size_t nearest = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t m = 0; m < map.truth.size() && m < map.poses.size(); ++m) {
+    const double d = std::hypot(map.truth[m].x - truth.x, map.truth[m].y - truth.y);
+    if (d < best) best = d, nearest = m;
+  }
+  if (nearest_m) *nearest_m = best;
+  return std::isfinite(best) ? compose(map.poses[nearest], between(map.truth[nearest], truth))
+                             : compose(inverse(map.truth_from_map), truth);
+}
+
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
                                     double wrong_translation, double wrong_rotation, double judge_within) {
   LocalizationScore score;
@@ -17,19 +29,12 @@ LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, con
   double sum = 0.0, sum_global = 0.0;
   for (const LocalizedScan& s : scans) {
     if (!s.localized) continue;
-    // Where the map has this scan's place: from the map keyframe truly nearest to it.
-    std::size_t nearest = 0;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t m = 0; m < map.truth.size() && m < map.poses.size(); ++m) {
-      const double d = std::hypot(map.truth[m].x - s.truth.x, map.truth[m].y - s.truth.y);
-      if (d < best) best = d, nearest = m;
-    }
-    if (std::isfinite(best) && best > judge_within) {
+    double nearest = 0.0;
+    const Pose2 expected = whereTheMapHasIt(map, s.truth, &nearest);
+    if (std::isfinite(nearest) && nearest > judge_within) {
       ++score.beyond_map;
       continue;
     }
-    const Pose2 expected = std::isfinite(best) ? compose(map.poses[nearest], between(map.truth[nearest], s.truth))
-                                               : compose(inverse(map.truth_from_map), s.truth);
     const Pose2 error = between(expected, s.pose);
     const Pose2 global = between(s.truth, compose(map.truth_from_map, s.pose));
     const double metres = std::hypot(error.x, error.y), global_metres = std::hypot(global.x, global.y);
@@ -52,7 +57,8 @@ LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, con
   return score;
 }
 
-std::vector<bool> startsNearMap(const std::vector<Pose2>& truth, const std::vector<Pose2>& mapped, double travel, double radius) {
+std::vector<bool> startsNearMap(const std::vector<Pose2>& truth, const std::vector<Pose2>& mapped, double travel, double radius,
+                                double max_heading) {
   // Mapped positions in cells of `radius`: a query looks at its cell and the eight around it.
   auto cell = [&](double x, double y) {
     return std::pair<std::int64_t, std::int64_t>{std::int64_t(std::floor(x / radius)), std::int64_t(std::floor(y / radius))};
@@ -72,7 +78,8 @@ std::vector<bool> startsNearMap(const std::vector<Pose2>& truth, const std::vect
       for (std::int64_t dj = -1; dj <= 1 && !near[s]; ++dj) {
         const auto range = grid.equal_range(key(i + di, j + dj));
         for (auto it = range.first; it != range.second; ++it)
-          if (std::hypot(mapped[it->second].x - truth[s].x, mapped[it->second].y - truth[s].y) <= radius) {
+          if (std::hypot(mapped[it->second].x - truth[s].x, mapped[it->second].y - truth[s].y) <= radius &&
+              std::abs(normalizeAngle(mapped[it->second].theta - truth[s].theta)) <= max_heading) {
             near[s] = true;
             break;
           }

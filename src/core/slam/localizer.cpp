@@ -207,6 +207,7 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
                             options_.global_candidates, options_.score_threshold, options_.search_threads);
   step.searched = true;
   step.candidates = found.aligned.size();
+  step.search_results = found.aligned;
   std::vector<JoinHypothesis> loops;
   const Pose2 hinted = compose(hint_.map_from_trajectory, trajectory_pose);
   const double hint_radius = hint_.radius + options_.join.drift_per_metre * (path_.length - hint_.path);
@@ -221,6 +222,7 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
     hypothesis.map_pose = map_pose;
     hypothesis.map_keyframe = loop.from;
     hypothesis.covariance = loop.covariance;
+    hypothesis.view_width = front_.detector().prepared(keyframe).view.width();
     loops.push_back(hypothesis);
   }
   step.loops_to_map = loops.size();

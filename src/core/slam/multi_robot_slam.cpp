@@ -242,6 +242,7 @@ JoinHypothesis MultiRobotSlam::joinHypothesis(std::size_t robot, const LoopClosu
   h.map_keyframe = loop.from;
   h.map_pose = compose(map_.poses()[loop.from], loop.pose);
   h.covariance = loop.covariance;
+  h.view_width = robots_[robot]->detector().prepared(loop.to).view.width();
   if (Esdf* esdf = map_.esdf(); esdf && loop.from < esdf->size()) {
     const Eigen::Matrix3d c = esdf->marginalCovariance(loop.from);
     h.map_std = std::sqrt(std::max(0.0, c(0, 0) + c(1, 1)));  // at least the largest standard deviation
@@ -306,6 +307,7 @@ void MultiRobotSlam::searchPeers(std::size_t robot, const Query& query, RobotSte
       h.map_keyframe = loop.from;
       h.map_pose = compose(state_[other].chain.at(loop.from), loop.pose);
       h.covariance = loop.covariance;
+      h.view_width = query.scan->view.width();
       hypotheses.push_back(h);
       peer_loops_[pair].push_back(loop);
     }

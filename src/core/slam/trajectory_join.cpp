@@ -10,6 +10,7 @@ namespace llc {
 std::string TrajectoryJoinOptions::validate() const {
   if (min_keyframes < 2) return "min_keyframes must be >= 2 (one loop alone is a guess)";
   if (!(min_spread >= 0.0) || !std::isfinite(min_spread)) return "min_spread must be >= 0 m";
+  if (!(min_new_view >= 0.0 && min_new_view <= M_PI)) return "min_new_view must be in [0, pi] rad";
   if (!(max_translation > 0.0) || !std::isfinite(max_translation)) return "max_translation must be > 0 m";
   if (!(max_rotation > 0.0) || !std::isfinite(max_rotation)) return "max_rotation must be > 0 rad";
   if (!(drift_per_metre >= 0.0) || !std::isfinite(drift_per_metre)) return "drift_per_metre must be >= 0";
@@ -17,6 +18,22 @@ std::string TrajectoryJoinOptions::validate() const {
   if (!(window > min_spread) || !std::isfinite(window)) return "window must be finite and > min_spread";
   return "";
 }
+
+namespace {
+
+/// rad of view the keyframes see together beyond what one of them sees: their largest heading
+/// difference, up to what the widest field of view leaves unseen.
+double newViewOf(const std::vector<JoinHypothesis>& kept, const std::vector<std::size_t>& story) {
+  double turn = 0.0, widest = 0.0;
+  for (std::size_t i : story) {
+    widest = std::max(widest, kept[i].view_width);
+    for (std::size_t j : story)
+      turn = std::max(turn, std::abs(normalizeAngle(kept[i].trajectory_pose.theta - kept[j].trajectory_pose.theta)));
+  }
+  return std::min(turn, std::max(0.0, 2.0 * M_PI - widest));
+}
+
+}  // namespace
 
 TrajectoryJoin::TrajectoryJoin(const TrajectoryJoinOptions& options, MapAllowanceOf map_allowance, double map_sigmas)
     : options_(options), map_allowance_(std::move(map_allowance)), map_sigmas_(map_sigmas) {
@@ -103,9 +120,11 @@ TrajectoryJoinResult TrajectoryJoin::offer(const std::vector<JoinHypothesis>& lo
   result.rival_keyframes = rival;
   if (best_story.size() < options_.min_keyframes) {
     result.why_not = std::to_string(best_story.size()) + " keyframes agree, " + std::to_string(options_.min_keyframes) + " needed";
-  } else if (last - first < options_.min_spread) {
-    result.why_not = "the keyframes that agree span " + std::to_string(last - first) + " m of path, " +
-                     std::to_string(options_.min_spread) + " needed";
+  } else if (last - first < options_.min_spread &&
+             !(options_.min_new_view > 0.0 && newViewOf(kept_, best_story) >= options_.min_new_view)) {
+    result.why_not = "the keyframes that agree span " + std::to_string(last - first) + " m of path and see " +
+                     std::to_string(newViewOf(kept_, best_story)) + " rad more than one of them, " +
+                     std::to_string(options_.min_spread) + " m or " + std::to_string(options_.min_new_view) + " rad needed";
   } else if (best_story.size() < rival + options_.min_lead) {
     result.why_not = std::to_string(best_story.size()) + " keyframes agree, but " + std::to_string(rival) +
                      " agree on another place";

@@ -157,6 +157,8 @@ TEST(ShapeValidation, CountsOnlyPointsTheOtherScannerCouldSee) {
   EXPECT_FALSE(f.fullCircle());
   EXPECT_TRUE(f.contains(Point2(1, 0.5)));
   EXPECT_FALSE(f.contains(Point2(-1, 0.5)));
+  EXPECT_NEAR(f.width(), M_PI, 1e-12);  // what a turn on the spot can add to it: TrajectoryJoin
+  EXPECT_NEAR(half.width(), 2 * M_PI, 1e-12);
 }
 
 TEST(ShapeValidation, SeenThroughShareByHand) {

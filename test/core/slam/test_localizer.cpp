@@ -5,11 +5,13 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../test_util.hpp"
@@ -19,20 +21,29 @@
 
 namespace {
 
-/// A 600 m drive mapped once for all tests; the map frame laid onto the truth by its keyframes.
-struct MappedCity {
-  llc::SimDrive drive = llc_test::simulatedDrive(600.0);
+/// A drive mapped by the pipeline from the scans `scan_of` makes of its frames; the map frame
+/// laid onto the truth by its keyframes.
+struct MappedDrive {
   llc::SlamSession session;
   llc::Pose2 truth_from_map;
-  MappedCity() {
+  template <class ScanOf>
+  MappedDrive(const llc::SimDrive& drive, ScanOf&& scan_of) {
     llc::SlamPipeline slam(llc_test::defaultModel());
-    for (std::size_t i = 0; i < drive.frames.size(); ++i)
-      slam.addScan(llc_test::frameScan(drive, drive.frames[i]), i, &drive.frames[i].odometry);
+    for (std::size_t i = 0; i < drive.frames.size(); ++i) slam.addScan(scan_of(drive, drive.frames[i]), i, &drive.frames[i].odometry);
     session = slam.session();
     std::vector<llc::Pose2> truth;
     for (const llc::Keyframe& k : session.keyframes) truth.push_back(drive.frames[k.scan_index].truth);
     llc::alignedRmsError(session.poses, truth, &truth_from_map);
   }
+};
+
+struct CityDrive {
+  llc::SimDrive drive = llc_test::simulatedDrive(600.0);
+};
+
+/// A 600 m drive mapped once for all tests, both scanners (the drive is made first: bases in order).
+struct MappedCity : CityDrive, MappedDrive {
+  MappedCity() : MappedDrive(drive, llc_test::frameScan) {}
 };
 
 const MappedCity& city() {
@@ -119,6 +130,66 @@ TEST(Localizer, NoticesBeingCarriedAwayAndFindsItselfAgain) {
   EXPECT_GE(fixed_again, 1u);
   EXPECT_EQ(localizer.counters().lost_events, 1u);
   EXPECT_EQ(localizer.counters().relocalizations, 1u);
+}
+
+/// The same drive mapped by its front scanner alone (180 degrees).
+struct FrontOnlyCity : MappedDrive {
+  FrontOnlyCity() : MappedDrive(city().drive, llc_test::frontScan) {}
+};
+
+const FrontOnlyCity& frontOnlyCity() {
+  static const FrontOnlyCity mapped;
+  return mapped;
+}
+
+/// What a 180-degree scanner at frame `frame`'s place sees turned by `turn` from its heading:
+/// the beams of the 360-degree scan within 90 degrees of the new heading, in the turned frame.
+llc::Scan turnedHalfView(const llc::SimFrame& frame, double turn, double stamp) {
+  const llc::Scan full = llc_test::frameScan(city().drive, frame);
+  std::vector<std::pair<double, double>> beams;  // (bearing, range)
+  for (std::size_t i = 0; i < full.size(); ++i) {
+    const double bearing = llc::normalizeAngle(full.bearings[i] - turn);
+    if (std::abs(bearing) <= M_PI / 2) beams.emplace_back(bearing, full.ranges[i]);
+  }
+  std::sort(beams.begin(), beams.end());
+  llc::Scan half;
+  for (const auto& [bearing, range] : beams) half.bearings.push_back(bearing), half.ranges.push_back(range);
+  half.stamp = stamp;
+  return half;
+}
+
+/// Turns a 180-degree scanner on the spot at a mapped place, 0.4 rad per keyframe: the steps.
+std::vector<llc::LocalizationStep> turnOnTheSpot(llc::Localizer& localizer, std::size_t frame, int keyframes) {
+  const llc::SimFrame& at = city().drive.frames[frame];
+  std::vector<llc::LocalizationStep> steps;
+  for (int k = 0; k < keyframes; ++k) {
+    const double turn = 0.4 * k;
+    const llc::Pose2 odometry = llc::compose(at.odometry, llc::Pose2{0.0, 0.0, turn});
+    steps.push_back(localizer.addScan(turnedHalfView(at, turn, at.stamp + double(k)), &odometry));
+  }
+  return steps;
+}
+
+TEST(Localizer, AHalfCircleScannerTurningOnTheSpotFindsItselfWithoutDriving) {
+  // Its keyframes see new walls as it turns: they count as views apart (join/min_new_view), as
+  // metres of path do. With that off, the same turn never fixes it: 0 m of path.
+  llc::Localizer turning(llc_test::defaultModel(), {}, frontOnlyCity().session);
+  const std::vector<llc::LocalizationStep> steps = turnOnTheSpot(turning, 450, 9);
+  const llc::Pose2& truth = city().drive.frames[450].truth;
+  std::size_t fixes = 0;
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    fixes += steps[k].fixed;
+    if (!steps[k].has_pose) continue;
+    const llc::Pose2 e = llc::between(llc::compose(truth, llc::Pose2{0.0, 0.0, 0.4 * double(k)}),
+                                      llc::compose(frontOnlyCity().truth_from_map, steps[k].pose));
+    EXPECT_LT(std::hypot(e.x, e.y), 0.3) << "step " << k;
+    EXPECT_LT(std::abs(e.theta), 0.05) << "step " << k;
+  }
+  EXPECT_EQ(fixes, 1u);
+  llc::LocalizerOptions off;
+  off.join.min_new_view = 0.0;
+  llc::Localizer still(llc_test::defaultModel(), {}, frontOnlyCity().session, off);
+  for (const llc::LocalizationStep& step : turnOnTheSpot(still, 450, 9)) EXPECT_FALSE(step.has_pose);
 }
 
 TEST(Localizer, LetsGoOfItsOwnOldScansAndTracksTheSame) {

@@ -68,6 +68,65 @@ TEST(TrajectoryJoin, OneViewSeenThriceIsNotEnough) {
   EXPECT_NE(r.why_not.find("span"), std::string::npos) << r.why_not;
 }
 
+/// Keyframe k on the spot (path `path`), turned to `heading` in the robot's frame, with a field
+/// of view `view_width`, and a loop that puts it where `map_from_trajectory` says.
+JoinHypothesis turnedLoopAt(std::size_t keyframe, double path, double heading, double view_width, const Pose2& map_from_trajectory) {
+  JoinHypothesis h;
+  h.keyframe = keyframe;
+  h.path = path;
+  h.trajectory_pose = {0.0, 0.0, heading};
+  h.map_pose = compose(map_from_trajectory, h.trajectory_pose);
+  h.view_width = view_width;
+  return h;
+}
+
+TEST(TrajectoryJoin, AHalfCircleScannerTurnedOnTheSpotSeesNewViews) {
+  // A 180-degree scanner turning on the spot: keyframes 0, 25 and 50 degrees round, 0.1 m of
+  // path in all. 50 degrees of new view: enough (min_new_view 45 degrees).
+  const double deg = M_PI / 180.0;
+  TrajectoryJoin join;
+  join.offer({turnedLoopAt(0, 0.0, 0.0, M_PI, kTrue)});
+  join.offer({turnedLoopAt(1, 0.05, 25 * deg, M_PI, kTrue)});
+  const llc::TrajectoryJoinResult turned = join.offer({turnedLoopAt(2, 0.1, 50 * deg, M_PI, kTrue)});
+  ASSERT_TRUE(turned.joined) << turned.why_not;
+  EXPECT_NEAR(turned.map_from_trajectory.x, kTrue.x, 1e-9);
+  // Turned by 40 degrees only: not yet.
+  TrajectoryJoin short_turn;
+  short_turn.offer({turnedLoopAt(0, 0.0, 0.0, M_PI, kTrue)});
+  short_turn.offer({turnedLoopAt(1, 0.05, 20 * deg, M_PI, kTrue)});
+  const llc::TrajectoryJoinResult forty = short_turn.offer({turnedLoopAt(2, 0.1, 40 * deg, M_PI, kTrue)});
+  EXPECT_FALSE(forty.joined);
+  EXPECT_NE(forty.why_not.find("span"), std::string::npos) << forty.why_not;
+  // A 300-degree scanner turned by 90 degrees sees only 60 new degrees: enough; a 330-degree
+  // one 30: not.
+  for (const auto& [width, joins] : {std::pair{300 * deg, true}, std::pair{330 * deg, false}}) {
+    TrajectoryJoin wide;
+    wide.offer({turnedLoopAt(0, 0.0, 0.0, width, kTrue)});
+    wide.offer({turnedLoopAt(1, 0.05, 45 * deg, width, kTrue)});
+    EXPECT_EQ(wide.offer({turnedLoopAt(2, 0.1, 90 * deg, width, kTrue)}).joined, joins) << width / deg;
+  }
+}
+
+TEST(TrajectoryJoin, AFullCircleScannerTurnedOnTheSpotSeesTheSameView) {
+  // The same turn with a 360-degree scan: one view seen thrice, however far it turns; the same
+  // with min_new_view 0 (off) for any scanner.
+  const double deg = M_PI / 180.0;
+  TrajectoryJoin full;  // view_width defaults to the full circle
+  full.offer({turnedLoopAt(0, 0.0, 0.0, 2 * M_PI, kTrue)});
+  full.offer({turnedLoopAt(1, 0.05, 90 * deg, 2 * M_PI, kTrue)});
+  const llc::TrajectoryJoinResult r = full.offer({turnedLoopAt(2, 0.1, 180 * deg, 2 * M_PI, kTrue)});
+  EXPECT_FALSE(r.joined);
+  EXPECT_NE(r.why_not.find("span"), std::string::npos) << r.why_not;
+  TrajectoryJoinOptions off;
+  off.min_new_view = 0.0;
+  TrajectoryJoin half_off(off);
+  half_off.offer({turnedLoopAt(0, 0.0, 0.0, M_PI, kTrue)});
+  half_off.offer({turnedLoopAt(1, 0.05, 90 * deg, M_PI, kTrue)});
+  EXPECT_FALSE(half_off.offer({turnedLoopAt(2, 0.1, 180 * deg, M_PI, kTrue)}).joined);
+  off.min_new_view = 4.0;  // beyond pi
+  EXPECT_NE(off.validate().find("min_new_view"), std::string::npos);
+}
+
 TEST(TrajectoryJoin, ALookAlikeNearlyAsWellSupportedHoldsTheFixBack) {
   TrajectoryJoin join;  // min_lead 2
   join.offer({loopAt(0, 0.0, kTrue), loopAt(0, 0.0, kLookAlike)});
@@ -210,6 +269,10 @@ TEST(StartsNearMap, AStartCountsWhenItsFirstMetresPassTheMap) {
   const std::vector<bool> starts = llc::startsNearMap(truth, {{15.0, 0.5, 0.0}}, 10.0, 1.0);
   for (int i = 0; i <= 20; ++i) EXPECT_EQ(starts[std::size_t(i)], i >= 5 && i <= 15) << "scan " << i;
   EXPECT_EQ(llc::startsNearMap(truth, {}, 10.0, 1.0), std::vector<bool>(21, false));
+  // The map drove there the other way round: near, but not heading as the map did (45 degrees).
+  EXPECT_EQ(llc::startsNearMap(truth, {{15.0, 0.5, M_PI}}, 10.0, 1.0), starts);
+  EXPECT_EQ(llc::startsNearMap(truth, {{15.0, 0.5, M_PI}}, 10.0, 1.0, M_PI / 4), std::vector<bool>(21, false));
+  EXPECT_EQ(llc::startsNearMap(truth, {{15.0, 0.5, -0.7}}, 10.0, 1.0, M_PI / 4), starts);  // 40 degrees off
 }
 
 TEST(ScoreLocalization, AgainstWhereTheMapHasThePlaceAndAgainstTheTruth) {

@@ -40,6 +40,8 @@ class FieldOfView {
   static FieldOfView arc(double bearing_min, double bearing_max, double max_range);
   bool fullCircle() const { return full_circle_; }
   double maxRange() const { return max_range_; }
+  /// rad: 2 pi for the full circle, else the arc's span.
+  double width() const { return width_; }
   /// Within range and (unless a full circle) between the two edge bearings. ICP asks this
   /// of every source point in every pairing round: two cross products, no atan2.
   bool contains(const Point2& p) const {
@@ -57,6 +59,7 @@ class FieldOfView {
   double max_range_ = 1e9;
   Point2 edge_min_{-1.0, 0.0}, edge_max_{-1.0, 0.0};  ///< unit vectors at the edge bearings
   bool wide_ = false;  ///< the arc spans more than pi: outside only between max and min
+  double width_ = 2.0 * M_PI;
 };
 /// The field of view of a scan: its bearing span (full circle when marked so) and max_range.
 FieldOfView fieldOfView(const Scan& scan, double max_range);

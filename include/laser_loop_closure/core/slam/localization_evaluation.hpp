@@ -2,6 +2,7 @@
 // then each localized pose compared with its scan's true pose.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <limits>
 #include <vector>
@@ -44,6 +45,11 @@ struct LocalizationScore {
   double rms_global_m = 0.0;
 };
 
+/// Where the map has the place of a scan whose true pose is `truth`: its truth relative to the
+/// map keyframe truly nearest, carried by that keyframe's map pose (through truth_from_map
+/// when the map has no keyframe).
+Pose2 whereTheMapHasIt(const MapWithTruth& map, const Pose2& truth, double* nearest_m = nullptr);
+
 /// Scores `scans` against the map (and against the truth: the *_global figures). Scans whose
 /// truth is farther than `judge_within` m from every map keyframe's are counted, not judged.
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
@@ -51,9 +57,11 @@ LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, con
                                     double judge_within = std::numeric_limits<double>::infinity());
 
 /// Scans from which a localiser can be asked to find itself: those whose true path, over its
-/// first `travel` m, passes within `radius` of a mapped pose (`mapped`, truth frame). A start
-/// elsewhere drives where nothing was mapped.
+/// first `travel` m, passes within `radius` of a mapped pose (`mapped`, truth frame) heading
+/// within `max_heading` rad of it. A start elsewhere drives where nothing was mapped; with a
+/// max_heading below pi, where nothing was mapped looking that way (a scanner of less than the
+/// full circle, driving a mapped corridor the other way round, sees what the map never saw).
 std::vector<bool> startsNearMap(const std::vector<Pose2>& truth, const std::vector<Pose2>& mapped, double travel = 10.0,
-                                double radius = 1.0);
+                                double radius = 1.0, double max_heading = M_PI);
 
 }  // namespace llc

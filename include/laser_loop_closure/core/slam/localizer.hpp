@@ -76,6 +76,9 @@ struct LocalizationStep {
   bool searched = false;        ///< a keyframe classified against the whole map (while lost)
   std::size_t candidates = 0;   ///< when searched: classifier candidates at or above the threshold, aligned
   std::size_t loops_to_map = 0;  ///< when searched: of those, shape-validated (look-alikes included)
+  /// When searched: every candidate aligned, accepted or not, with what the aligner and shape
+  /// validation said (from: the map keyframe; pose: this keyframe in its frame).
+  std::vector<LoopClosure> search_results;
   TrajectoryJoinResult join;  ///< when a keyframe searched while lost: whether it fixed the robot, or why not
   std::string why_lost;       ///< when lost: why
   std::string skip_reason;    ///< non-empty: the front end did not use the scan

@@ -34,6 +34,7 @@ template <class Visit>
 void visitJoinParameters(const std::string& prefix, TrajectoryJoinOptions& o, Visit&& visit) {
   visit(prefix + "min_keyframes", o.min_keyframes);
   visit(prefix + "min_spread", o.min_spread);
+  visit(prefix + "min_new_view", o.min_new_view);
   visit(prefix + "max_translation", o.max_translation);
   visit(prefix + "max_rotation", o.max_rotation);
   visit(prefix + "drift_per_metre", o.drift_per_metre);

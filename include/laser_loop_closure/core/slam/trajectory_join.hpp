@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstddef>
 #include <functional>
 #include <map>
@@ -21,7 +22,11 @@ namespace llc {
 
 struct TrajectoryJoinOptions {
   std::size_t min_keyframes = 3;  ///< keyframes whose loops agree before the trajectory is joined
-  double min_spread = 1.0;        ///< m of the trajectory's own path between the first and last of them (not one view seen thrice)
+  double min_spread = 1.0;        ///< m of the trajectory's own path between the first and last of them (not one view seen thrice) ...
+  /// ... or rad of view they see together beyond what one of them sees: a scanner of less than
+  /// the full circle turned on the spot sees new walls (45 degrees: views this far apart are
+  /// two places to the classifier's labels, llc pairs --positive-heading-deg); 0: off.
+  double min_new_view = 0.785;
   double max_translation = 0.5;   ///< m; two loops agree when one's map frame puts the other's keyframe within this ...
   double max_rotation = 0.1;      ///< rad; ... and this of where its own loop puts it
   double drift_per_metre = 0.02;  ///< m/m; the trajectory's odometry drift allowed on top of max_translation, per m of path between the two keyframes
@@ -39,6 +44,8 @@ struct JoinHypothesis {
   Pose2 map_pose;                ///< the keyframe in the map frame, by the loop
   std::size_t map_keyframe = 0;  ///< the map keyframe the loop reached
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  ///< the loop's (its pose's x, y, theta)
+  /// rad: the keyframe's field of view (2 pi, the full circle: turned on the spot, it sees nothing new).
+  double view_width = 2.0 * M_PI;
   /// m: an upper bound on the standard deviation of map_keyframe's position in the map (0: the
   /// map taken as exact there); two loops whose bounds sum small need no MapAllowance.
   double map_std = 0.0;
