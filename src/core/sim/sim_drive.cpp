@@ -12,6 +12,7 @@ namespace {
 
 constexpr double kLaneOffset = 2.0;   // m right of the street centre line
 constexpr double kTurnRadius = 9.0;   // m, on the centre line
+constexpr double kEgoHalfWidth = 0.9;  // m; half the ego vehicle's width, around its axis (base to scanners)
 
 /// A path of poses at arc length s: straight pieces and circular arcs.
 struct PathPiece {
@@ -158,7 +159,15 @@ SimDrive simulateDrive(const SimWorld& world, const SimDriveOptions& options) {
     }
     frame.odometry = odometry;
     previous_truth = truth;
-    const std::vector<WorldSegment> movers = world.moverOutlines(t, truth.x, truth.y, drive.front.max_range + 5.0);
+    // The ego vehicle's axis, base to scanners: no mover drives through it.
+    std::vector<WorldPoint> ego = {{truth.x, truth.y}};
+    for (const SimScannerOptions* scanner : scanners)
+      if (scanner) {
+        const Pose2 at = compose(truth, scanner->mount);
+        ego.push_back({at.x, at.y});
+      }
+    const std::vector<WorldSegment> movers =
+        world.moverOutlines(t, truth.x, truth.y, drive.front.max_range + 5.0, ego, kEgoHalfWidth);
     for (int k = 0; k < 2; ++k) {
       if (!scanners[k]) continue;
       const SimScannerOptions& scanner = *scanners[k];

@@ -316,13 +316,20 @@ double SimWorld::castRay(double x, double y, double angle, double time, double m
   return best <= max_range ? best : INFINITY;
 }
 
-std::vector<WorldSegment> SimWorld::moverOutlines(double time, double x, double y, double range) const {
+std::vector<WorldSegment> SimWorld::moverOutlines(double time, double x, double y, double range,
+                                                  const std::vector<WorldPoint>& ego, double ego_half_width) const {
   std::vector<WorldSegment> out;
   for (const WorldMover& m : movers_) {
     if (time < m.start || time >= m.stop) continue;
     const double travelled = m.speed * (time - m.start);
-    const double cx = m.origin.x + std::cos(m.heading) * travelled, cy = m.origin.y + std::sin(m.heading) * travelled;
+    const double c = std::cos(m.heading), s = std::sin(m.heading);
+    const double cx = m.origin.x + c * travelled, cy = m.origin.y + s * travelled;
     if (std::hypot(cx - x, cy - y) > range + m.length) continue;
+    const bool through_ego = std::any_of(ego.begin(), ego.end(), [&](const WorldPoint& p) {
+      const double along = c * (p.x - cx) + s * (p.y - cy), across = -s * (p.x - cx) + c * (p.y - cy);
+      return std::abs(along) <= 0.5 * m.length + ego_half_width && std::abs(across) <= 0.5 * m.width + ego_half_width;
+    });
+    if (through_ego) continue;
     const auto corners = boxCorners(cx, cy, m.heading, m.length, m.width);
     for (std::size_t k = 0; k < 4; ++k) out.push_back({corners[k], corners[(k + 1) % 4]});
   }

@@ -65,8 +65,12 @@ class SimWorld {
   double castRay(double x, double y, double angle, double time, double max_range,
                  const std::vector<WorldSegment>* extra = nullptr) const;
 
-  /// Outlines of the movers present at `time` within `range` of (x, y).
-  std::vector<WorldSegment> moverOutlines(double time, double x, double y, double range) const;
+  /// Outlines of the movers present at `time` within `range` of (x, y). A mover whose box, grown
+  /// by `ego_half_width`, holds one of the `ego` points (the ego vehicle's axis: its base and
+  /// scanners) would be driving through the ego vehicle; it is left out meanwhile, as if it had
+  /// gone round (movers keep lane and speed; the ego is no obstacle to them).
+  std::vector<WorldSegment> moverOutlines(double time, double x, double y, double range,
+                                          const std::vector<WorldPoint>& ego = {}, double ego_half_width = 0.0) const;
 
   /// Distance from (x, y) to the nearest surface present at `time` (for tests: scan points lie
   /// on surfaces). Brute force.
