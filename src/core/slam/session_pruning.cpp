@@ -20,10 +20,15 @@ namespace {
 
 /// Which keyframes to retire: in each place and heading sector, all but the keep_per_place newest (or oldest).
 std::vector<char> keyframesToRetire(const SlamSession& session, const SessionPruningOptions& options, std::size_t* places) {
+  // Places are centred on the map's origin and axes, sectors on heading 0: a robot driving
+  // along the map's first line, or a corridor along its axes, stays in one place as it wavers
+  // by millimetres (with edges there, each wobble across one kept a keyframe more).
   auto placeOf = [&](const Pose2& pose) {
-    const double turn = (normalizeAngle(pose.theta) + M_PI) / (2.0 * M_PI);  // 0 .. 1
-    const long sector = std::min(long(options.heading_sectors) - 1, long(turn * double(options.heading_sectors)));
-    return std::make_tuple(long(std::floor(pose.x / options.place_size)), long(std::floor(pose.y / options.place_size)), sector);
+    const double turn = normalizeAngle(pose.theta) / (2.0 * M_PI);  // -0.5 .. 0.5
+    const long sectors = long(options.heading_sectors);
+    const long sector = ((long(std::floor(turn * double(sectors) + 0.5)) % sectors) + sectors) % sectors;
+    return std::make_tuple(long(std::floor(pose.x / options.place_size + 0.5)),
+                           long(std::floor(pose.y / options.place_size + 0.5)), sector);
   };
   std::map<std::tuple<long, long, long>, std::size_t> seen;  // place -> keyframes kept there so far
   std::vector<char> retire(session.poses.size(), 0);

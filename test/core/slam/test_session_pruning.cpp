@@ -69,8 +69,8 @@ TEST(SessionPruning, TwoLapsKeepTheNewestKeyframeOfEachPlaceAndHeading) {
     if (i > 0) EXPECT_EQ(after.robots[i], 1u);
     if (i > 0) EXPECT_GE(after.keyframes[i].scan_index, 32u);
     const Pose2& p = after.poses[i];
-    const long sector = long((llc::normalizeAngle(p.theta) + M_PI) / (2 * M_PI) * 4);
-    EXPECT_TRUE(places.insert({long(std::floor(p.x / 2.0)), long(std::floor(p.y / 2.0)), sector}).second)
+    const long sector = (long(std::floor(llc::normalizeAngle(p.theta) / (2 * M_PI) * 4 + 0.5)) + 4) % 4;
+    EXPECT_TRUE(places.insert({long(std::floor(p.x / 2.0 + 0.5)), long(std::floor(p.y / 2.0 + 0.5)), sector}).second)
         << "two keyframes kept in one place";
   }
   // Loop records name kept keyframes only, renumbered: of lap 1 only keyframe 0 is left.
@@ -115,6 +115,33 @@ TEST(SessionPruning, KeepingTheOldestKeepsTheFirstLap) {
   EXPECT_GE(after.constraints.size(), after.keyframes.size() - 1);
   llc::SlamBackEnd back;
   EXPECT_EQ(back.restore(after), "");
+}
+
+TEST(SessionPruning, ARobotWaveringAboutTheMapsAxisKeepsOneKeyframePerPlace) {
+  // Three passes along the map's x axis (heading 0 and pi), a keyframe per metre, each pass
+  // wavering by a millimetre across y = 0 and heading 0: places are centred there, so each
+  // 2 m of each direction keeps one keyframe, whatever the wobble.
+  llc::SlamSession s;
+  const Eigen::Matrix3d information = Eigen::Vector3d(100.0, 400.0, 900.0).asDiagonal();
+  for (std::size_t pass = 0; pass < 3; ++pass)
+    for (std::size_t k = 0; k < 20; ++k) {
+      const std::size_t i = s.poses.size();
+      const double wobble = (i % 2 ? 1e-3 : -1e-3);
+      const bool back = pass == 1;
+      s.poses.push_back({back ? 19.0 - double(k) : double(k), wobble, (back ? M_PI : 0.0) + wobble});
+      llc::Keyframe key;
+      key.scan_index = i, key.stamp = double(i), key.scan = llc_test::ringScan({1.0, 2.0, 3.0});
+      s.keyframes.push_back(key);
+      s.features.push_back({double(i), 1.0});
+      s.robots.push_back(0);
+      if (i > 0) s.constraints.push_back({i - 1, i, llc::between(s.poses[i - 1], s.poses[i]), information});
+    }
+  ASSERT_EQ(s.validate(), "");
+  llc::SessionPruningResult r;
+  const llc::SlamSession after = llc::pruneSession(s, llc::SessionPruningOptions{}, &r);
+  // x = 0 .. 19 in centred 2 m places: 11 places (x -1..1, 1..3, ..., 19..21) each way.
+  EXPECT_EQ(r.places, 22u);
+  EXPECT_EQ(after.keyframes.size(), 22u);
 }
 
 TEST(SessionPruning, KeepingNoneMeansNoPruningAndBadOptionsAreRefused) {
