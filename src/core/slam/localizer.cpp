@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <future>
 #include <stdexcept>
+#include <utility>
 
 #include "laser_loop_closure/core/common/file_util.hpp"
 
@@ -207,7 +208,7 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
                             options_.global_candidates, options_.score_threshold, options_.search_threads);
   step.searched = true;
   step.candidates = found.aligned.size();
-  step.search_results = found.aligned;
+  const double view_width = front_.detector().prepared(keyframe).view.width();
   std::vector<JoinHypothesis> loops;
   const Pose2 hinted = compose(hint_.map_from_trajectory, trajectory_pose);
   const double hint_radius = hint_.radius + options_.join.drift_per_metre * (path_.length - hint_.path);
@@ -222,10 +223,11 @@ void Localizer::search(std::size_t keyframe, const Pose2& trajectory_pose, Local
     hypothesis.map_pose = map_pose;
     hypothesis.map_keyframe = loop.from;
     hypothesis.covariance = loop.covariance;
-    hypothesis.view_width = front_.detector().prepared(keyframe).view.width();
+    hypothesis.view_width = view_width;
     loops.push_back(hypothesis);
   }
   step.loops_to_map = loops.size();
+  step.search_results = std::move(found.aligned);
   counters_.loops_to_map += loops.size();
   step.join = join_.offer(loops);
   if (step.join.joined) {
