@@ -104,11 +104,20 @@ int runGraph(const Args& args) {
     throw ToolError(in_path + ": " + std::to_string(graph.poses.size() - filter.size()) +
                     " poses cannot be reached from pose 0 along the edges");
   if (batch) filter.solveFrom(graph.poses);
-  // Robust loops, incremental: a wrong loop that arrived first fits at the end and the true
-  // ones that contradict it do not, so the end state is solved again robustly from the
-  // file's start, and of the two the lower robust cost kept.
+  // Wrong loops. Least squares ends with constraints that misfit beyond the gate's threshold
+  // when a wrong loop bent the graph (the loop itself, or the odometry it bent when the graph
+  // fitted it; or a true constraint is very unlucky): then, unless --least-squares,
+  // the graph is solved again robustly (robust_loop_chi2 = loop_chi2_threshold) from the
+  // file's start, and of that and the least-squares end the lower robust cost is kept. Given
+  // --esdf/robust_loop_chi2, an incremental run reweights as it goes and is re-solved so too.
+  const std::size_t misfits = filter.misfitConstraints(options.loop_chi2_threshold);
+  bool robust = options.robust_loop_chi2 > 0.0, resolve = robust && !batch;
+  if (!robust && misfits > 0 && !args.has("least-squares")) {
+    filter.setRobustLoopChi2(options.loop_chi2_threshold);
+    robust = resolve = true;
+  }
   bool robust_resolve_kept = false;
-  if (!batch && options.robust_loop_chi2 > 0.0) {
+  if (resolve) {
     const std::vector<llc::Pose2> incremental = filter.mean();
     const double incremental_cost = filter.robustCost();
     filter.solveFrom(graph.poses);
@@ -135,9 +144,10 @@ int runGraph(const Args& args) {
             << " seconds_solves=" << filter.timings().solves
             << " seconds_factorizations=" << filter.timings().factorizations << " initial_chi2=" << std::setprecision(10)
             << llc::chiSquared(graph.edges, graph.poses) << " -> " << out_path << "\n";
-  if (options.robust_loop_chi2 > 0.0)
+  std::cout << "misfit_constraints=" << misfits << "\n";
+  if (robust)
     std::cout << "robust: loops_down_weighted=" << down_weighted << " robust_cost=" << filter.robustCost()
-              << (batch ? "" : robust_resolve_kept ? " (the robust re-solve from the start kept)" : " (the incremental end kept)")
+              << (!resolve ? "" : robust_resolve_kept ? " (the robust re-solve from the start kept)" : " (the run's own end kept)")
               << "\n";
   std::cout << "chi2=" << llc::chiSquared(graph.edges, out.poses) << "\n";
   std::cout << "seconds=" << std::setprecision(4) << seconds << "\n";

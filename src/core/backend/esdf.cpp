@@ -271,7 +271,7 @@ void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& t
   edge_models_.emplace_back();
   edges_.push_back(edge);
   edge_points_.push_back({from_point, to_point});
-  robust_.push_back(robust && options_.robust_loop_chi2 > 0.0);
+  robust_.push_back(robust);
   weights_.push_back(1.0);
   weights_.back() = robustWeight(edges_.size() - 1);  // scaled from the start when it does not fit
   addToSystem(edges_.size() - 1, 1.0);
@@ -533,6 +533,19 @@ int Esdf::graduatedSolve(const std::vector<Pose2>& poses, double start_widen) {
   return rounds;
 }
 
+void Esdf::setRobustLoopChi2(double w) {
+  EsdfOptions options = options_;
+  options.robust_loop_chi2 = w;
+  if (const std::string error = options.validate(); !error.empty()) throw std::invalid_argument("esdf options: " + error);
+  options_ = options;
+}
+
+std::size_t Esdf::misfitConstraints(double chi2) const {
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < edges_.size(); ++k) count += currentChi2(k) > chi2;
+  return count;
+}
+
 double Esdf::robustCost() const {
   // Dynamic covariance scaling's cost (the switchable constraint's, its switch eliminated):
   // s^2 X + W (1 - s)^2 with s = min(1, 2 W / (W + X)); X itself for odometry.
@@ -540,7 +553,7 @@ double Esdf::robustCost() const {
   double cost = 0.0;
   for (std::size_t k = 0; k < edges_.size(); ++k) {
     const double chi2 = currentChi2(k);
-    const double s = robust_[k] && chi2 > w ? 2.0 * w / (w + chi2) : 1.0;
+    const double s = robust_[k] && w > 0.0 && chi2 > w ? 2.0 * w / (w + chi2) : 1.0;
     cost += s * s * chi2 + w * (1.0 - s) * (1.0 - s);
   }
   return cost;

@@ -27,7 +27,7 @@ double Esdf::currentChi2(std::size_t k) const {
 
 double Esdf::robustWeight(std::size_t k) const {
   const double w = options_.robust_loop_chi2 * robust_widen_;
-  if (!robust_[k]) return 1.0;
+  if (!robust_[k] || !(w > 0.0)) return 1.0;
   const double chi2 = currentChi2(k);
   if (!(chi2 > w)) return 1.0;
   const double scale = 2.0 * w / (w + chi2);

@@ -449,6 +449,41 @@ TEST(Esdf, RobustLoopsLetNoWrongLoopBendTheGraph) {
   EXPECT_NE(options.validate().find("robust_loop_chi2"), std::string::npos);
 }
 
+TEST(Esdf, ALeastSquaresRunThatLeavesLoopsMisfittingIsSolvedAgainRobustly) {
+  // What llc graph does by default: least squares incrementally, then, when loops misfit
+  // beyond the gate's threshold, the kernel switched on and the graph solved from its start.
+  std::vector<Pose2> truth;
+  llc::PoseGraph2 clean = randomGraph(22, 60, 40, &truth);
+  llc::Esdf reference;
+  runGraph(reference, clean, false);
+  const double optimum = llc::chiSquared(clean.edges, reference.mean());
+  EXPECT_EQ(reference.misfitConstraints(16.27), 0U) << "every true constraint fits at the optimum";
+  llc::PoseGraph2 corrupted = clean;
+  for (auto [a, b] : std::vector<std::pair<std::size_t, std::size_t>>{{5, 44}, {15, 57}})
+    corrupted.edges.push_back({a, b, Pose2{0.5, -1.0, 2.0}, clean.edges.back().information});
+  llc::Esdf filter;
+  runGraph(filter, corrupted, false);
+  EXPECT_GT(llc::chiSquared(clean.edges, filter.mean()), 10.0 * optimum) << "least squares is bent";
+  const std::size_t misfits = filter.misfitConstraints(16.27);
+  EXPECT_GE(misfits, 1U) << "the wrong loops, or the odometry they bend";
+  EXPECT_THROW(filter.setRobustLoopChi2(-1.0), std::invalid_argument);
+  EXPECT_THROW(filter.setRobustLoopChi2(std::nan("")), std::invalid_argument);
+  filter.setRobustLoopChi2(16.27);
+  filter.solveFrom(corrupted.poses);
+  EXPECT_NEAR(llc::chiSquared(clean.edges, filter.mean()), optimum, 0.01 * optimum);
+  const std::vector<double>& weights = filter.constraintWeights();
+  for (std::size_t k = clean.edges.size(); k < weights.size(); ++k) EXPECT_LT(weights[k], 1e-3) << "wrong loop " << k;
+  EXPECT_EQ(filter.misfitConstraints(16.27), 2U) << "only the wrong loops misfit now";
+  // Hand-worked: one loop 0 -> 1 said to be 1 m from an odometry step of 2 m, both with
+  // information 1: least squares splits the difference, each misfits by 0.5 m, chi2 0.25.
+  llc::Esdf pair;
+  pair.augmentWithInformation(llc::PoseEdge{0, 1, Pose2{2.0, 0.0, 0.0}, Eigen::Matrix3d::Identity()});
+  ASSERT_TRUE(pair.updateWithInformation(llc::PoseEdge{0, 1, Pose2{1.0, 0.0, 0.0}, Eigen::Matrix3d::Identity()}, false).applied);
+  EXPECT_NEAR(pair.mean()[1].x, 1.5, 1e-9);
+  EXPECT_EQ(pair.misfitConstraints(0.24), 2U);
+  EXPECT_EQ(pair.misfitConstraints(0.26), 0U);
+}
+
 TEST(Esdf, AnInformationBeyondWhatDoublesHoldIsRefusedAndMovesNothing) {
   std::vector<Pose2> truth;
   const llc::PoseGraph2 g = randomGraph(9, 40, 0, &truth);

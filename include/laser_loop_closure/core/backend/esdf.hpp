@@ -138,6 +138,13 @@ class Esdf {
   /// The robust cost at the current means: robust_loop_chi2's kernel on loops (chi2 where they
   /// fit), chi2 on odometry; the plain chi2 when robust_loop_chi2 is 0.
   double robustCost() const;
+  /// Robust loops from now on (robust_loop_chi2 = w, checked as the options are): the next
+  /// solveFrom and relinearisation rounds use the kernel. For a robust re-solve at the end of
+  /// a least-squares run that left loops misfitting.
+  void setRobustLoopChi2(double w);
+  /// Constraints (odometry and loops) whose error at the current means has a chi2 above
+  /// `chi2`. A wrong loop that least squares bends the graph to fit shows in the odometry.
+  [[nodiscard]] std::size_t misfitConstraints(double chi2) const;
   int factorizations() const { return factorizations_; }
   int rankUpdates() const { return rank_updates_; }
   /// Relinearisation rounds, and how many constraints were relinearised in place by them.
@@ -206,7 +213,7 @@ class Esdf {
   std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
   std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information
   std::vector<double> weights_;                       ///< per edge: the scale on its information in the system
-  std::vector<char> robust_;                          ///< per edge: a loop (robust_loop_chi2 may scale it)
+  std::vector<char> robust_;                          ///< per edge: a loop (robust_loop_chi2, when > 0, may scale it)
   double robust_widen_ = 1.0;                         ///< the kernel's width over robust_loop_chi2 (batch stages)
   struct EdgeModel {  ///< an edge's linear model in the system: e ~ residual + ja dx_from + jb dx_to
     Eigen::Vector3d residual = Eigen::Vector3d::Zero();
