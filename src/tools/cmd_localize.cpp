@@ -158,20 +158,34 @@ double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+/// --starts and what scores them, read and checked once, before anything is loaded.
+struct StartsOptions {
+  long count = 20;
+  double travel = 100.0, fix_within = 10.0, near_map = 1.0, seen_heading = M_PI / 4.0;
+};
+
+StartsOptions startsOptions(const Args& args) {
+  StartsOptions o;
+  o.count = args.integer("starts", o.count);
+  o.travel = args.number("start-travel", o.travel), o.fix_within = args.number("fix-within-m", o.fix_within);
+  o.near_map = args.number("near-map-m", o.near_map);
+  o.seen_heading = args.number("seen-heading-deg", 45.0) * M_PI / 180.0;
+  if (o.count < 1 || !(o.travel > 0.0) || !(o.fix_within > 0.0) || !(o.near_map > 0.0))
+    throw UsageError("--starts, --start-travel, --fix-within-m and --near-map-m must be > 0");
+  if (!(o.seen_heading > 0.0 && o.seen_heading <= M_PI)) throw UsageError("--seen-heading-deg must be in (0, 180]");
+  return o;
+}
+
 /// --starts N: N localisations from random scans whose first 10 m pass within 1 m of the
 /// map (their truth against the map's keyframes'), each --start-travel m long; starts.csv
 /// holds one row each, report.txt the summary.
 template <class MakeLocalizer>
-void runStarts(const Args& args, const llc::ScanSequence& sequence, const std::vector<std::size_t>& input_index,
-               std::size_t end, const MapTruth& map_truth, MakeLocalizer&& makeLocalizer, bool wheels, double wrong_m,
-               double wrong_rad, std::ostream& report) {
-  const long count = args.integer("starts", 20);
-  const double travel = args.number("start-travel", 100.0), fix_within = args.number("fix-within-m", 10.0);
-  const double near_map = args.number("near-map-m", 1.0);
-  const double seen_heading = args.number("seen-heading-deg", 45.0) * M_PI / 180.0;
-  if (count < 1 || !(travel > 0.0) || !(fix_within > 0.0) || !(near_map > 0.0))
-    throw UsageError("--starts, --start-travel, --fix-within-m and --near-map-m must be > 0");
-  if (!(seen_heading > 0.0 && seen_heading <= M_PI)) throw UsageError("--seen-heading-deg must be in (0, 180]");
+void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSequence& sequence,
+               const std::vector<std::size_t>& input_index, std::size_t end, const MapTruth& map_truth,
+               MakeLocalizer&& makeLocalizer, bool wheels, double wrong_m, double wrong_rad, std::ostream& report) {
+  const long count = starts.count;
+  const double travel = starts.travel, fix_within = starts.fix_within, near_map = starts.near_map;
+  const double seen_heading = starts.seen_heading;
   std::vector<llc::Pose2> truth;
   for (std::size_t i = 0; i < end; ++i) truth.push_back(sequence.scans[i].truth);
   const std::vector<bool> near = llc::startsNearMap(truth, map_truth.frame.truth, fix_within, near_map);
@@ -246,6 +260,7 @@ int runLocalize(const Args& args) {
     throw UsageError("--kidnap-at must be after --start-scan and --kidnap-to above 0");
   const double wrong_m = args.number("wrong-fix-m", 1.0), wrong_rad = args.number("wrong-fix-deg", 5.73) * M_PI / 180.0;
   if (!(wrong_m > 0.0 && wrong_rad > 0.0)) throw UsageError("--wrong-fix-m and --wrong-fix-deg must be > 0");
+  const StartsOptions starts = startsOptions(args);
   const std::optional<llc::OdometryDrift> drift = odometryDrift(args);
   fixedOdometryOffset(args);  // checked now
   driveReadOptions(input, args);  // likewise
@@ -308,7 +323,7 @@ int runLocalize(const Args& args) {
          << "wheel_odometry=" << (wheels ? "used" : "not used") << "\n";
   if (args.has("starts")) {
     if (!map_truth) throw UsageError("--starts needs --truth (starts are drawn near the map, and scored)");
-    runStarts(args, sequence, input_index, end_scan, *map_truth, makeLocalizer, wheels, wrong_m, wrong_rad, report);
+    runStarts(args, starts, sequence, input_index, end_scan, *map_truth, makeLocalizer, wheels, wrong_m, wrong_rad, report);
     llc::writeFileAtomically(dir + "/report.txt", report.str());
     std::cout << report.str() << "Wrote " << dir << "/{starts.csv,report.txt}\n";
     return 0;

@@ -228,6 +228,8 @@ check "localize: corrupt session" 1 "bad.yaml: not a laser_loop_closure session"
 check "localize: truncated session" 1 "truncated session" -- "$LLC" localize --session "$TMP/truncated.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0"
 check "localize: a kidnapping needs both ends" 2 "both --kidnap-at SCAN and --kidnap-to SCAN" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --kidnap-at 5
 check "localize: --starts needs --truth" 2 "--starts needs --truth" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --starts 3
+check "localize: --seen-heading-deg outside (0, 180], refused before anything is read" 2 "seen-heading-deg must be in \(0, 180\]" -- "$LLC" localize --session "$TMP/no_such.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --seen-heading-deg 0
+check "localize: --starts 0 refused before anything is read" 2 "must be > 0" -- "$LLC" localize --session "$TMP/no_such.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --starts 0
 check "localize: --start-scan beyond the input" 2 "start-scan must be before" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --start-scan 99999
 check "localize: a bad localization parameter" 2 "min_track_fit" -- "$LLC" localize --session "$TMP/sim.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --localization/min_track_fit 0
 "$LLC" slam --log "$TMP/sim/sim.log" --out "$TMP/slam_log" --quiet --save-session "$TMP/sim_log.llcsession" >/dev/null 2>&1
