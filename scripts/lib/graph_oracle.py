@@ -156,7 +156,7 @@ def aligned_rms(estimate, truth):
 def solve(opts, tmp, name, poses, edges):
     src, out = os.path.join(tmp, name + ".g2o"), os.path.join(tmp, name + "_solved.g2o")
     write_g2o(src, poses, edges)
-    result = subprocess.run([opts["llc"], "graph", "--g2o", src, "--out", out, "--batch"], capture_output=True, text=True)
+    result = subprocess.run([opts["llc"], "graph", "--g2o", src, "--out", out, "--batch", "--least-squares"], capture_output=True, text=True)
     if result.returncode != 0:
         fail("llc graph failed on " + name + ": " + result.stderr.strip())
     solved, _ = read_g2o(out)

@@ -104,15 +104,16 @@ int runGraph(const Args& args) {
     throw ToolError(in_path + ": " + std::to_string(graph.poses.size() - filter.size()) +
                     " poses cannot be reached from pose 0 along the edges");
   if (batch) filter.solveFrom(graph.poses);
-  // Wrong loops. Least squares ends with constraints that misfit beyond the gate's threshold
-  // when a wrong loop bent the graph (the loop itself, or the odometry it bent when the graph
-  // fitted it; or a true constraint is very unlucky): then, unless --least-squares,
-  // the graph is solved again robustly (robust_loop_chi2 = loop_chi2_threshold) from the
-  // file's start, and of that and the least-squares end the lower robust cost is kept. Given
-  // --esdf/robust_loop_chi2, an incremental run reweights as it goes and is re-solved so too.
+  // Wrong loops. Unless --least-squares, a graph with loops is solved again robustly
+  // (robust_loop_chi2 = loop_chi2_threshold) from the file's start, and of that and the
+  // least-squares end the lower robust cost is kept: where every loop fits both are the
+  // least-squares optimum, where a wrong loop bent the graph only the re-solve lets it go. Not
+  // only when a constraint misfits: least squares can bend a graph to fit a wrong loop so
+  // evenly that nothing misfits. Given --esdf/robust_loop_chi2, an incremental run reweights
+  // as it goes and is re-solved so too.
   const std::size_t misfits = filter.misfitConstraints(options.loop_chi2_threshold);
   bool robust = options.robust_loop_chi2 > 0.0, resolve = robust && !batch;
-  if (!robust && misfits > 0 && !args.has("least-squares")) {
+  if (!robust && loops > 0 && !args.has("least-squares")) {
     filter.setRobustLoopChi2(options.loop_chi2_threshold);
     robust = resolve = true;
   }

@@ -90,8 +90,8 @@ const std::vector<Command>& commands() {
       {"graph", llc_tool::runGraph, with({"g2o", "out", "latency-csv"}, llc_tool::kEsdfFlags),
        {"incremental", "batch", "gate", "least-squares"},
        "graph --g2o IN.g2o --out OUT.g2o [--incremental|--batch] [--gate] [--least-squares] [--latency-csv STEPS.csv] [--esdf/PARAMETER VALUE ...]\n"
-       "      (constraints misfitting beyond esdf/loop_chi2_threshold at the end: solved again with robust loops, the lower\n"
-       "       robust cost kept; --least-squares: never)\n"
+       "      (a graph with loops is solved again from the start with robust loops, esdf/robust_loop_chi2 at\n"
+       "       esdf/loop_chi2_threshold, and the lower robust cost kept; --least-squares: never)\n"
        "      (--latency-csv: each incremental step's wall time, `step,edge_from,edge_to,ms`, for scripts/bench_graphs --plot)\n"
        "      (--esdf/robust_loop_chi2 W > 0: robust loops, each misfitting by chi2 X > W counts (2W/(W+X))^2 of its\n"
        "       information; a batch run is solved from two starts and an incremental one re-solved so at the end)"},

@@ -450,8 +450,8 @@ TEST(Esdf, RobustLoopsLetNoWrongLoopBendTheGraph) {
 }
 
 TEST(Esdf, ALeastSquaresRunThatLeavesLoopsMisfittingIsSolvedAgainRobustly) {
-  // What llc graph does by default: least squares incrementally, then, when loops misfit
-  // beyond the gate's threshold, the kernel switched on and the graph solved from its start.
+  // What llc graph does by default: least squares incrementally, then the kernel switched on
+  // and the graph solved again from its start (misfitConstraints reports what least squares left).
   std::vector<Pose2> truth;
   llc::PoseGraph2 clean = randomGraph(22, 60, 40, &truth);
   llc::Esdf reference;
