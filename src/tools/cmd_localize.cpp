@@ -169,7 +169,7 @@ StartsOptions startsOptions(const Args& args) {
   o.count = args.integer("starts", o.count);
   o.travel = args.number("start-travel", o.travel), o.fix_within = args.number("fix-within-m", o.fix_within);
   o.near_map = args.number("near-map-m", o.near_map);
-  o.seen_heading = args.number("seen-heading-deg", 45.0) * M_PI / 180.0;
+  o.seen_heading = args.number("seen-heading-deg", o.seen_heading * 180.0 / M_PI) * M_PI / 180.0;
   if (o.count < 1 || !(o.travel > 0.0) || !(o.fix_within > 0.0) || !(o.near_map > 0.0))
     throw UsageError("--starts, --start-travel, --fix-within-m and --near-map-m must be > 0");
   if (!(o.seen_heading > 0.0 && o.seen_heading <= M_PI)) throw UsageError("--seen-heading-deg must be in (0, 180]");

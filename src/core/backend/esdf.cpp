@@ -168,7 +168,7 @@ Esdf::Esdf(const Pose2& first, const EsdfOptions& options) : options_(options), 
 std::size_t Esdf::bytes() const {
   auto held = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t bytes = sizeof(*this) + sizeof(Impl) + held(mean_) + held(linearization_) + held(edges_) + held(edge_points_) +
-                      held(largest_information_) + held(weights_) + held(robust_) + held(edge_models_) +
+                      held(largest_information_) + held(weights_) + held(is_loop_) + held(edge_models_) +
                       held(impl_->upper) + held(impl_->augmentation_edge) + held(impl_->leaf_states) +
                       held(impl_->inverse_permutation) + std::size_t(impl_->gradient.size()) * sizeof(double);
   constexpr std::size_t kMapNode = 4 * sizeof(void*) + sizeof(std::pair<const std::size_t, Eigen::Matrix3d>);
@@ -263,7 +263,7 @@ void Esdf::addToSystem(std::size_t k, double sign) {
   impl_->current = false;
 }
 
-void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool robust) {
+void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool loop) {
   // Largest eigenvalue of the translation block, for linearizationMissBound.
   const Eigen::Matrix2d xy = edge.information.topLeftCorner<2, 2>();
   const double half_trace = 0.5 * xy.trace();
@@ -271,7 +271,7 @@ void Esdf::addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& t
   edge_models_.emplace_back();
   edges_.push_back(edge);
   edge_points_.push_back({from_point, to_point});
-  robust_.push_back(robust);
+  is_loop_.push_back(loop);
   weights_.push_back(1.0);
   weights_.back() = robustWeight(edges_.size() - 1);  // scaled from the start when it does not fit
   addToSystem(edges_.size() - 1, 1.0);
@@ -493,7 +493,7 @@ void Esdf::takeBackNewestEdge(std::vector<Pose2> linearization_before) {
   edge_points_.pop_back();
   largest_information_.pop_back();
   weights_.pop_back();
-  robust_.pop_back();
+  is_loop_.pop_back();
   edge_models_.pop_back();
   // Back to the linearisation point of before the update when a round moved it (to means
   // the failed solve may have made), and the system rebuilt there.
@@ -553,7 +553,7 @@ double Esdf::robustCost() const {
   double cost = 0.0;
   for (std::size_t k = 0; k < edges_.size(); ++k) {
     const double chi2 = currentChi2(k);
-    const double s = robust_[k] && w > 0.0 && chi2 > w ? 2.0 * w / (w + chi2) : 1.0;
+    const double s = is_loop_[k] && w > 0.0 && chi2 > w ? 2.0 * w / (w + chi2) : 1.0;
     cost += s * s * chi2 + w * (1.0 - s) * (1.0 - s);
   }
   return cost;

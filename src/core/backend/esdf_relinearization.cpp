@@ -27,7 +27,7 @@ double Esdf::currentChi2(std::size_t k) const {
 
 double Esdf::robustWeight(std::size_t k) const {
   const double w = options_.robust_loop_chi2 * robust_widen_;
-  if (!robust_[k] || !(w > 0.0)) return 1.0;
+  if (!is_loop_[k] || !(w > 0.0)) return 1.0;
   const double chi2 = currentChi2(k);
   if (!(chi2 > w)) return 1.0;
   const double scale = 2.0 * w / (w + chi2);
@@ -39,7 +39,7 @@ std::vector<std::size_t> Esdf::reweightedEdges() const {
   std::vector<std::size_t> changed;
   if (!(options_.robust_loop_chi2 > 0.0)) return changed;
   for (std::size_t k = 0; k < edges_.size(); ++k) {
-    if (!robust_[k]) continue;
+    if (!is_loop_[k]) continue;
     const double now = robustWeight(k), then = weights_[k];
     // A tenth either way: smaller changes move the means by little and would cost a swap each.
     if (std::abs(now - then) > 0.1 * std::max(now, then)) changed.push_back(k);

@@ -168,7 +168,7 @@ class Esdf {
   Eigen::Vector3d edgeTerms(std::size_t k, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) const;
   /// Adds (sign 1) or removes (sign -1) edge k's information and gradient.
   void addToSystem(std::size_t k, double sign);
-  void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool robust);
+  void addEdge(const PoseEdge& edge, const Pose2& from_point, const Pose2& to_point, bool loop);
   /// Removes the newest constraint (its solve failed) and factorises the system without it, at
   /// linearization_before when a relinearisation round had moved the linearisation point.
   void takeBackNewestEdge(std::vector<Pose2> linearization_before);
@@ -213,7 +213,7 @@ class Esdf {
   std::vector<std::pair<Pose2, Pose2>> edge_points_;  ///< per edge: the poses it was linearised at
   std::vector<double> largest_information_;           ///< per edge: largest eigenvalue of its x, y information
   std::vector<double> weights_;                       ///< per edge: the scale on its information in the system
-  std::vector<char> robust_;                          ///< per edge: a loop (robust_loop_chi2, when > 0, may scale it)
+  std::vector<char> is_loop_;                         ///< per edge: a loop (robust_loop_chi2, when > 0, may scale it)
   double robust_widen_ = 1.0;                         ///< the kernel's width over robust_loop_chi2 (batch stages)
   struct EdgeModel {  ///< an edge's linear model in the system: e ~ residual + ja dx_from + jb dx_to
     Eigen::Vector3d residual = Eigen::Vector3d::Zero();
