@@ -73,6 +73,7 @@ std::vector<char> validateAll(const std::vector<PairData>& data, const llc::Scan
 int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const llc::FeatureOptions& features,
                       const std::string& out_dir, std::chrono::steady_clock::time_point start) {
   if (data.size() < 2) throw UsageError("--leave-one-log-out needs at least two --data items");
+  const std::vector<llc::ScanAugmentation> kinds = augmentations(args);
   llc::ClassifierTrainingOptions training;
   training.rounds = int(args.integer("rounds", 50));
   training.folds = int(args.integer("folds", 10));
@@ -149,12 +150,14 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   }
   log_out_calibration.pairs = &calibration_sets;
   std::size_t fitted = 0;
-  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set) {
+  const llc::LogOutAugmentation augmentation = augmentedSets(data, kinds, features);
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut(logs, names, [&](const llc::TrainingSet& set,
+                                                                                const std::vector<llc::TrainingSet>& companions) {
     // Nested target choice fits n - 1 more models per held-out log.
     const std::size_t models = logs.size() * (log_out_calibration.candidate_targets.empty() ? 1 : logs.size());
     std::cerr << "llc evaluate: model " << ++fitted << " of " << models << " (" << set.size() << " pairs)\n";
-    return llc::trainClassifierModel(set, features, training).model.classifier;
-  }, &extra, calibration_count ? &log_out_calibration : nullptr);
+    return llc::trainClassifierModel(set, features, training, companions.empty() ? nullptr : &companions).model.classifier;
+  }, &extra, calibration_count ? &log_out_calibration : nullptr, augmentation.empty() ? nullptr : &augmentation);
   // --validate: the loop stage held out. Each pair the held-out model's own K lets through
   // (labelled pairs and extra negatives) is aligned and shape-validated, as a robot would;
   // alignment fits nothing, so it needs no holding out itself.
@@ -223,7 +226,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   s << std::setprecision(4) << std::fixed;
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
     << " rounds=" << training.rounds << " k_folds=" << training.folds << " target_false_alarm=" << training.target_false_alarm
-    << " seed=" << training.seed << "\n";
+    << " seed=" << training.seed << " augment=" << args.get("augment", "none") << "\n";
   for (std::size_t i = 0; i < result.logs.size(); ++i) {
     const llc::HeldOutLog& log = result.logs[i];
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
@@ -305,6 +308,8 @@ int runEvaluate(const Args& args) {
   if (ablation_repeats < 1) throw UsageError("--ablation-repeats must be >= 1");
   std::optional<llc::ScanAlignerOptions> aligner_options;
   if (args.has("validate")) aligner_options = alignerOptions(args);
+  if (args.has("augment") && !args.has("leave-one-log-out")) throw UsageError("--augment goes with --leave-one-log-out (or llc train)");
+  augmentations(args);  // a bad list refused before anything is loaded
   prepareOutputFolder("out", out_dir);
   const std::vector<PairData> data = loadPairData(args.all("data"), features, args);
   if (args.has("leave-one-log-out")) return runLeaveOneLogOut(args, data, features, out_dir, start);

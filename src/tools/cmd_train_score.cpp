@@ -35,11 +35,20 @@ int runTrain(const Args& args) {
   // its optimised map added to the labelled pairs (the session's features must be this set's).
   llc::SystemOptions system;  // loops/min_keyframe_gap: the gap the nodelet's self-training keeps too
   applyParameterFlags(args, &system);
+  const std::vector<llc::ScanAugmentation> kinds = augmentations(args);
+  if (!kinds.empty() && specs.empty()) throw UsageError("--augment needs --data LOG:PAIRS (a session's keyframes are not augmented)");
   checkOutputFile("model", model_path);
 
   const std::vector<PairData> data =
       specs.empty() && args.has("from-session") ? std::vector<PairData>{} : loadPairData(specs, features, args);
   llc::TrainingSet set = pairTrainingSet(data, features.feature_set);
+  // Each augmentation kind's rows, one for one with the --data rows (session rows have none).
+  std::vector<llc::TrainingSet> companions;
+  for (const std::vector<llc::TrainingSet>& kind : augmentedSets(data, kinds, features)) {
+    companions.emplace_back();
+    companions.back().dimension = set.dimension;
+    for (const llc::TrainingSet& rows : kind) companions.back().append(rows);
+  }
   std::ostringstream session_text;
   for (const std::string& path : args.all("from-session")) {
     llc::SlamSession session;
@@ -54,6 +63,7 @@ int runTrain(const Args& args) {
     } catch (const std::invalid_argument& e) {
       throw ToolError(path + ": " + e.what() + " (--features/set)");
     }
+    if (!companions.empty()) throw UsageError("--augment and --from-session cannot be combined");
     set.append(own.set);
     std::cout << "session " << path << ": " << own.summary() << "\n";
     session_text << (session_text.tellp() ? " " : "") << path;
@@ -62,7 +72,7 @@ int runTrain(const Args& args) {
 
   llc::ClassifierTrainingResult trained;
   try {
-    trained = llc::trainClassifierModel(set, features, options);
+    trained = llc::trainClassifierModel(set, features, options, companions.empty() ? nullptr : &companions);
   } catch (const std::invalid_argument& e) {
     throw ToolError(e.what());
   }
@@ -71,6 +81,7 @@ int runTrain(const Args& args) {
   for (const std::string& spec : specs) data_text << (data_text.tellp() ? " " : "") << spec;
   model.provenance["data"] = data_text.str();
   if (session_text.tellp()) model.provenance["self_training_sessions"] = session_text.str();
+  if (!kinds.empty()) model.provenance["augment"] = args.get("augment", "");
   if (args.has("k")) {
     model.classifier.setThresholdK(given_k);
     model.provenance["threshold_k"] = "given with --k";
@@ -93,16 +104,22 @@ int runScore(const Args& args) {
   } catch (const llc::ModelError& e) {
     throw ToolError(e.what());
   }
+  const std::vector<llc::ScanAugmentation> kinds = augmentations(args);
+  if (kinds.size() > 1) throw UsageError("--augment: llc score takes one kind (the scanner the pairs are seen by)");
   const std::vector<PairData> data = loadPairData(args.all("data"), model.features, args);
+  // --augment KIND: every pair scored as a scanner of that kind would have seen its two scans.
+  std::vector<llc::TrainingSet> augmented;
+  if (!kinds.empty()) augmented = augmentedSets(data, kinds, model.features).front();
   llc::AtomicTextFile out(out_path);
   out << "a,b,label,score\n" << std::setprecision(17);
   std::vector<double> row, scores;
   std::vector<int> labels;
   std::size_t matches = 0, total = 0;
-  for (const PairData& item : data)
-    for (const llc::LabeledPair& p : item.pairs) {
-      row = llc::pairFeatures(model.features.feature_set, item.features[p.a], item.features[p.b]);
-      const double score = model.classifier.score(row.data());
+  for (std::size_t d = 0; d < data.size(); ++d)
+    for (std::size_t i = 0; i < data[d].pairs.size(); ++i) {
+      const llc::LabeledPair& p = data[d].pairs[i];
+      row = llc::pairFeatures(model.features.feature_set, data[d].features[p.a], data[d].features[p.b]);
+      const double score = model.classifier.score(augmented.empty() ? row.data() : augmented[d].row(i));
       matches += score >= model.classifier.thresholdK();
       ++total;
       scores.push_back(score), labels.push_back(p.label);

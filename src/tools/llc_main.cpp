@@ -39,16 +39,17 @@ const std::vector<Command>& commands() {
        "features --log LOG --out FEATURES.csv [feature options]"},
       {"train", llc_tool::runTrain,
        with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
-                  "loops/min_keyframe_gap"},
+                  "loops/min_keyframe_gap", "augment"},
                  kFeatureFlags),
             kInputFlags),
        {},
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]\n"
+       "      [--augment none|half-beams,double-beams]   (each --data pair also as a scanner of half/double the beams)\n"
        "      [--from-session SESSION [--loops/min_keyframe_gap 30]]   (self-training: adds the session's keyframe\n"
        "       pairs labelled by its optimised map; --data may then be left out)"},
       {"evaluate", llc_tool::runEvaluate,
-       with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats",
+       with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats", "augment",
                   "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",
                   "calibration-targets", "loops/calibration/target_false_alarm", "loops/calibration/raise_only",
                   "loops/calibration/min_distance", "loops/calibration/drift_per_metre", "loops/calibration/max_path"},
@@ -61,6 +62,7 @@ const std::vector<Command>& commands() {
        "      [--validate [alignment options]]   (adds alignment + shape validation after the classifier)\n"
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
+       "      [--augment none|half-beams,double-beams]   (the training logs' pairs also augmented; never the held-out log's)\n"
        "      [--calibration-pairs 0 [--loops/calibration/target_false_alarm 0.015 | --calibration-targets T1,T2,...]\n"
        "       [--loops/calibration/raise_only true] [--loops/calibration/min_distance 10]\n"
        "       [--loops/calibration/drift_per_metre 0.3] [--loops/calibration/max_path 50] [--drift moderate|strong ...]]\n"
@@ -69,8 +71,9 @@ const std::vector<Command>& commands() {
        "       pairs, K is also fitted again on the held-out log's own surely-different pairs by its odometry;\n"
        "       --calibration-targets chooses its target per held-out log on the other logs, each scored by a\n"
        "       model that saw neither: the smallest target keeping them all within 0.5-2% false alarm)"},
-      {"score", llc_tool::runScore, with({"model", "data", "out"}, kInputFlags), {},
-       "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv"},
+      {"score", llc_tool::runScore, with({"model", "data", "out", "augment"}, kInputFlags), {},
+       "score [--model MODEL.yaml] --data LOG:PAIRS --out SCORES.csv\n"
+       "      [--augment half-beams|double-beams]   (the pairs as a scanner of half/double the beams sees them)"},
       {"simulate", llc_tool::runSimulate,
        {"out", "seed", "route-seed", "length-m", "scanners", "rate-hz", "parking-mean-s", "start-frame", "end-frame",
         "kidnap-at", "kidnap-to", "robots", "robot-seed"},

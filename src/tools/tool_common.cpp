@@ -238,6 +238,26 @@ llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::Feature
   return set;
 }
 
+std::vector<llc::ScanAugmentation> augmentations(const Args& args) {
+  try {
+    return llc::parseScanAugmentations(args.get("augment", "none"));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--augment: ") + e.what());
+  }
+}
+
+std::vector<std::vector<llc::TrainingSet>> augmentedSets(const std::vector<PairData>& data,
+                                                         const std::vector<llc::ScanAugmentation>& kinds,
+                                                         const llc::FeatureOptions& options) {
+  llc::FeatureExtractor extractor(options);
+  std::vector<std::vector<llc::TrainingSet>> sets;
+  for (const llc::ScanAugmentation kind : kinds) {
+    sets.emplace_back();
+    for (const PairData& item : data) sets.back().push_back(llc::augmentedPairSet(item.sequence, item.pairs, kind, extractor));
+  }
+  return sets;
+}
+
 std::string configFilePath(const std::string& name) {
   for (const char* dir : {LLC_SOURCE_CONFIG_DIR, LLC_INSTALL_CONFIG_DIR}) {
     const std::string path = std::string(dir) + "/" + name;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "laser_loop_closure/core/classifier/adaboost.hpp"
+#include "laser_loop_closure/core/classifier/augmentation.hpp"
 #include "laser_loop_closure/core/slam/slam_parameters.hpp"
 #include "laser_loop_closure/core/features/features.hpp"
 #include "laser_loop_closure/core/sim/odometry_drift.hpp"
@@ -98,6 +99,13 @@ std::vector<PairData> loadPairData(const std::vector<std::string>& specs, const 
                                    const Args& args);
 /// Pair feature rows of every pair of every data item, in order.
 llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::FeatureSet feature_set);
+
+/// --augment half-beams,double-beams|none (default none); UsageError on a bad list.
+std::vector<llc::ScanAugmentation> augmentations(const Args& args);
+/// Per kind, per data item: its pairs' rows with both scans augmented (row for row).
+std::vector<std::vector<llc::TrainingSet>> augmentedSets(const std::vector<PairData>& data,
+                                                         const std::vector<llc::ScanAugmentation>& kinds,
+                                                         const llc::FeatureOptions& options);
 
 /// config/classifier.yaml of the source tree, or of the installed share folder.
 std::string defaultModelPath();

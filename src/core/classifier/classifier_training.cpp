@@ -17,7 +17,8 @@ std::string ClassifierTrainingOptions::validate() const {
 }
 
 ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const FeatureOptions& features,
-                                              const ClassifierTrainingOptions& options) {
+                                              const ClassifierTrainingOptions& options,
+                                              const std::vector<TrainingSet>* companions) {
   const std::string invalid = options.validate();
   if (!invalid.empty()) throw std::invalid_argument("classifier training: " + invalid);
   if (set.dimension != pairFeatureCount(features.feature_set))
@@ -28,9 +29,15 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
   result.pairs = set.size();
   for (int label : set.labels) result.positives += label == 1;
 
+  TrainingSet all = set;
+  if (companions)
+    for (const TrainingSet& rows : *companions) {
+      if (rows.size() != set.size()) throw std::invalid_argument("classifier training: companion rows must match the rows one for one");
+      all.append(rows);
+    }
   AdaBoostOptions boost;
   boost.rounds = options.rounds;
-  const AdaBoostResult trained = AdaBoostTrainer(boost).train(set);
+  const AdaBoostResult trained = AdaBoostTrainer(boost).train(all);
   if (trained.rounds.empty())
     throw std::invalid_argument("classifier training failed: " + trained.stopped_early);
   result.note = trained.stopped_early;
@@ -45,7 +52,7 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
   cv.adaboost = boost;
   std::vector<double> scores;
   std::vector<int> labels;
-  for (const CrossValidationRun& run : crossValidate(set, cv)) {
+  for (const CrossValidationRun& run : crossValidate(set, cv, nullptr, companions)) {
     scores.insert(scores.end(), run.scores.begin(), run.scores.end());
     labels.insert(labels.end(), set.labels.begin(), set.labels.end());
   }
@@ -60,6 +67,8 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
       << result.auc;
   result.model.provenance["threshold_k"] = why.str();
   result.model.provenance["pairs"] = std::to_string(set.size());
+  if (companions && !companions->empty())
+    result.model.provenance["augmented_rows"] = std::to_string(all.size() - set.size());
   return result;
 }
 

@@ -113,7 +113,8 @@ std::string CrossValidationOptions::validate() const {
 
 std::vector<CrossValidationRun> crossValidate(const TrainingSet& data,
                                               const CrossValidationOptions& options,
-                                              const TrainingSet* alternate) {
+                                              const TrainingSet* alternate,
+                                              const std::vector<TrainingSet>* companions) {
   const std::string invalid = options.validate();
   if (!invalid.empty()) throw std::invalid_argument("cross validation: " + invalid);
   const auto [positives, negatives] = classCounts(data.labels);
@@ -123,6 +124,10 @@ std::vector<CrossValidationRun> crossValidate(const TrainingSet& data,
                                 " negative, " + std::to_string(options.folds) + " folds)");
   if (alternate && alternate->size() != data.size())
     throw std::invalid_argument("cross validation: the alternate rows must match the data rows");
+  if (companions)
+    for (const TrainingSet& rows : *companions)
+      if (rows.size() != data.size() || rows.dimension != data.dimension)
+        throw std::invalid_argument("cross validation: companion rows must match the data rows one for one");
   Random random(options.seed);
   const AdaBoostTrainer trainer(options.adaboost);
   std::vector<CrossValidationRun> runs(std::size_t(options.repeats));
@@ -133,7 +138,10 @@ std::vector<CrossValidationRun> crossValidate(const TrainingSet& data,
     const std::vector<int> fold = stratifiedFolds(data.labels, options.folds, random);
     for (int f = 0; f < options.folds; ++f) {
       splitFold(fold, f, &train, &test);
-      const StrongClassifier classifier = trainer.train(data.subset(train)).classifier;
+      TrainingSet fold_training = data.subset(train);
+      if (companions)
+        for (const TrainingSet& rows : *companions) fold_training.append(rows.subset(train));
+      const StrongClassifier classifier = trainer.train(fold_training).classifier;
       for (std::size_t i : test) {
         run.scores[i] = classifier.score(data.row(i));
         if (alternate) run.alternate_scores[i] = classifier.score(alternate->row(i));

@@ -10,12 +10,23 @@
 namespace llc {
 namespace {
 
-/// The rows of every log but those in `left_out`, in log order.
-TrainingSet trainingWithout(const std::vector<TrainingSet>& logs, std::size_t left_out, std::size_t also_left_out) {
+/// The rows of every log but those in `left_out`, in log order; per augmentation kind, the
+/// same logs' augmented rows in the same order (row for row: companions of those rows).
+TrainingSet trainingWithout(const std::vector<TrainingSet>& logs, const LogOutAugmentation* augmentation,
+                            std::size_t left_out, std::size_t also_left_out, std::vector<TrainingSet>* companions) {
   TrainingSet training;
   training.dimension = logs.front().dimension;
   for (std::size_t other = 0; other < logs.size(); ++other)
     if (other != left_out && other != also_left_out) training.append(logs[other]);
+  companions->clear();
+  if (augmentation)
+    for (const std::vector<TrainingSet>& kind : *augmentation) {
+      TrainingSet rows;
+      rows.dimension = training.dimension;
+      for (std::size_t other = 0; other < logs.size(); ++other)
+        if (other != left_out && other != also_left_out) rows.append(kind[other]);
+      companions->push_back(std::move(rows));
+    }
   return training;
 }
 
@@ -58,13 +69,16 @@ std::vector<double> negativeScores(const StrongClassifier& model, const Training
 
 /// The calibration target for held-out log `held_out`, chosen on the other logs only, each
 /// scored by a model fitted without it and without `held_out`.
-double nestedCalibrationTarget(const std::vector<TrainingSet>& logs, std::size_t held_out, const ClassifierFitter& fit,
+double nestedCalibrationTarget(const std::vector<TrainingSet>& logs, const LogOutAugmentation* augmentation,
+                               std::size_t held_out, const ClassifierFitter& fit,
                                const std::vector<TrainingSet>* extra_negatives, const LogOutCalibration& calibration) {
   const std::vector<double>& targets = calibration.candidate_targets;
   std::vector<std::size_t> outside(targets.size(), 0);  // per target: other logs outside the band
   for (std::size_t other = 0; other < logs.size(); ++other) {
     if (other == held_out || (*calibration.pairs)[other].size() == 0) continue;
-    const StrongClassifier model = fit(trainingWithout(logs, held_out, other));
+    std::vector<TrainingSet> companions;
+    const TrainingSet training = trainingWithout(logs, augmentation, held_out, other, &companions);
+    const StrongClassifier model = fit(training, companions);
     std::vector<double> log_scores, extra_scores;
     const std::vector<double> negatives = negativeScores(
         model, logs[other], extra_negatives ? &(*extra_negatives)[other] : nullptr, &log_scores, &extra_scores);
@@ -86,8 +100,11 @@ double nestedCalibrationTarget(const std::vector<TrainingSet>& logs, std::size_t
 
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
                                     const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives,
-                                    const LogOutCalibration* calibration) {
+                                    const LogOutCalibration* calibration, const LogOutAugmentation* augmentation) {
   if (logs.size() < 2) throw std::invalid_argument("leave-one-log-out needs at least two logs");
+  if (augmentation)
+    for (const std::vector<TrainingSet>& kind : *augmentation)
+      if (kind.size() != logs.size()) throw std::invalid_argument("leave-one-log-out: one set of augmented rows per log");
   if (extra_negatives && extra_negatives->size() != logs.size())
     throw std::invalid_argument("leave-one-log-out: one set of extra negatives per log");
   if (calibration && !calibration->pairs) calibration = nullptr;
@@ -97,14 +114,20 @@ LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const 
     throw std::invalid_argument("leave-one-log-out: choosing the calibration target without the held-out log needs at least three logs");
   for (const TrainingSet& log : logs)
     if (log.dimension != logs.front().dimension) throw std::invalid_argument("leave-one-log-out: logs of different dimensions");
+  if (augmentation)
+    for (const std::vector<TrainingSet>& kind : *augmentation)
+      for (std::size_t log = 0; log < logs.size(); ++log)
+        if (kind[log].size() != logs[log].size() || (kind[log].size() && kind[log].dimension != logs[log].dimension))
+          throw std::invalid_argument("leave-one-log-out: augmented rows must match their log's rows one for one");
   if (calibration)
     for (const TrainingSet& pairs : *calibration->pairs)
       if (pairs.size() && pairs.dimension != logs.front().dimension)
         throw std::invalid_argument("leave-one-log-out: calibration pairs of another dimension");
   LeaveOneLogOutResult result;
   for (std::size_t held_out = 0; held_out < logs.size(); ++held_out) {
-    const TrainingSet training = trainingWithout(logs, held_out, held_out);
-    const StrongClassifier model = fit(training);
+    std::vector<TrainingSet> companions;
+    const TrainingSet training = trainingWithout(logs, augmentation, held_out, held_out, &companions);
+    const StrongClassifier model = fit(training, companions);
 
     const TrainingSet& test = logs[held_out];
     HeldOutLog out;
@@ -122,7 +145,7 @@ LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const 
     if (calibration && (*calibration->pairs)[held_out].size()) {
       out.calibration_target = calibration->candidate_targets.empty()
                                    ? calibration->target_false_alarm
-                                   : nestedCalibrationTarget(logs, held_out, fit, extra_negatives, *calibration);
+                                   : nestedCalibrationTarget(logs, augmentation, held_out, fit, extra_negatives, *calibration);
       const std::vector<double> calibration_scores = scoresOf(model, (*calibration->pairs)[held_out]);
       out.calibration_pairs = calibration_scores.size();
       out.calibrated_k = calibratedThreshold(calibration_scores, out.k, calibrationOptions(*calibration, out.calibration_target));

@@ -40,7 +40,7 @@ llc::StrongClassifier smallDifferenceModel() {
 TEST(LeaveOneLogOut, TheHeldOutLogNeverReachesTheFitter) {
   const std::vector<llc::TrainingSet> logs = {markedLog(1000, 3, 5), markedLog(2000, 4, 4), markedLog(3000, 2, 6)};
   std::vector<std::set<int>> seen_logs;  // per fit: which logs' rows it was given
-  const llc::ClassifierFitter fit = [&](const llc::TrainingSet& training) {
+  const llc::ClassifierFitter fit = [&](const llc::TrainingSet& training, const std::vector<llc::TrainingSet>&) {
     std::set<int> from;
     for (double v : training.features) from.insert(int(v) / 1000);
     seen_logs.push_back(from);
@@ -66,7 +66,7 @@ TEST(LeaveOneLogOut, FiguresOfAHeldOutLogAtTheModelsOwnK) {
   const llc::TrainingSet a = log({0.1, 0.2, 0.9, 0.3, 0.8, 0.9, 1.0}, {1, 1, 1, 0, 0, 0, 0});
   // Log B: everything right.
   const llc::TrainingSet b = log({0.1, 0.7, 0.8}, {1, 0, 0});
-  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; });
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&, const std::vector<llc::TrainingSet>&) { return model; });
   ASSERT_EQ(result.logs.size(), 2u);
   const llc::HeldOutLog& ra = result.logs[0];
   EXPECT_EQ(ra.name, "log 1");
@@ -95,7 +95,7 @@ TEST(LeaveOneLogOut, ExtraNegativesOnlyRefineTheRealisedFalseAlarmRate) {
   // Six more negatives of log A, one of them matched: 2 of 10 in all. None for log B.
   const std::vector<llc::TrainingSet> extra = {log({0.1, 0.9, 0.9, 0.9, 0.9, 0.9}, {0, 0, 0, 0, 0, 0}), log({}, {})};
   std::size_t fits = 0;
-  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training) {
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training, const std::vector<llc::TrainingSet>&) {
     ++fits;
     EXPECT_TRUE(training.size() == 3u || training.size() == 7u) << "extra negatives never reach the fitter: " << training.size();
     return model;
@@ -108,13 +108,13 @@ TEST(LeaveOneLogOut, ExtraNegativesOnlyRefineTheRealisedFalseAlarmRate) {
   EXPECT_DOUBLE_EQ(result.logs[1].realised_false_alarm, 0.0);
 
   const std::vector<llc::TrainingSet> one_set = {extra[0]};
-  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, &one_set), std::invalid_argument);
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&, const std::vector<llc::TrainingSet>&) { return model; }, &one_set), std::invalid_argument);
   const std::vector<llc::TrainingSet> a_positive = {log({0.1}, {1}), log({}, {})};
-  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, &a_positive), std::invalid_argument);
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&, const std::vector<llc::TrainingSet>&) { return model; }, &a_positive), std::invalid_argument);
 }
 
 TEST(LeaveOneLogOut, RefusesOneLogAndMixedDimensions) {
-  const llc::ClassifierFitter fit = [](const llc::TrainingSet&) { return llc::StrongClassifier(); };
+  const llc::ClassifierFitter fit = [](const llc::TrainingSet&, const std::vector<llc::TrainingSet>&) { return llc::StrongClassifier(); };
   EXPECT_THROW(llc::leaveOneLogOut({markedLog(0, 2, 2)}, {}, fit), std::invalid_argument);
   llc::TrainingSet two_dimensions;
   two_dimensions.dimension = 2;

@@ -134,7 +134,7 @@ TEST(LeaveOneLogOut, CalibrationPairsSetTheHeldOutLogsOwnK) {
   llc::LogOutCalibration at_one_percent;
   at_one_percent.pairs = &calibration;
   at_one_percent.target_false_alarm = 0.01;
-  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training) {
+  const llc::LeaveOneLogOutResult result = llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet& training, const std::vector<llc::TrainingSet>&) {
     EXPECT_TRUE(training.size() == 2u || training.size() == 7u) << "calibration pairs never reach the fitter: " << training.size();
     return model;
   }, nullptr, &at_one_percent);
@@ -150,7 +150,7 @@ TEST(LeaveOneLogOut, CalibrationPairsSetTheHeldOutLogsOwnK) {
   const std::vector<llc::TrainingSet> one_set = {calibration[0]};
   llc::LogOutCalibration too_few = at_one_percent;
   too_few.pairs = &one_set;
-  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&) { return model; }, nullptr, &too_few),
+  EXPECT_THROW(llc::leaveOneLogOut({a, b}, {}, [&](const llc::TrainingSet&, const std::vector<llc::TrainingSet>&) { return model; }, nullptr, &too_few),
                std::invalid_argument);
 }
 
@@ -197,7 +197,7 @@ TEST(LeaveOneLogOut, TheCalibrationTargetIsChosenOnTheOtherLogsByModelsThatNever
   // Logs of 11, 12 and 13 rows: a fit's training size tells which logs it was given.
   const std::vector<llc::TrainingSet> logs = {logWithNegatives(10), logWithNegatives(11), logWithNegatives(12)};
   std::vector<std::size_t> fit_sizes;
-  const llc::ClassifierFitter fit = [&](const llc::TrainingSet& training) {
+  const llc::ClassifierFitter fit = [&](const llc::TrainingSet& training, const std::vector<llc::TrainingSet>&) {
     fit_sizes.push_back(training.size());
     llc::Stump stump;
     stump.feature = 0, stump.polarity = 1, stump.threshold = 0.5, stump.alpha = 1.0;

@@ -33,9 +33,12 @@ struct ClassifierTrainingResult {
 
 /// Trains on `set` (rows are pairFeatures of `features.feature_set`). Throws
 /// std::invalid_argument on bad options, a set of the wrong dimension, or a class with fewer
-/// pairs than folds.
+/// pairs than folds. `companions` (optional): set's rows augmented, one for one
+/// (augmentedPairSet): the stumps learn from them too, and K's cross validation keeps each
+/// with its row, so K is fitted on scores of pairs no fold's classifier saw in any form.
 ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const FeatureOptions& features,
-                                              const ClassifierTrainingOptions& options);
+                                              const ClassifierTrainingOptions& options,
+                                              const std::vector<TrainingSet>* companions = nullptr);
 
 /// A fixed model on labelled pairs: detection at a false-alarm rate and AUC of its scores.
 struct ModelRates {

@@ -51,9 +51,13 @@ struct CrossValidationRun {
 
 /// Stratified folds: each fold holds about the same share of positives. Throws
 /// std::invalid_argument on bad options or when a class has fewer rows than folds.
+/// `companions` (optional): sets of rows that go with data's rows one for one (the same pairs
+/// augmented): a companion trains with its row's training folds and is never scored, so a
+/// fold's classifier never saw any form of the pairs it scores.
 std::vector<CrossValidationRun> crossValidate(const TrainingSet& data,
                                               const CrossValidationOptions& options,
-                                              const TrainingSet* alternate = nullptr);
+                                              const TrainingSet* alternate = nullptr,
+                                              const std::vector<TrainingSet>* companions = nullptr);
 
 /// Cross-validated error rates at K = 0.5 for every T = 1..max_rounds (one training of
 /// max_rounds per fold: its first T stumps are what T rounds of training give).

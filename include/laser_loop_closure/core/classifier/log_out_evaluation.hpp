@@ -47,8 +47,14 @@ struct LeaveOneLogOutResult {
   double best_realised_false_alarm_calibrated = 0.0, worst_realised_false_alarm_calibrated = 0.0;  ///< smallest, largest
 };
 
-/// Fits a classifier (stumps and K) on a training set. It must see nothing but its argument.
-using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& training)>;
+/// Fits a classifier (stumps and K) on a training set and, per augmentation kind, that set's
+/// rows augmented (row for row; empty without augmentation: trainClassifierModel's
+/// companions). It must see nothing but its arguments.
+using ClassifierFitter = std::function<StrongClassifier(const TrainingSet& training, const std::vector<TrainingSet>& companions)>;
+
+/// Per augmentation kind, per log: that log's rows with both scans of each pair augmented
+/// (augmentedPairSet), row for row.
+using LogOutAugmentation = std::vector<std::vector<TrainingSet>>;
 
 /// K calibrated per held-out log (ThresholdCalibration), as a robot would in that building.
 struct LogOutCalibration {
@@ -72,8 +78,12 @@ struct LogOutCalibration {
 /// 2.9%); never used for fitting.
 /// calibration (optional, with pairs): the held-out model's K is fitted again on the scores of
 /// the log's calibration pairs (calibratedThreshold) and scored like the model's own K.
+/// augmentation (optional): each log's pairs as another scanner would see them, given to the
+/// fitter of every model that may see the log as companions of its rows; never scored, so a
+/// held-out log is tested on its own scans alone.
 LeaveOneLogOutResult leaveOneLogOut(const std::vector<TrainingSet>& logs, const std::vector<std::string>& names,
                                     const ClassifierFitter& fit, const std::vector<TrainingSet>* extra_negatives = nullptr,
-                                    const LogOutCalibration* calibration = nullptr);
+                                    const LogOutCalibration* calibration = nullptr,
+                                    const LogOutAugmentation* augmentation = nullptr);
 
 }  // namespace llc
