@@ -145,7 +145,7 @@ const std::vector<Command>& commands() {
        "      [--start-scan N] [--end-scan M]   (with --load-session: scans N .. M-1 of the input alone, a later day of a drive)"},
       {"localize", llc_tool::runLocalize,
        with({"bag", "log", "out", "session", "model", "config", "start-scan", "truth", "kidnap-at", "kidnap-to",
-             "wrong-fix-m", "wrong-fix-deg", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seen-heading-deg", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
+             "wrong-fix-m", "wrong-fix-deg", "judge-within-m", "end-scan", "starts", "start-travel", "fix-within-m", "near-map-m", "seen-heading-deg", "seed", "odometry-offset", "drift", "drift-scale-bias", "drift-heading", "drift-noise-m",
              "drift-noise-rad", "drift-noise-share", "drift-seed", "seq-reorder-scans"},
             with(kInputFlags, llc::systemParameterNames())),
        {"no-wheel-odometry"},
@@ -157,6 +157,8 @@ const std::vector<Command>& commands() {
        "       truth by its keyframes, then each localized pose checked against its scan's own truth:\n"
        "       wrong_fixes, rms_error_localized_m)\n"
        "      [--wrong-fix-m 1.0] [--wrong-fix-deg 5.73]   (a fix or pose off its truth by more is wrong)\n"
+       "      [--judge-within-m M]   (poses whose truth lies farther from every map keyframe's are counted, not judged:\n"
+       "       beyond_map_poses; default localization/track_radius, 8; the kidnapping's figures judge every pose)\n"
        "      [--kidnap-at SCAN --kidnap-to SCAN]   (the robot carried from scan SCAN-1 to scan SCAN of the input\n"
        "       while its odometry runs on: kidnap_lost_after_s, wrong_poses_after_kidnap_lost)\n"
        "      [--end-scan N]   (scans from N on are left out)\n"

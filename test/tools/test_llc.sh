@@ -242,6 +242,9 @@ check "localize: poses.csv, a row per scan from the start, nan while lost" 0 "^o
     END { print (!bad && n == 300 && loc > 150 ? "ok" : "not ok: " n " rows, " loc " localized, " bad " bad") }' "$TMP/loc/poses.csv"
 check "localize: the report" 0 "^ok$" -- awk -F'[= ]' '{v[$1] = $2} END {
     print (v["first_fix_scan"] >= 100 && v["first_fix_travel_m"] < 30 && v["fixes"] >= 1 && v["rms_error_localized_m"] < 0.2 && v["wrong_poses"] == 0 ? "ok" : "not ok") }' "$TMP/loc/report.txt"
+check "localize: every localized scan is judged or counted beyond the map" 0 "^ok$" -- bash -c "n=\$(awk -F, '\$6 == \"localized\"' '$TMP/loc/poses.csv' | wc -l); awk -F'[= ]' -v n=\$n '{v[\$1] = \$2} END {print (v[\"localized_scans\"] + v[\"beyond_map_poses\"] == n && n > 0 ? \"ok\" : \"not ok\")}' '$TMP/loc/report.txt'"
+check "localize --judge-within-m 1e9: no pose beyond the map" 0 "^beyond_map_poses=0 " -- "$LLC" localize --session "$TMP/sim_log.llcsession" --log "$TMP/sim/sim.log" --drift moderate --truth "$TMP/sim/sim.log" --start-scan 100 --end-scan 400 --out "$TMP/loc_judge" --judge-within-m 1e9
+check "localize: --judge-within-m 0 refused before anything is read" 2 "judge-within-m must be > 0" -- "$LLC" localize --session "$TMP/no_such.llcsession" --log "$TMP/sim/sim.log" --out "$TMP/loc0" --judge-within-m 0
 check "localize: search.csv" 0 "^scan,path_m,candidates,loops,agreeing_keyframes,rival_keyframes,joined,recent_fit,why_not$" -- head -1 "$TMP/loc/search.csv"
 check "localize: candidates.csv, each search's candidates; every accepted one a reason-free row, the map's place for some" 0 "^ok$" -- awk -F, '
     NR == 1 { if ($0 != "scan,map_keyframe,score,accepted,inlier_share,x,y,theta,error_m,error_deg,why_not") bad++; next }
