@@ -49,8 +49,13 @@ int runPairs(const Args& args) {
 int runFeatures(const Args& args) {
   const std::string log = args.required("log"), out_path = args.required("out");
   const llc::FeatureOptions options = featureOptions(args);
+  const std::vector<llc::ScanAugmentation> kinds = augmentations(args);
+  if (kinds.size() > 1) throw UsageError("--augment: llc features takes one kind (the scanner the scans are seen by)");
   checkOutputFile("out", out_path);
-  const llc::ScanSequence sequence = loadSequence(log, args);
+  llc::ScanSequence sequence = loadSequence(log, args);
+  // --augment KIND: every scan as a scanner of that kind would have recorded it.
+  if (!kinds.empty())
+    for (llc::LoggedScan& s : sequence.scans) s.scan = llc::augmentScan(s.scan, kinds.front());
   const std::vector<std::vector<double>> features = extractAll(sequence, options);
   llc::AtomicTextFile out(out_path);
   out << "index,stamp";

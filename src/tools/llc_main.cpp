@@ -35,8 +35,9 @@ const std::vector<Command>& commands() {
        "pairs --log LOG --out PAIRS.csv [--positive-distance 1.5] [--positive-heading-deg 45]\n"
        "      [--min-gap 30] [--negative-distance 10] [--max-per-class 200] [--seed 1]\n"
        "      [--full-circle|--partial]   (default: full circle when every scan is 360 degrees)"},
-      {"features", llc_tool::runFeatures, with(with({"log", "out"}, kFeatureFlags), kInputFlags), {},
-       "features --log LOG --out FEATURES.csv [feature options]"},
+      {"features", llc_tool::runFeatures, with(with({"log", "out", "augment"}, kFeatureFlags), kInputFlags), {},
+       "features --log LOG --out FEATURES.csv [feature options]\n"
+       "      [--augment half-beams|double-beams]   (the scans as a scanner of half/double the beams records them)"},
       {"train", llc_tool::runTrain,
        with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
                   "loops/min_keyframe_gap", "augment"},
