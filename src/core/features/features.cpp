@@ -122,7 +122,15 @@ FeatureExtractor::Shape FeatureExtractor::measureBeams(const Scan& scan) {
   updateTrigonometry(scan.bearings);
   shape.closed = options_.closed_ring && scan.full_circle && n >= 3;
   if (shape.closed) shape.angle_step = 2.0 * M_PI / double(n);
-  else if (n > 1) shape.angle_step = (scan.bearings[n - 1] - scan.bearings[0]) / double(n - 1);
+  else if (n > 1) {
+    // Between the first and the last beam with a direction: one with none (a non-finite
+    // bearing) would make the spacing, and every angle from it, infinite.
+    std::size_t first = 0, last = n - 1;
+    while (first < n && !std::isfinite(scan.bearings[first])) ++first;
+    while (last > first && !std::isfinite(scan.bearings[last])) --last;
+    const double step = last > first ? (scan.bearings[last] - scan.bearings[first]) / double(last - first) : 0.0;
+    shape.angle_step = std::isfinite(step) ? step : 0.0;
+  }
   const std::size_t padded = n + n / 2 + 1;
   clipped_.resize(n); x_.resize(padded); y_.resize(padded); valid_.resize(padded); valid_weight_.resize(n);
   shape.beams = prepareBeams(scan.ranges.data(), cos_.data(), sin_.data(), n, options_.r_max, valid_weight_.data(),

@@ -63,6 +63,24 @@ TEST(Augmentation, DoubleBeamsOfAFullCircleClosesTheRingInIncreasingBearings) {
   EXPECT_EQ(llc::doubleBeams(scanOf({2, 2, 2, 2}, {-3 * q, -q, q, 3 * q}, false)).size(), 7u);
 }
 
+TEST(Augmentation, BadScansGiveFiniteFeaturesEitherWay) {
+  const double nan = std::nan("");
+  llc::FeatureExtractor extractor;
+  const std::vector<llc::Scan> bad = {
+      llc::Scan{},
+      scanOf({3.0}, {0.0}),
+      scanOf({nan, kInf, -kInf, -1.0, 0.0, 2.0}, {-0.2, -0.1, 0.0, 0.1, 0.2, 0.3}),
+      scanOf({1.0, 2.0, 3.0, 4.0}, {0.0, nan, kInf, 0.3}),
+      scanOf({1.0, 2.0, 3.0}, {0.0, 0.1}),  // fewer bearings than ranges: the common part
+      scanOf({2.0, 2.0, 2.0}, {-3.0, 0.0, 3.0}, true)};
+  for (std::size_t k = 0; k < bad.size(); ++k)
+    for (const llc::ScanAugmentation kind : {llc::ScanAugmentation::kHalfBeams, llc::ScanAugmentation::kDoubleBeams}) {
+      const llc::Scan resampled = llc::augmentScan(bad[k], kind);
+      EXPECT_EQ(resampled.ranges.size(), resampled.bearings.size()) << k;
+      for (const double v : extractor.extract(resampled)) EXPECT_TRUE(std::isfinite(v)) << k;
+    }
+}
+
 TEST(Augmentation, KindsAreParsedByNameAndABadListIsRefused) {
   EXPECT_TRUE(llc::parseScanAugmentations("").empty());
   EXPECT_TRUE(llc::parseScanAugmentations("none").empty());

@@ -198,6 +198,27 @@ TEST(Features, BadRangesGiveFiniteValues) {
     EXPECT_TRUE(std::isfinite(g[i])) << "feature " << llc::featureNames(FeatureSet::kExtended)[i];
   EXPECT_EQ(g[17], 38.0);
   EXPECT_EQ(g[13], 2.0);
+  // A partial scan whose first or last bearing has no direction: the spacing (and the close
+  // area, the widest gap's angle) from the beams that have one; the same as without those beams
+  // but for their max-range count.
+  llc::Scan partial;
+  for (int i = 0; i < 20; ++i) partial.bearings.push_back(-0.5 + 0.05 * i), partial.ranges.push_back(2.0 + 0.1 * (i % 3));
+  partial.ranges[9] = kInf;  // a gap of one beam
+  llc::Scan ends = partial;
+  ends.bearings.front() = nan, ends.bearings.back() = kInf;
+  llc::Scan trimmed = partial;
+  trimmed.bearings = std::vector<double>(partial.bearings.begin() + 1, partial.bearings.end() - 1);
+  trimmed.ranges = std::vector<double>(partial.ranges.begin() + 1, partial.ranges.end() - 1);
+  const std::vector<double> with_ends = extractor.extract(ends), without = extractor.extract(trimmed);
+  for (std::size_t i = 0; i < with_ends.size(); ++i)
+    EXPECT_TRUE(std::isfinite(with_ends[i])) << "feature " << llc::featureNames(FeatureSet::kExtended)[i];
+  for (const char* name : {"close_area", "widest_gap_angle"}) {
+    const auto& names = llc::featureNames(FeatureSet::kExtended);
+    const std::size_t k = std::size_t(std::find(names.begin(), names.end(), name) - names.begin());
+    ASSERT_LT(k, names.size()) << name;
+    EXPECT_NEAR(with_ends[k], without[k], 1e-12 * (1.0 + std::abs(without[k]))) << name;
+  }
+  EXPECT_NEAR(with_ends[llc::featureIndex(llc::ExtraFeature::kWidestGapAngle)], 0.05, 1e-12);
 }
 
 llc::Scan randomRoomScan(std::uint64_t seed, std::size_t n) {
