@@ -80,6 +80,7 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   training.repeats = int(args.integer("repeats", 1));
   training.seed = std::uint64_t(args.integer("seed", 1));
   training.target_false_alarm = args.number("target-false-alarm", 0.01);
+  training.excluded_features = excludedFeatures(args, features);
   const std::string invalid = training.validate();
   if (invalid.size()) throw UsageError(invalid);
   std::vector<llc::TrainingSet> logs;
@@ -226,7 +227,8 @@ int runLeaveOneLogOut(const Args& args, const std::vector<PairData>& data, const
   s << std::setprecision(4) << std::fixed;
   s << "leave_one_log_out: logs=" << data.size() << " features=" << llc::toString(features.feature_set)
     << " rounds=" << training.rounds << " k_folds=" << training.folds << " target_false_alarm=" << training.target_false_alarm
-    << " seed=" << training.seed << " augment=" << args.get("augment", "none") << "\n";
+    << " seed=" << training.seed << " augment=" << args.get("augment", "none")
+    << " exclude_features=" << args.get("exclude-features", "none") << "\n";
   for (std::size_t i = 0; i < result.logs.size(); ++i) {
     const llc::HeldOutLog& log = result.logs[i];
     csv << log.name << ',' << log.pairs << ',' << log.positives << ',' << log.training_pairs << ',' << log.k << ','
@@ -308,8 +310,10 @@ int runEvaluate(const Args& args) {
   if (ablation_repeats < 1) throw UsageError("--ablation-repeats must be >= 1");
   std::optional<llc::ScanAlignerOptions> aligner_options;
   if (args.has("validate")) aligner_options = alignerOptions(args);
-  if (args.has("augment") && !args.has("leave-one-log-out")) throw UsageError("--augment goes with --leave-one-log-out (or llc train)");
-  augmentations(args);  // a bad list refused before anything is loaded
+  if ((args.has("augment") || args.has("exclude-features")) && !args.has("leave-one-log-out"))
+    throw UsageError("--augment and --exclude-features go with --leave-one-log-out (or llc train)");
+  augmentations(args);  // bad lists refused before anything is loaded
+  excludedFeatures(args, features);
   prepareOutputFolder("out", out_dir);
   const std::vector<PairData> data = loadPairData(args.all("data"), features, args);
   if (args.has("leave-one-log-out")) return runLeaveOneLogOut(args, data, features, out_dir, start);

@@ -28,6 +28,7 @@ int runTrain(const Args& args) {
   if (seed < 0) throw UsageError("--seed must be zero or more");
   options.seed = std::uint64_t(seed);
   options.target_false_alarm = args.number("target-false-alarm", options.target_false_alarm);
+  options.excluded_features = excludedFeatures(args, features);
   if (const std::string invalid = options.validate(); !invalid.empty()) throw UsageError(invalid);
   const double given_k = args.number("k", 0.5);
   if (args.has("k") && !(given_k >= 0.0 && given_k <= 1.0)) throw UsageError("--k must lie in [0, 1]");

@@ -40,17 +40,18 @@ const std::vector<Command>& commands() {
        "      [--augment half-beams|double-beams]   (the scans as a scanner of half/double the beams records them)"},
       {"train", llc_tool::runTrain,
        with(with({"data", "model", "rounds", "k", "target-false-alarm", "folds", "repeats", "seed", "from-session",
-                  "loops/min_keyframe_gap", "augment"},
+                  "loops/min_keyframe_gap", "augment", "exclude-features"},
                  kFeatureFlags),
             kInputFlags),
        {},
        "train --data LOG:PAIRS [--data LOG:PAIRS ...] --model MODEL.yaml [--rounds 50]\n"
        "      [--k K | --target-false-alarm 0.01 --folds 10 --repeats 1] [feature options]\n"
        "      [--augment none|half-beams,double-beams]   (each --data pair also as a scanner of half/double the beams)\n"
+       "      [--exclude-features NAME,...]   (pair features no stump may use: a feature study)\n"
        "      [--from-session SESSION [--loops/min_keyframe_gap 30]]   (self-training: adds the session's keyframe\n"
        "       pairs labelled by its optimised map; --data may then be left out)"},
       {"evaluate", llc_tool::runEvaluate,
-       with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats", "augment",
+       with(with({"data", "out", "folds", "repeats", "rounds", "seed", "curve-max-rounds", "curve-repeats", "augment", "exclude-features",
                   "ablation-repeats", "target-false-alarm", "false-alarm-negatives", "calibration-pairs",
                   "calibration-targets", "loops/calibration/target_false_alarm", "loops/calibration/raise_only",
                   "loops/calibration/min_distance", "loops/calibration/drift_per_metre", "loops/calibration/max_path"},
@@ -64,6 +65,7 @@ const std::vector<Command>& commands() {
        "  llc evaluate --leave-one-log-out --data LOG:PAIRS --data LOG:PAIRS [...] --out DIR [--rounds 50]\n"
        "      [--folds 10 --repeats 1 --target-false-alarm 0.01] [--seed 1] [--false-alarm-negatives 0] [feature options]\n"
        "      [--augment none|half-beams,double-beams]   (the training logs' pairs also augmented; never the held-out log's)\n"
+       "      [--exclude-features NAME,...]   (pair features no stump may use)\n"
        "      [--calibration-pairs 0 [--loops/calibration/target_false_alarm 0.015 | --calibration-targets T1,T2,...]\n"
        "       [--loops/calibration/raise_only true] [--loops/calibration/min_distance 10]\n"
        "       [--loops/calibration/drift_per_metre 0.3] [--loops/calibration/max_path 50] [--drift moderate|strong ...]]\n"

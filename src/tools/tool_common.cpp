@@ -246,6 +246,22 @@ std::vector<llc::ScanAugmentation> augmentations(const Args& args) {
   }
 }
 
+std::vector<std::string> excludedFeatures(const Args& args, const llc::FeatureOptions& options) {
+  std::vector<std::string> excluded;
+  if (!args.has("exclude-features")) return excluded;
+  const std::vector<std::string>& names = llc::pairFeatureNames(options.feature_set);
+  std::stringstream in(args.get("exclude-features", ""));
+  std::string name;
+  while (std::getline(in, name, ',')) {
+    if (std::find(names.begin(), names.end(), name) == names.end())
+      throw UsageError("--exclude-features: no pair feature '" + name + "' in the " + llc::toString(options.feature_set) +
+                       " set (the names of a model file's features)");
+    excluded.push_back(name);
+  }
+  if (excluded.empty()) throw UsageError("--exclude-features: no feature named");
+  return excluded;
+}
+
 std::vector<std::vector<llc::TrainingSet>> augmentedSets(const std::vector<PairData>& data,
                                                          const std::vector<llc::ScanAugmentation>& kinds,
                                                          const llc::FeatureOptions& options) {

@@ -102,6 +102,9 @@ llc::TrainingSet pairTrainingSet(const std::vector<PairData>& data, llc::Feature
 
 /// --augment half-beams,double-beams|none (default none); UsageError on a bad list.
 std::vector<llc::ScanAugmentation> augmentations(const Args& args);
+/// --exclude-features NAME,...: pair features no stump may use (a feature study); UsageError
+/// on a name the feature set does not have.
+std::vector<std::string> excludedFeatures(const Args& args, const llc::FeatureOptions& options);
 /// Per kind, per data item: its pairs' rows with both scans augmented (row for row).
 std::vector<std::vector<llc::TrainingSet>> augmentedSets(const std::vector<PairData>& data,
                                                          const std::vector<llc::ScanAugmentation>& kinds,

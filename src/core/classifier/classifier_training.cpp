@@ -1,5 +1,6 @@
 #include "laser_loop_closure/core/classifier/classifier_training.hpp"
 
+#include <algorithm>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
@@ -37,6 +38,17 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
     }
   AdaBoostOptions boost;
   boost.rounds = options.rounds;
+  if (!options.excluded_features.empty()) {
+    const std::vector<std::string>& names = pairFeatureNames(features.feature_set);
+    for (const std::string& name : options.excluded_features)
+      if (std::find(names.begin(), names.end(), name) == names.end())
+        throw std::invalid_argument("classifier training: no pair feature '" + name + "' in the " +
+                                    toString(features.feature_set) + " set");
+    for (std::size_t f = 0; f < names.size(); ++f)
+      if (std::find(options.excluded_features.begin(), options.excluded_features.end(), names[f]) ==
+          options.excluded_features.end())
+        boost.allowed_features.push_back(int(f));
+  }
   const AdaBoostResult trained = AdaBoostTrainer(boost).train(all);
   if (trained.rounds.empty())
     throw std::invalid_argument("classifier training failed: " + trained.stopped_early);
@@ -67,6 +79,11 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
       << result.auc;
   result.model.provenance["threshold_k"] = why.str();
   result.model.provenance["pairs"] = std::to_string(set.size());
+  if (!options.excluded_features.empty()) {
+    std::string list;
+    for (const std::string& name : options.excluded_features) list += (list.empty() ? "" : ",") + name;
+    result.model.provenance["excluded_features"] = list;
+  }
   if (companions && !companions->empty())
     result.model.provenance["augmented_rows"] = std::to_string(all.size() - set.size());
   return result;

@@ -2,6 +2,7 @@
 // cross-validated scores, the rates against a plain reference, session pairs from poses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "laser_loop_closure/core/classifier/classifier_training.hpp"
@@ -14,6 +15,20 @@ const llc::FeatureSet kSet = llc::FeatureSet::kPaper;
 
 llc::TrainingSet circleSet(std::vector<llc::LabeledPair>* pairs = nullptr) {
   return llc_test::circleTrainingSet(kSet, pairs);
+}
+
+llc::FeatureOptions paperSetOptions() {
+  llc::FeatureOptions features;
+  features.feature_set = kSet;
+  return features;
+}
+
+/// 20 rounds, K from 5 folds: enough for the circle's separable pairs.
+llc::ClassifierTrainingOptions quickTraining() {
+  llc::ClassifierTrainingOptions options;
+  options.rounds = 20;
+  options.folds = 5;
+  return options;
 }
 
 TEST(ClassifierTraining, SessionPairsAreLabelledByPosesAndRowsArePairFeatures) {
@@ -35,13 +50,33 @@ TEST(ClassifierTraining, SessionPairsAreLabelledByPosesAndRowsArePairFeatures) {
   }
 }
 
+TEST(ClassifierTraining, AnExcludedFeatureIsNeverAStumpsAndAnUnknownOneIsRefused) {
+  const llc::TrainingSet set = circleSet();
+  const llc::FeatureOptions features = paperSetOptions();
+  llc::ClassifierTrainingOptions options = quickTraining();
+  // The features the model leans on most without exclusion are the ones to take away.
+  const llc::ClassifierTrainingResult plain = llc::trainClassifierModel(set, features, options);
+  const std::vector<std::string>& names = llc::pairFeatureNames(kSet);
+  std::vector<double> weight(names.size(), 0.0);
+  for (const llc::Stump& stump : plain.model.classifier.stumps()) weight[std::size_t(stump.feature)] += stump.alpha;
+  const std::size_t top = std::size_t(std::max_element(weight.begin(), weight.end()) - weight.begin());
+  ASSERT_GT(weight[top], 0.0);
+  options.excluded_features = {names[top], names[(top + 1) % names.size()]};
+  const llc::ClassifierTrainingResult without = llc::trainClassifierModel(set, features, options);
+  ASSERT_EQ(without.model.classifier.stumps().size(), 20u);
+  for (const llc::Stump& stump : without.model.classifier.stumps()) {
+    EXPECT_NE(names[std::size_t(stump.feature)], options.excluded_features[0]);
+    EXPECT_NE(names[std::size_t(stump.feature)], options.excluded_features[1]);
+  }
+  EXPECT_EQ(without.model.provenance.at("excluded_features"), names[top] + "," + names[(top + 1) % names.size()]);
+  options.excluded_features = {"no_such_feature"};
+  EXPECT_THROW(llc::trainClassifierModel(set, features, options), std::invalid_argument);
+}
+
 TEST(ClassifierTraining, SeparablePairsGiveFullDetectionAndAThresholdFromHeldOutScores) {
   const llc::TrainingSet set = circleSet();
-  llc::FeatureOptions features;
-  features.feature_set = kSet;
-  llc::ClassifierTrainingOptions options;
-  options.rounds = 20;
-  options.folds = 5;
+  const llc::FeatureOptions features = paperSetOptions();
+  llc::ClassifierTrainingOptions options = quickTraining();
   const llc::ClassifierTrainingResult result = llc::trainClassifierModel(set, features, options);
   EXPECT_EQ(result.pairs, 120u);
   EXPECT_EQ(result.positives, 60u);

@@ -20,6 +20,8 @@ struct ClassifierTrainingOptions {
   int repeats = 1;                   ///< cross-validation repeats, each with a new shuffle
   std::uint64_t seed = 1;            ///< seeds the shuffles
   double target_false_alarm = 0.01;  ///< K is the lowest threshold keeping false alarms at or below this
+  /// Pair features (pairFeatureNames) no stump may use (empty: every one): a feature study.
+  std::vector<std::string> excluded_features;
   [[nodiscard]] std::string validate() const;
 };
 
