@@ -30,12 +30,18 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
   result.pairs = set.size();
   for (int label : set.labels) result.positives += label == 1;
 
-  TrainingSet all = set;
-  if (companions)
+  // The stumps learn from the rows and their companions; without companions, from the rows as
+  // given (no copy).
+  TrainingSet with_companions;
+  const bool augmented = companions && !companions->empty();
+  if (augmented) {
+    with_companions = set;
     for (const TrainingSet& rows : *companions) {
       if (rows.size() != set.size()) throw std::invalid_argument("classifier training: companion rows must match the rows one for one");
-      all.append(rows);
+      with_companions.append(rows);
     }
+  }
+  const TrainingSet& all = augmented ? with_companions : set;
   AdaBoostOptions boost;
   boost.rounds = options.rounds;
   if (!options.excluded_features.empty()) {
@@ -84,7 +90,7 @@ ClassifierTrainingResult trainClassifierModel(const TrainingSet& set, const Feat
     for (const std::string& name : options.excluded_features) list += (list.empty() ? "" : ",") + name;
     result.model.provenance["excluded_features"] = list;
   }
-  if (companions && !companions->empty())
+  if (augmented)
     result.model.provenance["augmented_rows"] = std::to_string(all.size() - set.size());
   return result;
 }
