@@ -269,7 +269,8 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   llc::SlamOptions options;
   options.loops.threads = std::size_t(state.range(1));
   const llc::ClassifierModel model = llc::loadClassifierModel(std::string(LLC_SOURCE_DIR) + "/config/classifier.yaml");
-  llc::LoopDetector map(model, options.aligner, options.loops);
+  const llc::LocalizerOptions localization;
+  llc::LoopDetector map(model, llc::mapAlignerOptions(options.aligner, localization), options.loops);
   const std::size_t distinct = std::min<std::size_t>(scans.size(), 300);
   std::vector<std::shared_ptr<const llc::PreparedScan>> prepared;
   std::vector<std::vector<double>> features;
@@ -287,7 +288,6 @@ void BM_LocalizationGlobalSearch(benchmark::State& state) {
   const llc::Scan& query_scan = state.range(3) ? scans[distinct / 2 + 1].scan : scans.back().scan;
   const auto query = map.aligner().prepare(query_scan);
   const std::vector<double> query_features = map.describe(query_scan);
-  const llc::LocalizerOptions localization;
   std::size_t aligned = 0, accepted = 0;
   for (auto _ : state) {
     const llc::LoopDetectionResult r = map.detectScan(query_features, *query, 0, localization.global_candidates,

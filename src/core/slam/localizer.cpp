@@ -19,6 +19,7 @@ std::string LocalizerOptions::validate() const {
   if (!(score_threshold >= 0.0 && score_threshold < 1.0)) return "score_threshold must be in [0, 1) (0: the model's K)";
   if (search_threads == 0 || search_threads > 64) return "search_threads must be in 1 .. 64";
   if (!(min_inlier_share > 0.0 && min_inlier_share <= 1.0)) return "min_inlier_share must be in (0, 1]";
+  if (!(global_search_below >= 0.0 && global_search_below <= 1.0)) return "global_search_below must be in [0, 1]";
   const std::string join_error = join.validate();
   if (!join_error.empty()) return "join: " + join_error;
   if (!(fix_min_fitting_share >= 0.0 && fix_min_fitting_share <= 1.0)) return "fix_min_fitting_share must be in [0, 1]";
@@ -57,12 +58,6 @@ Eigen::Matrix3d composedCovariance(const Pose2& a, const Eigen::Matrix3d& of_a, 
   return ja * of_a * ja.transpose() + jb * of_motion * jb.transpose();
 }
 
-/// The aligner's options for the map's candidates: validation's N is localisation's own.
-ScanAlignerOptions mapAlignerOptions(ScanAlignerOptions aligner, const LocalizerOptions& options) {
-  aligner.validation.min_inlier_share = options.min_inlier_share;
-  return aligner;
-}
-
 /// Validated once, before anything is built from them.
 const LocalizerOptions& checkedOptions(const LocalizerOptions& options) {
   const std::string error = options.validate();
@@ -78,6 +73,12 @@ const SlamSession& checkedMap(const SlamSession& map) {
 }
 
 }  // namespace
+
+ScanAlignerOptions mapAlignerOptions(ScanAlignerOptions aligner, const LocalizerOptions& options) {
+  aligner.validation.min_inlier_share = options.min_inlier_share;
+  aligner.global_search_below = std::min(aligner.global_search_below, options.global_search_below);
+  return aligner;
+}
 
 Localizer::Localizer(const ClassifierModel& model, const SlamOptions& slam, const SlamSession& map, const LocalizerOptions& options)
     : options_(checkedOptions(options)),

@@ -11,6 +11,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -359,16 +360,20 @@ TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   llc::LocalizerOptions bad;
   bad.min_track_fit = 0.0;
   EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, city().session, bad), std::invalid_argument);
-  for (const double share : {0.0, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
-    llc::LocalizerOptions bad_share;
-    bad_share.min_inlier_share = share;
-    try {
-      llc::Localizer(llc_test::defaultModel(), {}, city().session, bad_share);
-      ADD_FAILURE() << "min_inlier_share " << share << " taken";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("min_inlier_share"), std::string::npos) << e.what();
+  // A share out of range is refused, naming the field.
+  using Field = double llc::LocalizerOptions::*;
+  for (const auto& [field, name, lowest_bad] : {std::tuple<Field, const char*, double>{&llc::LocalizerOptions::min_inlier_share, "min_inlier_share", 0.0},
+                                                std::tuple<Field, const char*, double>{&llc::LocalizerOptions::global_search_below, "global_search_below", -0.1}})
+    for (const double value : {lowest_bad, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+      llc::LocalizerOptions bad_share;
+      bad_share.*field = value;
+      try {
+        llc::Localizer(llc_test::defaultModel(), {}, city().session, bad_share);
+        ADD_FAILURE() << name << " " << value << " taken";
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      }
     }
-  }
 
   llc::Localizer localizer(llc_test::defaultModel(), {}, city().session);
   llc::Scan scan = llc_test::frameScan(city().drive, city().drive.frames[10]);
@@ -407,6 +412,50 @@ TEST(Localizer, ItsOwnInlierShareValidatesTheMapsCandidates) {
   EXPECT_GT(usual, 0u);
   EXPECT_GE(loose, usual);
   EXPECT_GT(usual, strict) << "the option did not reach the map's aligner";
+}
+
+TEST(Localizer, ItsCandidatesSkipTheGlobalSearchThatMappingRunsOnPoorFits) {
+  // Localisation's threshold can only lower mapping's (the smaller of the two is taken).
+  llc::ScanAlignerOptions mapping;
+  mapping.global_search_below = 0.7;
+  llc::LocalizerOptions localization;
+  EXPECT_EQ(localization.global_search_below, 0.0);  // the shipped default: only when no start converged
+  localization.min_inlier_share = 0.8;
+  llc::ScanAlignerOptions own = llc::mapAlignerOptions(mapping, localization);
+  EXPECT_EQ(own.global_search_below, 0.0);
+  EXPECT_EQ(own.reverse_below, mapping.reverse_below);
+  EXPECT_EQ(own.validation.min_inlier_share, 0.8);
+  localization.global_search_below = 0.9;
+  EXPECT_EQ(llc::mapAlignerOptions(mapping, localization).global_search_below, 0.7);
+  localization.global_search_below = 0.5;
+  EXPECT_EQ(llc::mapAlignerOptions(mapping, localization).global_search_below, 0.5);
+
+  // Two places of the city: where a start converged but fits poorly, mapping's aligner goes on
+  // to the global search, localisation's stops there (and goes on only when none converged).
+  // One place twice: the same loop.
+  const llc::ScanAligner mapping_aligner(mapping), localization_aligner(llc::mapAlignerOptions(mapping, {}));
+  const auto& frames = city().drive.frames;
+  auto prepared = [&](const llc::ScanAligner& aligner, std::size_t frame) {
+    return aligner.prepare(llc_test::frameScan(city().drive, frames[frame]));
+  };
+  std::size_t compared = 0;
+  for (const auto& [a, b] : std::vector<std::pair<std::size_t, std::size_t>>{{40, 520}, {120, 330}, {200, 560}, {260, 470}, {60, 250}, {150, 420}}) {
+    const llc::ScanAlignmentResult full = mapping_aligner.align(*prepared(mapping_aligner, a), *prepared(mapping_aligner, b));
+    const llc::ScanAlignmentResult fast =
+        localization_aligner.align(*prepared(localization_aligner, a), *prepared(localization_aligner, b));
+    if (full.global.poses.empty() || !fast.global.poses.empty()) continue;  // a good fit early, or no start converged
+    ++compared;
+    EXPECT_FALSE(fast.icp_poses.empty()) << a << "-" << b;
+    EXPECT_LT(fast.icp_poses.size(), full.icp_poses.size()) << a << "-" << b;
+  }
+  EXPECT_GE(compared, 2u) << "too few pairs where mapping's aligner ran the global search";
+  const llc::ScanAlignmentResult full = mapping_aligner.align(*prepared(mapping_aligner, 300), *prepared(mapping_aligner, 301));
+  const llc::ScanAlignmentResult fast =
+      localization_aligner.align(*prepared(localization_aligner, 300), *prepared(localization_aligner, 301));
+  ASSERT_TRUE(full.accepted);
+  EXPECT_TRUE(fast.accepted);
+  EXPECT_DOUBLE_EQ(full.pose.x, fast.pose.x);
+  EXPECT_DOUBLE_EQ(full.pose.theta, fast.pose.theta);
 }
 
 TEST(Localizer, TimeGoingBackwardsIsSkippedOrRestartsTheChainAndTheFixIsKept) {

@@ -33,6 +33,11 @@ struct LocalizerOptions {
   /// moved, and a right candidate may keep fewer points within d. Several keyframes must still
   /// agree, fit and pass probation before a fix.
   double min_inlier_share = 0.85;
+  /// Those candidates' alignment runs the global search (aligner/global_search_below) only
+  /// when its best share is below this too (0: only when no start converged). A lost robot's
+  /// candidates are mostly look-alikes, each of which would run it: it doubled a search's cost
+  /// and found no fix sooner (docs/localization.md).
+  double global_search_below = 0.0;
   TrajectoryJoinOptions join{};       ///< when the loops of several keyframes fix the robot
   /// A fix the loops agree on is then checked as tracking would: the robot's keyframes of the
   /// join's window, placed by it, are matched to the map keyframes near them; at least this
@@ -106,6 +111,10 @@ struct LocalizerCounters {
 /// Unchanged when the prediction has no covariance to weigh.
 void fuse(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, Pose2* measured,
           Eigen::Matrix3d* measured_covariance);
+
+/// The aligner's options for the map's candidates while lost: mapping's, with validation's N
+/// and the global search's threshold localisation's own.
+ScanAlignerOptions mapAlignerOptions(ScanAlignerOptions aligner, const LocalizerOptions& options);
 
 class Localizer {
  public:

@@ -198,6 +198,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/score_threshold", localization.score_threshold);
   visit("localization/search_threads", localization.search_threads);
   visit("localization/min_inlier_share", localization.min_inlier_share);
+  visit("localization/global_search_below", localization.global_search_below);
   visitJoinParameters("localization/join/", localization.join, visit);
   visit("localization/fix_min_fitting_share", localization.fix_min_fitting_share);
   visit("localization/confirm_keyframes", localization.confirm_keyframes);
