@@ -219,6 +219,22 @@ void BM_AlignPair(benchmark::State& state) {
 }
 BENCHMARK(BM_AlignPair)->Unit(benchmark::kMillisecond);
 
+/// CRF-match alone, both ways round as the aligner runs it on a poor fit: the pair of
+/// BM_AlignPair (arg 1) and a look-alike (arg 0: the drive's last scan against scan 100, two
+/// places, where a candidate of the lost robot's search usually is).
+void BM_CrfMatch(benchmark::State& state) {
+  const llc::ScanAligner aligner;
+  const auto& scans = simulatedScans().scans;
+  const auto a = aligner.prepare(scans[100].scan);
+  const auto b = aligner.prepare(state.range(0) ? llc::rotateScan(scans[102].scan, 150.0 * M_PI / 180.0) : scans.back().scan);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(llc::matchCrf(b->crf, a->crf, aligner.options().crf).pose);
+    benchmark::DoNotOptimize(llc::matchCrf(a->crf, b->crf, aligner.options().crf).pose);
+  }
+  state.counters["nodes"] = double(a->crf.nodes.size() + b->crf.nodes.size());
+}
+BENCHMARK(BM_CrfMatch)->Arg(1)->Arg(0)->ArgNames({"same_place"})->Unit(benchmark::kMillisecond);
+
 /// The global search alone on the same pair (what it adds to an alignment when it runs,
 /// before ICP from its starts); counts whether its best pose is within 0.3 m and 3 degrees
 /// of the pose the whole aligner finds.

@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "commands.hpp"
@@ -19,6 +20,7 @@
 #include "laser_loop_closure/core/slam/localization_evaluation.hpp"
 #include "laser_loop_closure/core/slam/localizer.hpp"
 #include "laser_loop_closure/core/slam/odometry_offset.hpp"
+#include "laser_loop_closure/core/slam/reference_check.hpp"
 #include "laser_loop_closure/core/slam/session_io.hpp"
 
 namespace llc_tool {
@@ -143,6 +145,54 @@ Run localize(llc::Localizer& localizer, const llc::ScanSequence& sequence, const
   return run;
 }
 
+/// Whether the reference pose of a scan judged wrong is itself contradicted by the drive's
+/// scans (a SLAM-corrected log's glitch: csail's scans 397-399 are turned about 11 degrees
+/// against their neighbours), as llc slam checks its wrong loops' ends: checkReferencePose
+/// against the input's scans on either side, spaced as keyframes. Cached per input scan.
+class ReferenceJudge {
+ public:
+  ReferenceJudge(const llc::ScanAlignerOptions& aligner, const llc::ScanOdometryOptions& odometry, const llc::ScanSequence& sequence)
+      : aligner_(aligner), spacing_m_(odometry.keyframe_distance), spacing_rad_(odometry.keyframe_angle), sequence_(sequence) {
+    for (const llc::LoggedScan& s : sequence.scans) truth_.push_back(s.truth);
+  }
+
+  bool contradicted(std::size_t i) {
+    const auto known = verdicts_.find(i);
+    if (known != verdicts_.end()) return known->second;
+    const llc::ReferenceNeighbourIndices near = llc::referenceNeighbourIndices(truth_, i, spacing_m_, spacing_rad_);
+    std::vector<std::shared_ptr<const llc::PreparedScan>> held;
+    auto neighbours = [&](const std::vector<std::size_t>& indices) {
+      std::vector<llc::ReferenceNeighbour> out;
+      for (std::size_t k : indices) {
+        held.push_back(aligner_.prepare(sequence_.scans[k].scan));
+        out.push_back({held.back().get(), truth_[k]});
+      }
+      return out;
+    };
+    const std::vector<llc::ReferenceNeighbour> before = neighbours(near.before), after = neighbours(near.after);
+    const bool verdict = llc::checkReferencePose(aligner_, *aligner_.prepare(sequence_.scans[i].scan), truth_[i], before, after).contradicted;
+    return verdicts_[i] = verdict;
+  }
+
+  /// Marks the run's wrong localized scans (rows from sequence index `first` on) whose
+  /// reference is contradicted; judged with no distance limit, as wrong_poses_all is.
+  void mark(std::vector<llc::LocalizedScan>* scored, std::size_t first, const llc::MapWithTruth& map, double wrong_m,
+            double wrong_rad) {
+    for (std::size_t k = 0; k < scored->size(); ++k) {
+      llc::LocalizedScan& s = (*scored)[k];
+      if (s.localized && llc::scoreLocalization({s}, map, wrong_m, wrong_rad).wrong_poses > 0)
+        s.reference_contradicted = contradicted(first + k);
+    }
+  }
+
+ private:
+  const llc::ScanAligner aligner_;
+  const double spacing_m_, spacing_rad_;
+  const llc::ScanSequence& sequence_;
+  std::vector<llc::Pose2> truth_;
+  std::map<std::size_t, bool> verdicts_;
+};
+
 void reportRun(const Run& run, std::ostream& report) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const bool fixed = run.first_fix_scan >= 0;
@@ -183,7 +233,7 @@ template <class MakeLocalizer>
 void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSequence& sequence,
                const std::vector<std::size_t>& input_index, std::size_t end, const MapTruth& map_truth,
                MakeLocalizer&& makeLocalizer, bool wheels, double wrong_m, double wrong_rad, double judge_m,
-               std::ostream& report) {
+               ReferenceJudge& references, std::ostream& report) {
   const long count = starts.count;
   const double travel = starts.travel, fix_within = starts.fix_within, near_map = starts.near_map;
   const double seen_heading = starts.seen_heading;
@@ -201,14 +251,15 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
   random.shuffle(eligible);  // without repeats while there are enough
   std::ostringstream csv;
   csv << std::setprecision(6) << "start_scan,fixed_within,first_fix_scan,first_fix_travel_m,first_fix_compute_s,fixes,lost_events,"
-                                 "localized_scans,wrong_fixes,wrong_poses,rms_m,seen_heading\n";
+                                 "localized_scans,wrong_fixes,wrong_poses,rms_m,seen_heading,wrong_fixes_truth_contradicted\n";
   std::vector<double> travels, computes;
   std::vector<llc::LocalizedScan> pooled;
   std::size_t fixed_within = 0, seen_starts = 0, seen_fixed_within = 0;
   for (long k = 0; k < count; ++k) {
     const std::size_t start = eligible[std::size_t(k) % eligible.size()];
     llc::Localizer localizer = makeLocalizer();
-    const Run run = localize(localizer, sequence, input_index, start, end, wheels, std::size_t(-1), travel, false);
+    Run run = localize(localizer, sequence, input_index, start, end, wheels, std::size_t(-1), travel, false);
+    references.mark(&run.scored, start, map_truth.frame, wrong_m, wrong_rad);
     const llc::LocalizationScore score = llc::scoreLocalization(run.scored, map_truth.frame, wrong_m, wrong_rad, judge_m);
     const bool in_time = run.first_fix_scan >= 0 && run.first_fix_travel <= fix_within;
     fixed_within += in_time;
@@ -218,7 +269,7 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
     csv << input_index[start] << "," << in_time << "," << run.first_fix_scan << "," << run.first_fix_travel << ","
         << run.first_fix_compute << "," << localizer.counters().fixes << "," << localizer.counters().lost_events << ","
         << score.localized << "," << score.wrong_fixes << "," << score.wrong_poses << "," << score.rms_m << "," << seen[start]
-        << "\n";
+        << "," << score.wrong_fixes_contradicted << "\n";
   }
   llc::writeFileAtomically(args.required("out") + "/starts.csv", csv.str());
   const llc::LocalizationScore all = llc::scoreLocalization(pooled, map_truth.frame, wrong_m, wrong_rad, judge_m);
@@ -241,6 +292,9 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
          << "wrong_fixes=" << all.wrong_fixes << "  (off where the map has the place by more than " << wrong_m << " m or "
          << wrong_rad * 180.0 / M_PI << " deg)\n"
          << "wrong_poses=" << all.wrong_poses << "\n"
+         << "wrong_fixes_truth_contradicted=" << all.wrong_fixes_contradicted
+         << "  (of the wrong fixes, those whose scan's reference pose its own scans contradict: ICP from it to the input's scans on either side turns and fits better)\n"
+         << "wrong_poses_truth_contradicted=" << all.wrong_poses_contradicted << "\n"
          << "beyond_map_poses=" << all.beyond_map << "  (localized scans whose truth lies over --judge-within-m " << judge_m
          << " m from every map keyframe's: carried by odometry where the map has no place to judge by; not judged)\n"
          << "rms_error_localized_m=" << all.rms_m << "  (all starts' judged localized scans, against the map)\n"
@@ -333,7 +387,9 @@ int runLocalize(const Args& args) {
          << "wheel_odometry=" << (wheels ? "used" : "not used") << "\n";
   if (args.has("starts")) {
     if (!map_truth) throw UsageError("--starts needs --truth (starts are drawn near the map, and scored)");
-    runStarts(args, starts, sequence, input_index, end_scan, *map_truth, makeLocalizer, wheels, wrong_m, wrong_rad, judge_m, report);
+    ReferenceJudge references(options.slam.aligner, options.slam.odometry, sequence);
+    runStarts(args, starts, sequence, input_index, end_scan, *map_truth, makeLocalizer, wheels, wrong_m, wrong_rad, judge_m,
+              references, report);
     llc::writeFileAtomically(dir + "/report.txt", report.str());
     std::cout << report.str() << "Wrote " << dir << "/{starts.csv,report.txt}\n";
     return 0;
@@ -342,8 +398,12 @@ int runLocalize(const Args& args) {
   llc::Localizer localizer = makeLocalizer();
   const double load_seconds = llc::secondsSince(load_start);
   const std::size_t kidnap_row = args.has("kidnap-at") ? std::size_t(kidnap_at) : std::size_t(-1);
-  const Run run = localize(localizer, sequence, input_index, std::size_t(start_scan), end_scan, wheels, kidnap_row, -1.0, true,
-                           map_truth ? &*map_truth : nullptr);
+  Run run = localize(localizer, sequence, input_index, std::size_t(start_scan), end_scan, wheels, kidnap_row, -1.0, true,
+                     map_truth ? &*map_truth : nullptr);
+  if (map_truth) {
+    ReferenceJudge references(options.slam.aligner, options.slam.odometry, sequence);
+    references.mark(&run.scored, std::size_t(start_scan), map_truth->frame, wrong_m, wrong_rad);
+  }
   llc::writeFileAtomically(dir + "/poses.csv", run.rows);
   llc::writeFileAtomically(dir + "/search.csv", run.searches);
   llc::writeFileAtomically(dir + "/candidates.csv", run.candidates);
@@ -381,6 +441,9 @@ int runLocalize(const Args& args) {
            << "wrong_fixes=" << score.wrong_fixes << "  (a fix off where the map has its place by more than " << wrong_m
            << " m or " << wrong_rad * 180.0 / M_PI << " deg: its truth from the map keyframe truly nearest)\n"
            << "wrong_poses=" << score.wrong_poses << "  (localized scans as far off)\n"
+           << "wrong_fixes_truth_contradicted=" << score.wrong_fixes_contradicted
+           << "  (of those fixes, the ones whose scan's reference pose its own scans contradict: ICP from it to the input's scans on either side turns and fits better)\n"
+           << "wrong_poses_truth_contradicted=" << score.wrong_poses_contradicted << "\n"
            << "rms_error_localized_m=" << score.rms_m << "\n"
            << "max_error_localized_m=" << score.max_m << "\n"
            << "wrong_fixes_global=" << score.wrong_fixes_global << "  (the same against the truth itself: the map's bending included)\n"
@@ -400,7 +463,8 @@ int runLocalize(const Args& args) {
       if (!run.scored[k].fixed) continue;
       const llc::LocalizationScore one = llc::scoreLocalization({run.scored[k]}, map_truth->frame, wrong_m, wrong_rad);
       report << "fix_error: scan " << input_index[std::size_t(start_scan) + k] << " off where the map has it by " << one.rms_m
-             << " m (off the truth by " << one.rms_global_m << " m)" << (one.wrong_fixes ? ", wrong" : "") << "\n";
+             << " m (off the truth by " << one.rms_global_m << " m)" << (one.wrong_fixes ? ", wrong" : "")
+             << (one.wrong_fixes_contradicted ? ", by a reference pose its own scans contradict" : "") << "\n";
     }
   llc::writeFileAtomically(dir + "/report.txt", report.str());
   std::cout << report.str() << "Wrote " << dir << "/{poses.csv,search.csv,candidates.csv,report.txt}\n";

@@ -43,10 +43,12 @@ LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, con
     sum_global += global_metres * global_metres;
     score.max_m = std::max(score.max_m, metres);
     score.wrong_poses += wrong(error);
+    score.wrong_poses_contradicted += wrong(error) && s.reference_contradicted;
     score.wrong_poses_global += wrong(global);
     if (s.fixed) {
       ++score.fixes;
       score.wrong_fixes += wrong(error);
+      score.wrong_fixes_contradicted += wrong(error) && s.reference_contradicted;
       score.wrong_fixes_global += wrong(global);
     }
   }

@@ -36,4 +36,24 @@ ReferenceCheck checkReferencePose(const ScanAligner& aligner, const PreparedScan
   return check;
 }
 
+ReferenceNeighbourIndices referenceNeighbourIndices(const std::vector<Pose2>& truth, std::size_t at, double spacing_m,
+                                                    double spacing_rad, std::size_t count, double max_distance) {
+  ReferenceNeighbourIndices out;
+  if (at >= truth.size()) return out;
+  auto walk = [&](long step, std::vector<std::size_t>& taken) {
+    Pose2 last = truth[at];
+    for (long k = long(at) + step; k >= 0 && std::size_t(k) < truth.size() && taken.size() < count; k += step) {
+      const Pose2& p = truth[std::size_t(k)];
+      if (!isFinite(p) || std::hypot(p.x - truth[at].x, p.y - truth[at].y) > max_distance) break;
+      if (std::hypot(p.x - last.x, p.y - last.y) < spacing_m && std::abs(normalizeAngle(p.theta - last.theta)) < spacing_rad)
+        continue;
+      taken.push_back(std::size_t(k));
+      last = p;
+    }
+  };
+  walk(-1, out.before);
+  walk(+1, out.after);
+  return out;
+}
+
 }  // namespace llc

@@ -69,4 +69,25 @@ TEST(ReferenceCheck, APoseTurnedAgainstBothSidesIsContradicted) {
   EXPECT_FALSE(s.check(0, first).contradicted);
 }
 
+TEST(ReferenceCheck, NeighboursAreSpacedAsKeyframesAndStopAtAJump) {
+  // A drive along x in steps of 0.4 m, a turn on the spot at scan 6 (0.5 rad), then a jump of
+  // 20 m (a kidnapping) after scan 9.
+  std::vector<Pose2> truth;
+  for (int k = 0; k <= 5; ++k) truth.push_back({0.4 * k, 0.0, 0.0});
+  truth.push_back({2.0, 0.0, 0.5});
+  for (int k = 7; k <= 9; ++k) truth.push_back({2.0 + 0.4 * (k - 6), 0.0, 0.5});
+  truth.push_back({22.0, 0.0, 0.5});
+  const llc::ReferenceNeighbourIndices at5 = llc::referenceNeighbourIndices(truth, 5, 1.0, 0.35, 3, 5.0);
+  // Back from scan 5 (at 2.0 m): 1.6 and 1.2 m are within 1 m of it, 0.8 m is not (taken), and
+  // 0.4 and 0 m are within 1 m of that.
+  EXPECT_EQ(at5.before, (std::vector<std::size_t>{2}));
+  // Forward: scan 6 turned 0.5 rad (taken), 8 is 0.8 m from 6 with the same heading: no; 9 is
+  // 1.2 m (taken); 10 lies 20 m away: the walk ends there.
+  EXPECT_EQ(at5.after, (std::vector<std::size_t>{6, 9}));
+  // At most `count` a side; none before the first scan; an index past the end gives nothing.
+  EXPECT_EQ(llc::referenceNeighbourIndices(truth, 9, 0.3, 0.35, 2, 5.0).before, (std::vector<std::size_t>{8, 7}));
+  EXPECT_TRUE(llc::referenceNeighbourIndices(truth, 0).before.empty());
+  EXPECT_TRUE(llc::referenceNeighbourIndices(truth, 99).after.empty());
+}
+
 }  // namespace

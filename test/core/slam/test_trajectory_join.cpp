@@ -305,6 +305,14 @@ TEST(ScoreLocalization, AgainstWhereTheMapHasThePlaceAndAgainstTheTruth) {
   EXPECT_EQ(near.beyond_map, 1u);
   EXPECT_EQ(near.wrong_poses, 1u);
   EXPECT_EQ(llc::scoreLocalization(scans, map, 1.0, 0.1).wrong_poses, 2u);  // judged when not bounded
+  // A scan whose reference its own scans contradict is counted apart among the wrong ones
+  // only: marked on a right pose (scan 1), it counts nowhere.
+  EXPECT_EQ(near.wrong_fixes_contradicted, 0u);
+  scans[3].reference_contradicted = true, scans[1].reference_contradicted = true;
+  const llc::LocalizationScore marked = llc::scoreLocalization(scans, map, 1.0, 0.1, 1.5);
+  EXPECT_EQ(marked.wrong_fixes, 1u);  // still wrong by the reference
+  EXPECT_EQ(marked.wrong_fixes_contradicted, 1u);
+  EXPECT_EQ(marked.wrong_poses_contradicted, 1u);
 }
 
 }  // namespace

@@ -17,6 +17,9 @@ struct LocalizedScan {
   bool fixed = false;      ///< the scan whose keyframe fixed the robot (first fix or relocalisation)
   Pose2 pose;              ///< map frame, when localized
   Pose2 truth;
+  /// The scan's reference pose is contradicted by its own scans (checkReferencePose against
+  /// the drive's scans on either side): judged wrong there, the pose may be right.
+  bool reference_contradicted = false;
 };
 
 /// The map's keyframes with their true poses, and the map's frame laid onto the truth's.
@@ -38,6 +41,8 @@ struct LocalizationScore {
   /// has the place, and is judged so.
   std::size_t wrong_fixes = 0;  ///< fixed scans off by more than wrong_translation or wrong_rotation
   std::size_t wrong_poses = 0;  ///< localized scans off by as much
+  /// Of the wrong fixes and poses, those whose scan's reference pose is contradicted.
+  std::size_t wrong_fixes_contradicted = 0, wrong_poses_contradicted = 0;
   double rms_m = 0.0;           ///< position RMS of the localized scans
   double max_m = 0.0;           ///< largest position error of a localized scan
   /// Against the truth itself, through truth_from_map (the map's own bending included).

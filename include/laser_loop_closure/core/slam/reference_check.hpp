@@ -3,6 +3,7 @@
 // degrees against their neighbours), and a loop judged wrong against such a pose may be right.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 #include "laser_loop_closure/core/alignment/scan_aligner.hpp"
@@ -43,5 +44,17 @@ struct ReferenceCheck {
 ReferenceCheck checkReferencePose(const ScanAligner& aligner, const PreparedScan& at, const Pose2& truth_at,
                                   const std::vector<ReferenceNeighbour>& before,
                                   const std::vector<ReferenceNeighbour>& after, const ReferenceCheckOptions& options = {});
+
+/// Which scans of a drive checkReferencePose takes as `at`'s neighbours, by their reference
+/// poses: walking away from `at` on either side, each next one at least `spacing_m` m or
+/// `spacing_rad` rad from the one taken before (spaced as keyframes are), up to `count` a
+/// side, none farther than `max_distance` m from `at` (beyond, a kidnapping's jump or too
+/// little overlap to tell). Nearest first.
+struct ReferenceNeighbourIndices {
+  std::vector<std::size_t> before, after;
+};
+ReferenceNeighbourIndices referenceNeighbourIndices(const std::vector<Pose2>& truth, std::size_t at, double spacing_m = 1.0,
+                                                    double spacing_rad = 0.35, std::size_t count = 3,
+                                                    double max_distance = 5.0);
 
 }  // namespace llc
