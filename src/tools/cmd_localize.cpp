@@ -193,6 +193,26 @@ class ReferenceJudge {
   std::map<std::size_t, bool> verdicts_;
 };
 
+/// errors.csv (with --truth): each localized scan against where the map has its place and
+/// against the truth, with how far its truth lies from the nearest map keyframe's (judged
+/// within --judge-within-m) and whether its reference is contradicted (wrong ones only).
+std::string errorRows(const std::vector<llc::LocalizedScan>& scored, const std::vector<std::size_t>& input_index,
+                      std::size_t first, const llc::MapWithTruth& map) {
+  std::ostringstream csv;
+  csv << std::setprecision(6) << "scan,error_m,error_deg,global_error_m,global_error_deg,nearest_map_keyframe_m,truth_contradicted\n";
+  for (std::size_t k = 0; k < scored.size(); ++k) {
+    const llc::LocalizedScan& s = scored[k];
+    if (!s.localized) continue;
+    double nearest = 0.0;
+    const llc::Pose2 error = llc::between(llc::whereTheMapHasIt(map, s.truth, &nearest), s.pose);
+    const llc::Pose2 global = llc::between(s.truth, llc::compose(map.truth_from_map, s.pose));
+    csv << input_index[first + k] << "," << std::hypot(error.x, error.y) << "," << std::abs(error.theta) * 180.0 / M_PI << ","
+        << std::hypot(global.x, global.y) << "," << std::abs(global.theta) * 180.0 / M_PI << "," << nearest << ","
+        << s.reference_contradicted << "\n";
+  }
+  return csv.str();
+}
+
 void reportRun(const Run& run, std::ostream& report) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const bool fixed = run.first_fix_scan >= 0;
@@ -243,10 +263,16 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
   // Of those, the starts that pass a mapped place heading as the map did there (what a scanner
   // of less than the full circle can know again): scored apart.
   const std::vector<bool> seen = llc::startsNearMap(truth, map_truth.frame.truth, fix_within, near_map, seen_heading);
+  // A start needs fix_within m of true path ahead (the input ending sooner could not be fixed
+  // within them), so the path left from each scan, by the truth.
+  std::vector<double> path_left(end, 0.0);
+  for (std::size_t i = end; i-- > 1;)
+    path_left[i - 1] = path_left[i] + std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y);
   std::vector<std::size_t> eligible;
   for (std::size_t i = std::size_t(args.integer("start-scan", 0)); i < end; ++i)
-    if (near[i]) eligible.push_back(i);
-  if (eligible.empty()) throw ToolError("--starts: no scan of the input passes near the map early enough (--near-map-m, --fix-within-m)");
+    if (near[i] && path_left[i] >= fix_within) eligible.push_back(i);
+  if (eligible.empty())
+    throw ToolError("--starts: no scan of the input passes near the map early enough, with --fix-within-m of path after it (--near-map-m, --fix-within-m)");
   llc::Random random(std::uint64_t(args.integer("seed", 1)));
   random.shuffle(eligible);  // without repeats while there are enough
   std::ostringstream csv;
@@ -277,7 +303,7 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
   report << "truth_map_rms_m=" << map_truth.rms_m << "  (the session's keyframes against their truth: the map's own error)\n"
          << "starts=" << count << "  (drawn at random, --seed " << args.integer("seed", 1) << ", among the "
          << eligible.size() << " of " << end << " scans whose first " << fix_within << " m pass within " << near_map
-         << " m of the map's keyframes)\n"
+         << " m of the map's keyframes, the input going on for " << fix_within << " m at least)\n"
          << "start_travel_m=" << travel << "  (each start localised over this much of its own path)\n"
          << "fixed_within_share=" << double(fixed_within) / double(count) << "  (first fix within " << fix_within << " m)\n"
          << "fixed_share=" << double(travels.size()) / double(count) << "  (fixed at all)\n"
@@ -403,6 +429,7 @@ int runLocalize(const Args& args) {
   if (map_truth) {
     ReferenceJudge references(options.slam.aligner, options.slam.odometry, sequence);
     references.mark(&run.scored, std::size_t(start_scan), map_truth->frame, wrong_m, wrong_rad);
+    llc::writeFileAtomically(dir + "/errors.csv", errorRows(run.scored, input_index, std::size_t(start_scan), map_truth->frame));
   }
   llc::writeFileAtomically(dir + "/poses.csv", run.rows);
   llc::writeFileAtomically(dir + "/search.csv", run.searches);
@@ -421,6 +448,8 @@ int runLocalize(const Args& args) {
          << "loops_to_map=" << c.loops_to_map << "  (their shape-validated loops, look-alikes included)\n"
          << "tracked_keyframes=" << c.tracked_keyframes << "\n"
          << "misfit_keyframes=" << c.misfit_keyframes << "  (near mapped keyframes, fitting none: localization/min_track_fit)\n"
+         << "disagreeing_keyframes=" << c.disagreeing_keyframes
+         << "  (fitting, but where the odometry's prediction rules out: localization/max_track_chi2; carried by odometry)\n"
          << "off_map_keyframes=" << c.off_map_keyframes << "  (no map keyframe within localization/track_radius)\n"
          << "fixes_refused=" << c.fixes_refused << "  (the loops agreed, the recent keyframes did not fit there: localization/fix_min_fitting_share)\n"
          << "fixes_dropped=" << c.fixes_dropped << "  (a keyframe on probation did not fit: localization/confirm_keyframes)\n"
@@ -467,7 +496,8 @@ int runLocalize(const Args& args) {
              << (one.wrong_fixes_contradicted ? ", by a reference pose its own scans contradict" : "") << "\n";
     }
   llc::writeFileAtomically(dir + "/report.txt", report.str());
-  std::cout << report.str() << "Wrote " << dir << "/{poses.csv,search.csv,candidates.csv,report.txt}\n";
+  std::cout << report.str() << "Wrote " << dir << "/{poses.csv,search.csv,candidates.csv,report.txt"
+            << (map_truth ? ",errors.csv" : "") << "}\n";
   return 0;
 }
 

@@ -167,7 +167,7 @@ const std::vector<Command>& commands() {
        "      [--end-scan N]   (scans from N on are left out)\n"
        "      [--starts 20 --truth REF [--start-travel 100] [--fix-within-m 10] [--near-map-m 1] [--seed 1]]   (that many\n"
        "       localisations, each from a random scan whose true path passes within --near-map-m m of a map keyframe in\n"
-       "       its first --fix-within-m m, over\n"
+       "       its first --fix-within-m m (and goes on that far), over\n"
        "       --start-travel m of its path: starts.csv, and in report.txt the share fixed within --fix-within-m m,\n"
        "       median travel and computation to the first fix, wrong fixes, RMS)\n"
        "      [--seen-heading-deg 45]   (also the share fixed within --fix-within-m m of the starts that pass a map keyframe\n"

@@ -27,6 +27,7 @@ std::string LocalizerOptions::validate() const {
   if (track_keyframes == 0) return "track_keyframes must be >= 1";
   if (!(min_track_fit > 0.0 && min_track_fit <= 1.0)) return "min_track_fit must be in (0, 1]";
   if (!(max_correction > 0.0) || !std::isfinite(max_correction)) return "max_correction must be > 0 m";
+  if (!(max_track_chi2 >= 0.0) || !std::isfinite(max_track_chi2)) return "max_track_chi2 must be >= 0 (0: off)";
   if (confirm_keyframes > 20) return "confirm_keyframes must be at most 20";
   if (lost_after_misfits == 0) return "lost_after_misfits must be >= 1";
   if (!(max_unmatched_travel > 0.0) || !std::isfinite(max_unmatched_travel)) return "max_unmatched_travel must be > 0 m";
@@ -355,6 +356,14 @@ std::string Localizer::checkFixContext(const JoinHypothesis& loop) const {
   return checked.accepted ? "" : "the loops agree, but " + checked.reject_reason;
 }
 
+double innovationChi2(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, const Pose2& measured,
+                      const Eigen::Matrix3d& measured_covariance) {
+  const Eigen::Matrix3d sum = predicted_covariance + measured_covariance;
+  if (!sum.allFinite() || !(std::abs(sum.determinant()) >= 1e-30)) return 0.0;
+  const Eigen::Vector3d innovation(measured.x - predicted.x, measured.y - predicted.y, normalizeAngle(measured.theta - predicted.theta));
+  return innovation.dot(sum.inverse() * innovation);
+}
+
 void fuse(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, Pose2* measured,
           Eigen::Matrix3d* measured_covariance) {
   const Eigen::Matrix3d sum = predicted_covariance + *measured_covariance;
@@ -390,6 +399,7 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const 
   step.fit = best_fit;
   if (best_fit < 0.0) {  // off the map: carried by odometry for a while
     ++counters_.off_map_keyframes;
+    state_.has_disagreement = false;
     carryCovariance(trajectory_pose, motion_covariance);
     if (path_.length - state_.last_fit_path > options_.max_unmatched_travel) {
       char why[128];
@@ -400,7 +410,6 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const 
     return;
   }
   if (best_fit >= options_.min_track_fit) {
-    ++counters_.tracked_keyframes;
     // The map match and the odometry's prediction weighed by their covariances: along a
     // corridor, where ICP cannot tell how far along it is, the odometry keeps the pose.
     const Pose2 from = compose(state_.map_from_trajectory, state_.keyframe_trajectory_pose);
@@ -409,7 +418,27 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const 
                            motion_covariance.allFinite() ? motion_covariance : Eigen::Matrix3d::Zero());
     Pose2 corrected = best_pose;
     Eigen::Matrix3d covariance = best_covariance;
-    fuse(predicted, predicted_covariance, &corrected, &covariance);
+    // A match the prediction rules out (a poor fit pulled to another optimum) is not taken,
+    // the keyframe carried by odometry as off the map, unless the last keyframe's match was
+    // ruled out too and agrees with it: then the prediction went astray, and it is taken.
+    const double chi2 = innovationChi2(predicted, predicted_covariance, best_pose, best_covariance);
+    if (options_.max_track_chi2 > 0.0 && chi2 > options_.max_track_chi2) {
+      ++counters_.disagreeing_keyframes;
+      const Pose2 implied = compose(best_pose, inverse(trajectory_pose));
+      const Pose2 apart = between(state_.disagreeing_map_from_trajectory, implied);
+      const bool repeated = state_.has_disagreement && std::hypot(apart.x, apart.y) <= options_.join.max_translation &&
+                            std::abs(normalizeAngle(apart.theta)) <= options_.join.max_rotation;
+      if (!repeated) {
+        state_.has_disagreement = true;
+        state_.disagreeing_map_from_trajectory = implied;
+        carryCovariance(trajectory_pose, motion_covariance);
+        return;
+      }
+    } else {
+      fuse(predicted, predicted_covariance, &corrected, &covariance);
+    }
+    ++counters_.tracked_keyframes;
+    state_.has_disagreement = false;
     state_.map_from_trajectory = compose(corrected, inverse(trajectory_pose));
     state_.keyframe_covariance = covariance;
     state_.keyframe_trajectory_pose = trajectory_pose;
@@ -421,6 +450,7 @@ void Localizer::track(std::size_t keyframe, const Pose2& trajectory_pose, const 
   }
   ++counters_.misfit_keyframes;
   state_.last_fit = best_fit;
+  state_.has_disagreement = false;
   carryCovariance(trajectory_pose, motion_covariance);
   if (!state_.confirmed) {  // on probation: the fix was a look-alike, search on
     ++counters_.fixes_dropped;

@@ -302,6 +302,7 @@ void LocalizationRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat
   status.add("tracked keyframes", c.tracked_keyframes);
   status.add("keyframes not fitting the map", c.misfit_keyframes);
   status.add("keyframes off the map", c.off_map_keyframes);
+  status.add("keyframes fitting where the odometry rules out (max_track_chi2)", c.disagreeing_keyframes);
   status.add("own keyframes whose scans were let go (memory)", c.scans_released);
   status.add("newest search (s)", w.last_search_seconds);
   status.add("path driven (m)", w.status.path_length);

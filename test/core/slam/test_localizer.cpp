@@ -95,6 +95,35 @@ TEST(Localizer, FindsItselfWithNoPriorAndTracksNearTheTruth) {
   EXPECT_EQ(localizer.state(), llc::LocalizationState::kLocalized);
 }
 
+TEST(Localizer, MatchesThePredictionRulesOutAreTakenWhenTheNextAgrees) {
+  // A gate so tight that every match is ruled out: a match alone is kept out, but the next
+  // keyframe's agrees with it (the prediction, not the map, would be astray), so every second
+  // one is taken and the robot stays tracked near its truth.
+  llc::LocalizerOptions options;
+  options.max_track_chi2 = 1e-12;
+  llc::Localizer localizer(llc_test::defaultModel(), {}, city().session, options);
+  Fed fed;
+  feed(localizer, 400, 650, llc::Pose2{1000.0, -500.0, 2.0}, &fed);
+  double worst = 0.0;
+  std::size_t localized = 0;
+  for (std::size_t k = 0; k < fed.steps.size(); ++k)
+    if (fed.steps[k].has_pose) ++localized, worst = std::max(worst, offBy(fed.steps[k].pose, city().drive.frames[fed.frames[k]].truth));
+  const llc::LocalizerCounters& c = localizer.counters();
+  EXPECT_GT(localized, fed.steps.size() / 2);
+  EXPECT_LT(worst, 0.3);
+  EXPECT_GT(c.disagreeing_keyframes, 0u);
+  EXPECT_GT(c.tracked_keyframes, 0u);
+  EXPECT_LE(c.tracked_keyframes, c.disagreeing_keyframes) << "each taken match follows one kept out";
+  // At 30 (3 dof, p about 1e-6), on this drive the prediction and the map agree: nothing is
+  // kept out.
+  options.max_track_chi2 = 30.0;
+  llc::Localizer gated(llc_test::defaultModel(), {}, city().session, options);
+  Fed plain;
+  feed(gated, 400, 650, llc::Pose2{1000.0, -500.0, 2.0}, &plain);
+  EXPECT_EQ(gated.counters().disagreeing_keyframes, 0u);
+  EXPECT_GT(gated.counters().tracked_keyframes, 10u);
+}
+
 TEST(Localizer, TheOdometryFrameChangesNothing) {
   llc::Localizer a(llc_test::defaultModel(), {}, city().session), b(llc_test::defaultModel(), {}, city().session);
   Fed fa, fb;
@@ -329,6 +358,24 @@ TEST(LocalizerFuse, WeighsTheMapMatchAndThePredictionByTheirCovariances) {
   EXPECT_TRUE(covariance.isApprox(Eigen::Matrix3d::Identity()));
 }
 
+TEST(LocalizerFuse, InnovationChi2IsTheDifferenceUnderBothCovariances) {
+  // Unit covariances: the sum is 2 I, so chi2 = |v|^2 / 2.
+  const Eigen::Matrix3d unit = Eigen::Matrix3d::Identity();
+  EXPECT_NEAR(llc::innovationChi2({0.0, 0.0, 0.0}, unit, {2.0, 0.0, 0.2}, unit), (4.0 + 0.04) / 2.0, 1e-12);
+  // A heading of 0.2 rad against sigmas of 0.01 rad each: (0.2)^2 / 2e-4 = 200, far outside;
+  // the same turn with a prediction of 0.2 rad sigma: under 1.
+  const Eigen::Matrix3d tight = 1e-4 * unit, loose = 0.04 * unit;
+  EXPECT_NEAR(llc::innovationChi2({}, tight, {0.0, 0.0, 0.2}, tight), 200.0, 1e-9);
+  EXPECT_LT(llc::innovationChi2({}, loose, {0.0, 0.0, 0.2}, tight), 1.0);
+  // Headings wrap: 179 and -179 degrees are 2 degrees apart.
+  const double two_degrees = 2.0 * M_PI / 180.0;
+  EXPECT_NEAR(llc::innovationChi2({0.0, 0.0, 179.0 * M_PI / 180.0}, tight, {0.0, 0.0, -179.0 * M_PI / 180.0}, tight),
+              two_degrees * two_degrees / 2e-4, 1e-6);
+  // Nothing to judge by: 0.
+  EXPECT_EQ(llc::innovationChi2({}, Eigen::Matrix3d::Zero(), {5.0, 0.0, 0.0}, Eigen::Matrix3d::Zero()), 0.0);
+  EXPECT_EQ(llc::innovationChi2({}, Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN()), {5.0, 0.0, 0.0}, unit), 0.0);
+}
+
 TEST(LoopDetector, AScanFromOutsideIsSearchedAlikeOnOneThreadOrTwo) {
   const llc::SlamOptions options;
   llc::LoopDetector map(llc_test::defaultModel(), options.aligner, options.loops);
@@ -360,6 +407,14 @@ TEST(Localizer, BadMapsAndScansAreRefusedNotFatal) {
   llc::LocalizerOptions bad;
   bad.min_track_fit = 0.0;
   EXPECT_THROW(llc::Localizer(llc_test::defaultModel(), {}, city().session, bad), std::invalid_argument);
+  for (const double chi2 : {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    llc::LocalizerOptions bad_gate;
+    bad_gate.max_track_chi2 = chi2;
+    EXPECT_NE(bad_gate.validate().find("max_track_chi2"), std::string::npos) << chi2;
+  }
+  llc::LocalizerOptions off;
+  off.max_track_chi2 = 0.0;  // off is allowed
+  EXPECT_EQ(off.validate(), "");
   // A share out of range is refused, naming the field.
   using Field = double llc::LocalizerOptions::*;
   for (const auto& [field, name, lowest_bad] : {std::tuple<Field, const char*, double>{&llc::LocalizerOptions::min_inlier_share, "min_inlier_share", 0.0},

@@ -50,6 +50,15 @@ struct LocalizerOptions {
   std::size_t track_keyframes = 3;    ///< of those, the nearest this many (the best fit is taken)
   double min_track_fit = 0.35;        ///< a keyframe whose best fit (ScanAligner::fit) is below this does not fit the map
   double max_correction = 1.0;        ///< m; a match that moves the tracked pose farther does not fit either
+  /// A fitting match whose innovation against the odometry's prediction (chi2 of the pose
+  /// difference under both covariances, 3 dof) is above this is not taken: the keyframe is
+  /// carried by odometry as off the map (0: off), unless the next keyframe's match, kept out
+  /// too, agrees with it (within join/max_translation and join/max_rotation): then the
+  /// prediction went astray, and that match is taken as it is. A poor fit pulled to another
+  /// optimum in a fast turn is far outside both covariances, and alone. Off by default: at 30
+  /// it mended freiburg-079's and intel's tracking but gave acapulco a wrong fix
+  /// (docs/localization.md).
+  double max_track_chi2 = 0.0;
   std::size_t lost_after_misfits = 2;  ///< consecutive keyframes that do not fit where the map has keyframes: lost
   double max_unmatched_travel = 15.0;  ///< m of path with no keyframe fitting the map (off the map): lost
   /// m of path after a pose hint (hint()) during which the search is narrowed to it; then the
@@ -98,6 +107,8 @@ struct LocalizerCounters {
   std::size_t lost_events = 0;         ///< localized, then lost
   std::size_t relocalizations = 0;     ///< fixes after a lost event or a forced search
   std::size_t tracked_keyframes = 0, misfit_keyframes = 0, off_map_keyframes = 0;
+  std::size_t disagreeing_keyframes = 0;  ///< fitting matches that max_track_chi2 kept out
+
   std::size_t fixes_refused = 0;       ///< fixes the loops agreed on that the recent keyframes did not fit (verifyFix) ...
   std::size_t fixes_dropped = 0;       ///< ... or that a keyframe on probation did not fit (confirm_keyframes)
   /// The robot's keyframes whose scans were let go, out of the join's window (only their
@@ -105,6 +116,11 @@ struct LocalizerCounters {
   std::size_t scans_released = 0;
   double seconds_front_end = 0.0, seconds_search = 0.0, seconds_track = 0.0;
 };
+
+/// chi2 of measured - predicted (heading wrapped) under the sum of their covariances (0 when
+/// that sum cannot be inverted or is not finite: nothing to judge by).
+double innovationChi2(const Pose2& predicted, const Eigen::Matrix3d& predicted_covariance, const Pose2& measured,
+                      const Eigen::Matrix3d& measured_covariance);
 
 /// A pose predicted (with its covariance) and one measured (with its): the measured one
 /// becomes their covariance-weighted mean (a Kalman update), and its covariance the mean's.
@@ -191,6 +207,10 @@ class Localizer {
     double last_fit = -1.0;
     Eigen::Matrix3d keyframe_covariance = Eigen::Matrix3d::Zero();  ///< of the newest keyframe's map pose
     Pose2 keyframe_trajectory_pose;  ///< that keyframe's pose in the trajectory frame
+    /// The last match max_track_chi2 kept out, as the frame it implies, while no match was
+    /// taken since: a next one agreeing with it says the prediction, not the map, went astray.
+    bool has_disagreement = false;
+    Pose2 disagreeing_map_from_trajectory;
   };
   TrackState state_;
   bool had_fix_ = false;  ///< a fix from now on is a relocalisation

@@ -206,6 +206,7 @@ void visitParameters(SystemOptions& options, Visit&& visit) {
   visit("localization/track_keyframes", localization.track_keyframes);
   visit("localization/min_track_fit", localization.min_track_fit);
   visit("localization/max_correction", localization.max_correction);
+  visit("localization/max_track_chi2", localization.max_track_chi2);
   visit("localization/lost_after_misfits", localization.lost_after_misfits);
   visit("localization/max_unmatched_travel", localization.max_unmatched_travel);
   visit("localization/hint_max_travel", localization.hint_max_travel);
