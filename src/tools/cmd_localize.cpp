@@ -180,7 +180,7 @@ class ReferenceJudge {
             double wrong_rad) {
     for (std::size_t k = 0; k < scored->size(); ++k) {
       llc::LocalizedScan& s = (*scored)[k];
-      if (s.localized && llc::scoreLocalization({s}, map, wrong_m, wrong_rad).wrong_poses > 0)
+      if (s.localized && llc::wrongPose(llc::scanError(s, map).against_map, wrong_m, wrong_rad))
         s.reference_contradicted = contradicted(first + k);
     }
   }
@@ -203,12 +203,11 @@ std::string errorRows(const std::vector<llc::LocalizedScan>& scored, const std::
   for (std::size_t k = 0; k < scored.size(); ++k) {
     const llc::LocalizedScan& s = scored[k];
     if (!s.localized) continue;
-    double nearest = 0.0;
-    const llc::Pose2 error = llc::between(llc::whereTheMapHasIt(map, s.truth, &nearest), s.pose);
-    const llc::Pose2 global = llc::between(s.truth, llc::compose(map.truth_from_map, s.pose));
+    const llc::ScanError e = llc::scanError(s, map);
+    const llc::Pose2 &error = e.against_map, &global = e.against_truth;
     csv << input_index[first + k] << "," << std::hypot(error.x, error.y) << "," << std::abs(error.theta) * 180.0 / M_PI << ","
-        << std::hypot(global.x, global.y) << "," << std::abs(global.theta) * 180.0 / M_PI << "," << nearest << ","
-        << s.reference_contradicted << "\n";
+        << std::hypot(global.x, global.y) << "," << std::abs(global.theta) * 180.0 / M_PI << ","
+        << e.nearest_map_keyframe_m << "," << s.reference_contradicted << "\n";
   }
   return csv.str();
 }
@@ -266,8 +265,10 @@ void runStarts(const Args& args, const StartsOptions& starts, const llc::ScanSeq
   // A start needs fix_within m of true path ahead (the input ending sooner could not be fixed
   // within them), so the path left from each scan, by the truth.
   std::vector<double> path_left(end, 0.0);
-  for (std::size_t i = end; i-- > 1;)
-    path_left[i - 1] = path_left[i] + std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y);
+  for (std::size_t i = end; i-- > 1;)  // a scan without a finite truth adds no path, and hides none behind it
+    path_left[i - 1] = path_left[i] + (llc::isFinite(truth[i]) && llc::isFinite(truth[i - 1])
+                                           ? std::hypot(truth[i].x - truth[i - 1].x, truth[i].y - truth[i - 1].y)
+                                           : 0.0);
   std::vector<std::size_t> eligible;
   for (std::size_t i = std::size_t(args.integer("start-scan", 0)); i < end; ++i)
     if (near[i] && path_left[i] >= fix_within) eligible.push_back(i);

@@ -20,23 +20,31 @@ Pose2 whereTheMapHasIt(const MapWithTruth& map, const Pose2& truth, double* near
                              : compose(inverse(map.truth_from_map), truth);
 }
 
+ScanError scanError(const LocalizedScan& scan, const MapWithTruth& map) {
+  ScanError e;
+  e.against_map = between(whereTheMapHasIt(map, scan.truth, &e.nearest_map_keyframe_m), scan.pose);
+  e.against_truth = between(scan.truth, compose(map.truth_from_map, scan.pose));
+  return e;
+}
+
+bool wrongPose(const Pose2& error, double wrong_translation, double wrong_rotation) {
+  return !(std::hypot(error.x, error.y) <= wrong_translation && std::abs(normalizeAngle(error.theta)) <= wrong_rotation);
+}
+
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
                                     double wrong_translation, double wrong_rotation, double judge_within) {
   LocalizationScore score;
-  auto wrong = [&](const Pose2& e) {
-    return !(std::hypot(e.x, e.y) <= wrong_translation && std::abs(normalizeAngle(e.theta)) <= wrong_rotation);
-  };
+  auto wrong = [&](const Pose2& e) { return wrongPose(e, wrong_translation, wrong_rotation); };
   double sum = 0.0, sum_global = 0.0;
   for (const LocalizedScan& s : scans) {
     if (!s.localized) continue;
-    double nearest = 0.0;
-    const Pose2 expected = whereTheMapHasIt(map, s.truth, &nearest);
-    if (std::isfinite(nearest) && nearest > judge_within) {
+    const ScanError e = scanError(s, map);
+    if (std::isfinite(e.nearest_map_keyframe_m) && e.nearest_map_keyframe_m > judge_within) {
       ++score.beyond_map;
       continue;
     }
-    const Pose2 error = between(expected, s.pose);
-    const Pose2 global = between(s.truth, compose(map.truth_from_map, s.pose));
+    const Pose2& error = e.against_map;
+    const Pose2& global = e.against_truth;
     const double metres = std::hypot(error.x, error.y), global_metres = std::hypot(global.x, global.y);
     ++score.localized;
     sum += metres * metres;

@@ -313,6 +313,12 @@ TEST(ScoreLocalization, AgainstWhereTheMapHasThePlaceAndAgainstTheTruth) {
   EXPECT_EQ(marked.wrong_fixes, 1u);  // still wrong by the reference
   EXPECT_EQ(marked.wrong_fixes_contradicted, 1u);
   EXPECT_EQ(marked.wrong_poses_contradicted, 1u);
+  // One scan's error as the score sees it: scan 3 is 2 m off the map's place (wrong), scan 1 is
+  // right; an error that is not finite is wrong.
+  EXPECT_NEAR(llc::scanError(scans[3], map).against_map.y, 2.0, 1e-12);
+  EXPECT_TRUE(llc::wrongPose(llc::scanError(scans[3], map).against_map, 1.0, 0.1));
+  EXPECT_FALSE(llc::wrongPose(llc::scanError(scans[1], map).against_map, 1.0, 0.1));
+  EXPECT_TRUE(llc::wrongPose({std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0}, 1.0, 0.1));
 }
 
 }  // namespace

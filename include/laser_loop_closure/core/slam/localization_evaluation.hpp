@@ -55,6 +55,17 @@ struct LocalizationScore {
 /// when the map has no keyframe).
 Pose2 whereTheMapHasIt(const MapWithTruth& map, const Pose2& truth, double* nearest_m = nullptr);
 
+/// One localized scan's error (scan.pose measured from where it should be).
+struct ScanError {
+  Pose2 against_map;    ///< from whereTheMapHasIt
+  Pose2 against_truth;  ///< from its truth, through truth_from_map
+  double nearest_map_keyframe_m = 0.0;  ///< its truth from the nearest map keyframe's (inf: no keyframe)
+};
+ScanError scanError(const LocalizedScan& scan, const MapWithTruth& map);
+
+/// An error over wrong_translation (m) or wrong_rotation (rad); a non-finite one is wrong.
+bool wrongPose(const Pose2& error, double wrong_translation, double wrong_rotation);
+
 /// Scores `scans` against the map (and against the truth: the *_global figures). Scans whose
 /// truth is farther than `judge_within` m from every map keyframe's are counted, not judged.
 LocalizationScore scoreLocalization(const std::vector<LocalizedScan>& scans, const MapWithTruth& map,
